@@ -1,0 +1,1 @@
+"""citylearn_env: a fast, CityLearn-compatible gymnasium environment for district energy control."""

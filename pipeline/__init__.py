@@ -1,0 +1,1 @@
+"""districtgen pipeline: ingest raw building-stock data and build CityLearn-compatible districts."""

@@ -1,0 +1,1 @@
+"""Readers and parsers for raw inputs (EULP, weather, tariff, fuel mix)."""

@@ -1,0 +1,1 @@
+"""Ideal-load-variation data and per-building LSTM indoor-temperature surrogates."""

@@ -1,0 +1,1 @@
+"""Sources of ideal-load-variation tables: precomputed CSV/parquet, FMU, EnergyPlus."""
