@@ -1,0 +1,296 @@
+"""Key performance indicators of a recorded episode (CityLearn 2.1 ``evaluate``, the 2023 challenge score, and
+the SimBuild paper's five objectives), computed from arrays after the episode, outside the step loop.
+
+Every function takes ``series``: a mapping from CityLearn's building property names (the golden trace column
+names: ``net_electricity_consumption``, ``..._without_storage_and_partial_load``, ``indoor_dry_bulb_temperature``,
+``occupant_count``, ``power_outage``, ``energy_from_cooling_device``, ...) to arrays of shape (B, T): B buildings,
+T time steps. Energies are kWh per step, cost $ per step, emissions kg per step, temperatures degC.
+
+``compat=True`` reproduces CityLearn 2.1 number for number, quirks included (plain division that can give
+inf/NaN; delta statistics over unoccupied steps as zeros; the first building decides the evaluation condition
+of all). ``compat=False`` (default) applies the corrections listed in docs/environment_kpis.md.
+pandas is imported only inside the functions that build DataFrames.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+
+from citylearn_env.errors import SchemaError
+
+NET = "net_electricity_consumption"
+DAY_STEPS, MONTH_STEPS, YEAR_STEPS = 24, 730, 8760
+#: baseline suffix of a building without / with LSTM temperature dynamics (CityLearn's default conditions)
+BASELINE = {False: "_without_storage", True: "_without_storage_and_partial_load"}
+#: the 2023 challenge: KPI -> (display name, weight); all district values of ``evaluate`` at comfort band 1.0
+CHALLENGE_WEIGHTS = {
+    "carbon_emissions_total": ("Carbon emissions", 0.10),
+    "discomfort_proportion": ("Unmet hours", 0.30),
+    "ramping_average": ("Ramping", 0.075),
+    "daily_one_minus_load_factor_average": ("Load factor", 0.075),
+    "daily_peak_average": ("Daily peak", 0.075),
+    "annual_peak_average": ("All-time peak", 0.075),
+    "one_minus_thermal_resilience_proportion": ("Thermal resilience", 0.15),
+    "power_outage_normalized_unserved_energy_total": ("Unserved energy", 0.15),
+}
+DELIVERED = ("energy_from_cooling_device", "energy_from_cooling_storage", "energy_from_heating_device",
+             "energy_from_heating_storage", "energy_from_dhw_device", "energy_from_dhw_storage",
+             "energy_to_non_shiftable_load")
+DEMANDS = ("cooling_demand", "heating_demand", "dhw_demand", "non_shiftable_load")
+
+
+# ---------------------------------------------------------------------------------------------- primitives
+def divide(numerator: float, denominator: float, *, compat: bool = False) -> float:
+    """``numerator / denominator``. compat: IEEE plain division (x/0 = +-inf, 0/0 = NaN); otherwise 0/0 = 1.0
+    (both sides agree there is nothing), x/0 = NaN, and any non-finite input gives NaN."""
+    numerator, denominator = float(numerator), float(denominator)
+    if compat:
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return float(np.float64(numerator) / np.float64(denominator))
+    if not (np.isfinite(numerator) and np.isfinite(denominator)):
+        return float("nan")
+    if denominator == 0.0:
+        return 1.0 if numerator == 0.0 else float("nan")
+    return numerator / denominator
+
+
+def _blocks(values: np.ndarray, window: int) -> list[np.ndarray]:
+    """Consecutive blocks of ``window`` steps from the first step (the last block may be shorter)."""
+    return [values[i:i + window] for i in range(0, len(values), window)]
+
+
+def ramping(net: np.ndarray) -> float:
+    """Sum of absolute step-to-step changes of ``net`` (kWh per step)."""
+    return float(np.abs(np.diff(np.asarray(net, dtype=float))).sum())
+
+
+def one_minus_load_factor(net: np.ndarray, window: int, *, compat: bool = False) -> float:
+    """Mean over ``window``-step blocks of 1 - mean/max (dimensionless); a block with max 0 is NaN (skipped
+    unless compat, where it makes the result inf/NaN)."""
+    values = []
+    for block in _blocks(np.asarray(net, dtype=float), window):
+        values.append(1.0 - divide(block.mean(), block.max(), compat=True) if compat or block.max() != 0
+                      else np.nan)
+    values = np.array(values)
+    if compat:
+        return float(values.mean())
+    return float(np.nanmean(values)) if np.isfinite(values).any() else float("nan")
+
+
+def peak(net: np.ndarray, window: int) -> float:
+    """Mean over ``window``-step blocks of the block maximum of ``net`` (kWh per step)."""
+    return float(np.mean([block.max() for block in _blocks(np.asarray(net, dtype=float), window)]))
+
+
+def positive_sum(values: np.ndarray) -> float:
+    """Sum of the positive part (grid import kWh, emission kg, cost $; exports earn nothing)."""
+    return float(np.clip(np.asarray(values, dtype=float), 0.0, None).sum())
+
+
+def discomfort(temperature: np.ndarray, set_point: np.ndarray, band: float, occupants: np.ndarray, *,
+               compat: bool = False) -> dict[str, float]:
+    """Comfort statistics of one building: proportions of occupied steps with |T - S| > band (too cold:
+    T - S < -band, too hot: T - S > band), and min/max/mean of T - S (degC).
+
+    compat: deltas are zeroed on unoccupied steps and the statistics run over all steps (CityLearn 2.1);
+    otherwise they run over occupied steps only (NaN when none). Proportions are NaN with no occupied step.
+    """
+    occupied = np.asarray(occupants, dtype=float) > 0.0
+    delta = np.asarray(temperature, dtype=float) - np.asarray(set_point, dtype=float)
+    delta = np.where(np.asarray(occupants, dtype=float) == 0.0, 0.0, delta)
+    n = int(occupied.sum())
+    cold, hot = int((delta < -band).sum()), int((delta > band).sum())
+    stats = delta if compat else delta[occupied]
+    empty = stats.size == 0
+    return {
+        "discomfort_proportion": divide(cold + hot, n, compat=True) if compat else _share(cold + hot, n),
+        "discomfort_too_cold_proportion": divide(cold, n, compat=True) if compat else _share(cold, n),
+        "discomfort_too_hot_proportion": divide(hot, n, compat=True) if compat else _share(hot, n),
+        "discomfort_delta_minimum": float("nan") if empty else float(stats.min()),
+        "discomfort_delta_maximum": float("nan") if empty else float(stats.max()),
+        "discomfort_delta_average": float("nan") if empty else float(stats.mean()),
+    }
+
+
+def _share(count: int, total: int) -> float:
+    return count / total if total else float("nan")
+
+
+def normalized_unserved_energy(expected: np.ndarray, served: np.ndarray, outage: np.ndarray | None = None, *,
+                               compat: bool = False) -> float:
+    """Sum of (expected - served) over outage steps / sum of expected over outage steps (all steps when
+    ``outage`` is None); NaN when there is no such step."""
+    expected, served = np.asarray(expected, dtype=float), np.asarray(served, dtype=float)
+    mask = np.ones(expected.shape, bool) if outage is None else np.asarray(outage, dtype=float) != 0.0
+    unserved, total = (expected - served)[mask].sum(), expected[mask].sum()
+    if compat:
+        return divide(unserved, total, compat=True)
+    if not mask.any():
+        return float("nan")
+    return 0.0 if total == 0.0 and unserved == 0.0 else divide(unserved, total)
+
+
+# ---------------------------------------------------------------------------------------------- evaluate
+def _prepare(series: Mapping[str, np.ndarray], window: slice | None, n_buildings: int | None = None):
+    def get(name: str) -> np.ndarray:
+        if name not in series:
+            raise SchemaError(f"series {name!r} is missing (have: {', '.join(sorted(series))})", column=name)
+        values = np.asarray(series[name], dtype=float)
+        if values.ndim != 2 or (n_buildings is not None and values.shape[0] != n_buildings):
+            raise SchemaError(f"series {name!r} has shape {values.shape}, expected ({n_buildings}, T)",
+                              column=name)
+        return values if window is None else values[:, window]
+    return get
+
+
+def _nanmean(values: Sequence[float]) -> float:
+    values = np.array([np.nan if v is None else v for v in values], dtype=float)
+    return float(np.nanmean(values)) if (~np.isnan(values)).any() else float("nan")
+
+
+def evaluate(series: Mapping[str, np.ndarray], building_names: Sequence[str], *, dynamics: Sequence[bool],
+             comfort_band: float = 2.0, window: slice | None = None, compat: bool = False):
+    """CityLearn's KPI table: a long DataFrame (cost_function, value, name, level).
+
+    Building rows compare each building's control series (with storage, partial load and PV) to its baseline
+    (``..._without_storage_and_partial_load`` if ``dynamics[b]``, else ``..._without_storage``); the
+    ``District`` rows hold the district KPIs (on district sums) and the mean over buildings (NaN ignored) of
+    the building KPIs. Ratios are dimensionless; discomfort deltas in degC.
+    """
+    import pandas as pd
+
+    rows = building_kpis(series, building_names, dynamics=dynamics, comfort_band=comfort_band,
+                         window=window, compat=compat)
+    district = district_kpis(series, dynamics=dynamics, window=window, compat=compat)
+    names = sorted({k for r in rows for k in r} | set(district))
+    district_rows = [{"cost_function": k, "value": district[k] if k in district else _nanmean([r[k] for r in rows]),
+                      "name": "District", "level": "district"} for k in names]
+    building_rows = [{"cost_function": k, "value": v, "name": name, "level": "building"}
+                     for name, r in zip(building_names, rows, strict=True) for k, v in r.items()]
+    frame = pd.DataFrame(district_rows + building_rows, columns=["cost_function", "value", "name", "level"])
+    frame["value"] = frame["value"].astype(float)
+    return frame
+
+
+def _conditions(dynamics: Sequence[bool], compat: bool) -> list[str]:
+    """Baseline suffix per building. compat: CityLearn 2.1 fixes the condition on the first building."""
+    dynamics = [bool(d) for d in dynamics]
+    return [BASELINE[dynamics[0]] if compat else BASELINE[d] for d in dynamics]
+
+
+def building_kpis(series: Mapping[str, np.ndarray], building_names: Sequence[str], *, dynamics: Sequence[bool],
+                  comfort_band: float = 2.0, window: slice | None = None, compat: bool = False) -> list[dict]:
+    """One dict of building-level KPIs per building (same order and names as CityLearn 2.1)."""
+    n = len(building_names)
+    if len(dynamics) != n:
+        raise SchemaError(f"dynamics has {len(dynamics)} entries for {n} buildings", column="dynamics")
+    get = _prepare(series, window, n)
+    out = []
+    net, cost, emission = get(NET), get(f"{NET}_cost"), get(f"{NET}_emission")
+    pricing, carbon = get("electricity_pricing"), get("carbon_intensity")
+    temperature, set_point = get("indoor_dry_bulb_temperature"), get("indoor_dry_bulb_temperature_set_point")
+    occupants, outage = get("occupant_count"), get("power_outage")
+    expected = sum(get(k) for k in DEMANDS)
+    served = sum(get(k) for k in DELIVERED)
+    for b, suffix in enumerate(_conditions(dynamics, compat)):
+        base_net, base_cost = get(f"{NET}{suffix}")[b], get(f"{NET}_cost{suffix}")[b]
+        base_emission = get(f"{NET}_emission{suffix}")[b]
+        comfort = discomfort(temperature[b], set_point[b], comfort_band, occupants[b], compat=compat)
+        resilience = discomfort(temperature[b], set_point[b], comfort_band,
+                                np.where(outage[b] == 0.0, 0.0, occupants[b]), compat=compat)
+        kpi = {
+            "electricity_consumption_total": divide(positive_sum(net[b]), positive_sum(base_net), compat=compat),
+            "zero_net_energy": divide(net[b].sum(), base_net.sum(), compat=compat),
+            "carbon_emissions_total": divide(positive_sum(emission[b]), positive_sum(base_emission),
+                                             compat=compat) if carbon[b].sum() != 0 else float("nan"),
+            "cost_total": divide(positive_sum(cost[b]), positive_sum(base_cost), compat=compat)
+            if pricing[b].sum() != 0 else float("nan"),
+            **comfort,
+            "one_minus_thermal_resilience_proportion": resilience["discomfort_proportion"],
+            "power_outage_normalized_unserved_energy_total":
+                normalized_unserved_energy(expected[b], served[b], outage[b], compat=compat),
+            "annual_normalized_unserved_energy_total":
+                normalized_unserved_energy(expected[b], served[b], compat=compat),
+        }
+        out.append(kpi)
+    return out
+
+
+def district_kpis(series: Mapping[str, np.ndarray], *, dynamics: Sequence[bool], window: slice | None = None,
+                  compat: bool = False) -> dict[str, float]:
+    """District-level KPIs on the district sums of the control and baseline net consumption (ratios).
+
+    The district baseline is ``..._without_storage_and_partial_load`` (which equals ``..._without_storage``
+    for buildings without dynamics); compat: the first building's condition, as CityLearn 2.1.
+    """
+    get = _prepare(series, window)
+    suffix = _conditions(dynamics, compat)[0] if compat else BASELINE[True]
+    control, base = get(NET).sum(axis=0), get(f"{NET}{suffix}").sum(axis=0)
+    return {
+        "ramping_average": divide(ramping(control), ramping(base), compat=compat),
+        "daily_one_minus_load_factor_average": divide(one_minus_load_factor(control, DAY_STEPS, compat=compat),
+                                                      one_minus_load_factor(base, DAY_STEPS, compat=compat),
+                                                      compat=compat),
+        "monthly_one_minus_load_factor_average": divide(
+            one_minus_load_factor(control, MONTH_STEPS, compat=compat),
+            one_minus_load_factor(base, MONTH_STEPS, compat=compat), compat=compat),
+        "daily_peak_average": divide(peak(control, DAY_STEPS), peak(base, DAY_STEPS), compat=compat),
+        "annual_peak_average": divide(peak(control, YEAR_STEPS), peak(base, YEAR_STEPS), compat=compat),
+    }
+
+
+def evaluate_challenge(series: Mapping[str, np.ndarray], building_names: Sequence[str], *,
+                       dynamics: Sequence[bool], window: slice | None = None, compat: bool = False):
+    """The CityLearn Challenge 2023 table (kpi, display_name, weight, value) with an ``average_score`` row:
+    sum of weight x district value over the KPIs that are not NaN, divided by the sum of all weights
+    (lower is better). compat: float32 sums as CityLearn 2.1."""
+    import pandas as pd
+
+    table = evaluate(series, building_names, dynamics=dynamics, comfort_band=1.0, window=window, compat=compat)
+    district = table[table["level"] == "district"].set_index("cost_function")["value"]
+    rows = [{"kpi": k, "display_name": name, "weight": weight, "value": float(district[k])}
+            for k, (name, weight) in CHALLENGE_WEIGHTS.items()]
+    weights = np.array([r["weight"] for r in rows])
+    weighted = weights * np.array([r["value"] for r in rows])
+    dtype = np.float32 if compat else np.float64
+    score = float(np.nansum(weighted, dtype=dtype) / np.nansum(weights, dtype=dtype))
+    rows.append({"kpi": "average_score", "display_name": "Score", "weight": float("nan"), "value": score})
+    return pd.DataFrame(rows, columns=["kpi", "display_name", "weight", "value"])
+
+
+# ---------------------------------------------------------------------------------------------- objectives
+OBJECTIVES = ("cost", "emissions", "discomfort", "consumption", "average_daily_peak")
+
+
+def objectives(series: Mapping[str, np.ndarray], *, window: slice | None = None,
+               steps_per_day: int = DAY_STEPS) -> dict:
+    """The SimBuild paper's objectives in absolute units over ``window`` (to minimise).
+
+    * cost ($) = sum_t max(e, 0) * price; emissions (kg) = sum_t max(e, 0) * carbon intensity;
+      discomfort (degC h) = sum_t |T - T_set|; consumption (kWh) = sum_t max(e, 0) -- per building, summed;
+    * average_daily_peak (kW) = (sum over days d of max_t in d of P) * steps_per_day / n, with P the district
+      net demand (sum of building net consumption; kWh per 1-h step = kW), days in blocks of
+      ``steps_per_day`` from the window start and n the number of steps.
+
+    Returns ``{"cost": float, ..., "average_daily_peak": float, "per_building": {"cost": (B,), ...}}``
+    (``per_building`` has the first four objectives).
+    """
+    get = _prepare(series, window)
+    net = get(NET)
+    grid = np.clip(net, 0.0, None)
+    per_building = {
+        "cost": (grid * get("electricity_pricing")).sum(axis=1),
+        "emissions": (grid * get("carbon_intensity")).sum(axis=1),
+        "discomfort": np.abs(get("indoor_dry_bulb_temperature")
+                             - get("indoor_dry_bulb_temperature_set_point")).sum(axis=1),
+        "consumption": grid.sum(axis=1),
+    }
+    demand = net.sum(axis=0)
+    n = demand.size
+    daily = sum(block.max() for block in _blocks(demand, steps_per_day)) * steps_per_day / n if n else np.nan
+    out: dict = {k: float(v.sum()) for k, v in per_building.items()}
+    out["average_daily_peak"] = float(daily)
+    out["per_building"] = per_building
+    return out
