@@ -1,0 +1,330 @@
+"""ERCOT generation by fuel: the Fuel Mix Report workbook and a plain long CSV -> hourly MWh per fuel.
+
+Output of every reader: an hourly DataFrame, index = interval-beginning **local standard time** (tz-naive),
+one column per fuel, values in MWh generated in that hour.
+
+Workbook (``IntGenbyFuel<year>.xlsx``): one sheet per month (``Jan`` .. ``Dec``), header ``Date, Fuel,
+Settlement Type, Total, 0:15 .. 23:45, 0:00``; each cell is the MWh of the 15 minutes *ending* at the label,
+Central *prevailing* time. On the spring-forward day the four labels 2:15-3:00 do not exist (empty cells);
+on the fall-back day the ``Nov`` sheet has four more columns ``01:15 (DST)`` .. ``02:00 (DST)``. In the 2017
+workbook the regular 1:15-2:00 columns hold the first (daylight-time) pass through 01:00-02:00 and the
+``(DST)`` columns the second (standard-time) pass: the values run on smoothly in that order (e.g. coal
+2,741 -> 2,645 .. 2,458 -> 2,385 .. 2,300 -> 2,286 MWh on 2017-11-05).
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import functools
+import re
+from pathlib import Path
+from zoneinfo import ZoneInfo
+
+import numpy as np
+import pandas as pd
+
+from pipeline.carbon import read_emission_factors
+from pipeline.errors import InputError
+
+TIMEZONE = "America/Chicago"
+MONTH_SHEETS = ("Jan", "Feb", "Mar", "Apr", "May", "Jun", "Jul", "Aug", "Sep", "Oct", "Nov", "Dec")
+KEY_COLUMNS = ("Date", "Fuel", "Total")
+_LABEL = re.compile(r"^(\d{1,2}):(\d{2})( \(DST\))?$")
+STEP = pd.Timedelta(minutes=15)
+
+
+def read_fuel_mix_workbook(path: str | Path, timezone: str = TIMEZONE) -> tuple[pd.DataFrame, dict]:
+    """Read an ERCOT ``IntGenbyFuel<year>.xlsx`` into hourly MWh per fuel (local standard time).
+
+    Returns ``(hourly, metadata)``; metadata holds the file, the sheets read and the fuels.
+    """
+    import openpyxl
+
+    path = Path(path)
+    try:
+        book = openpyxl.load_workbook(path, read_only=True, data_only=True)
+    except Exception as error:  # openpyxl raises several types for a non-workbook
+        raise InputError(f"not a readable .xlsx workbook ({error})", file=path) from error
+    sheets = [name for name in book.sheetnames if name in MONTH_SHEETS]
+    if not sheets:
+        raise InputError(f"no month sheets ({', '.join(MONTH_SHEETS)}); found {book.sheetnames}", file=path)
+    known = read_emission_factors()
+    parts = []
+    for name in sheets:
+        sheet = book[name]
+        sheet.reset_dimensions()  # the stored dimension is wrong in ERCOT files
+        parts.append(parse_fuel_mix_sheet(list(sheet.iter_rows(values_only=True)), file=f"{path} [sheet {name}]",
+                                          known_fuels=known, timezone=timezone))
+    book.close()
+    long = pd.concat(parts, ignore_index=True)
+    hourly = hourly_generation(long, file=path)
+    return hourly, {"file": str(path), "sheets": sheets, "fuels": list(hourly.columns), "timezone": timezone}
+
+
+def parse_fuel_mix_sheet(rows: list[tuple], *, file: str, known_fuels: pd.DataFrame,
+                         timezone: str = TIMEZONE) -> pd.DataFrame:
+    """Parse one month sheet (rows of cell values, header first) into a long 15-min frame.
+
+    Returns columns ``begin`` (interval start, local standard time), ``fuel``, ``mwh``, ``where`` (the
+    file/sheet and row, for later error messages).
+    """
+    if not rows:
+        raise InputError("empty sheet", file=file)
+    head = [str(c).strip() if c is not None else "" for c in rows[0]]
+    for key in KEY_COLUMNS:
+        if key not in head:
+            raise InputError("missing column", file=file, column=key, row=1)
+    col = {key: head.index(key) for key in (*KEY_COLUMNS, "Settlement Type") if key in head}
+    regular, extra = _interval_columns(head, file)
+    zone = ZoneInfo(timezone)
+    records: list[tuple] = []
+    seen: dict[tuple, tuple[str, int]] = {}
+    for number, row in enumerate(rows[1:], start=2):
+        if row is None or all(cell is None or str(cell).strip() == "" for cell in row):
+            continue
+        day = _cell_date(row[col["Date"]], file, number)
+        fuel = str(row[col["Fuel"]]).strip() if row[col["Fuel"]] is not None else ""
+        if fuel not in known_fuels.index:
+            raise InputError(f"unknown fuel {fuel!r}; known: {', '.join(known_fuels.index)}",
+                             file=file, column="Fuel", row=number)
+        settlement = str(row[col["Settlement Type"]]).strip() if "Settlement Type" in col else "FINAL"
+        total = _number(row[col["Total"]], file, "Total", number)
+        begins, values = _day_values(row, day, regular, extra, zone, head, file, number)
+        if not known_fuels.at[fuel, "negative_allowed"] and (values < 0).any():
+            k = int(np.argmax(values < 0))
+            raise InputError(f"negative energy {values[k]} MWh", file=file, column=head[_col_of(k, day, zone,
+                             regular, extra)], row=number)
+        if abs(values.sum() - total) > 1e-3 + 1e-6 * abs(total):
+            raise InputError(f"Total {total} differs from the sum of the intervals {values.sum():.6f}",
+                             file=file, column="Total", row=number)
+        key = (day, fuel)
+        if key in seen:
+            before, before_row = seen[key]
+            if before != "FINAL" and settlement == "FINAL":
+                records = [r for r in records if (r[3], r[1]) != key]
+            elif before == "FINAL" and settlement != "FINAL":
+                continue
+            else:
+                raise InputError(f"duplicate row for {day} {fuel} (also row {before_row})",
+                                 file=file, column="Date", row=number)
+        seen[key] = (settlement, number)
+        records.extend((b, fuel, v, day, f"{file}, row {number}") for b, v in zip(begins, values, strict=True))
+    frame = pd.DataFrame(records, columns=["begin", "fuel", "mwh", "day", "where"])
+    return frame.drop(columns="day")
+
+
+def hourly_generation(long: pd.DataFrame, *, file: object) -> pd.DataFrame:
+    """Sum a long frame (``begin``, ``fuel``, ``mwh``[, ``where``]) into complete hours, one column per fuel.
+
+    Each fuel's intervals must be regular (no gap, no duplicate); hours at the ends of the data that are
+    not fully covered are dropped; a fuel absent from some whole hours at the edges counts as 0 there.
+    """
+    if long.empty:
+        raise InputError("no data rows", file=file)
+    long = long.sort_values(["fuel", "begin"], kind="stable")
+    steps = []
+    for fuel, part in long.groupby("fuel", sort=False):
+        begins = pd.DatetimeIndex(part["begin"])
+        diffs = begins[1:] - begins[:-1]
+        step = pd.Series(diffs).mode().iloc[0] if len(diffs) else pd.Timedelta(hours=1)
+        if step <= pd.Timedelta(0) or pd.Timedelta(hours=1) % step != pd.Timedelta(0):
+            raise InputError(f"time step {step} does not divide one hour", file=file, column=fuel)
+        bad = (diffs != step).nonzero()[0]
+        if len(bad):
+            i = int(bad[0])
+            where = part["where"].iloc[i + 1] if "where" in part else file
+            kind = "duplicate" if diffs[i] == pd.Timedelta(0) else "gap"
+            raise InputError(f"{kind} in timestamps: {begins[i]} then {begins[i + 1]} (local standard time, "
+                             f"interval-beginning; expected steps of {step})", file=where, column=fuel)
+        steps.append(step)
+    if len(set(steps)) > 1:
+        raise InputError(f"fuels use different time steps {sorted(set(steps))}", file=file)
+    per_hour = int(pd.Timedelta(hours=1) / steps[0])
+    hours = pd.DatetimeIndex(long["begin"]).floor("h")
+    grouped = long.assign(hour=hours).groupby(["hour", "fuel"])["mwh"].agg(["sum", "count"])
+    energy = grouped["sum"].unstack("fuel")
+    count = grouped["count"].unstack("fuel").fillna(0)
+    complete = ((count == per_hour) | (count == 0)).all(axis=1) & (count > 0).any(axis=1)
+    partial = count.index[~complete]
+    inner = partial[(partial > count.index[complete].min()) & (partial < count.index[complete].max())] \
+        if complete.any() else partial
+    if len(inner):
+        raise InputError(f"hour {inner[0]} is only partly covered", file=file)
+    energy = energy.loc[complete].fillna(0.0)
+    full = pd.date_range(energy.index[0], energy.index[-1], freq="h")
+    missing = full.difference(energy.index)
+    if len(missing):
+        raise InputError(f"gap in timestamps: no data for hour {missing[0]} (local standard time)", file=file)
+    energy.index = pd.DatetimeIndex(energy.index, name=None)
+    energy.columns.name = None
+    return energy
+
+
+def read_fuel_mix_csv(path: str | Path, clock: str = "prevailing",
+                      timezone: str = TIMEZONE) -> tuple[pd.DataFrame, dict]:
+    """Read a long CSV ``timestamp, fuel, mwh`` (interval-ending timestamps) into hourly MWh per fuel.
+
+    Timestamps with a UTC offset (``2018-06-01T00:15:00-05:00``) are exact. Naive timestamps are read in
+    ``clock``: ``"prevailing"`` (local clock time of ``timezone``; the repeated fall-back hour is told apart
+    by its order in the file) or ``"standard"`` (local standard time all year). Any step that divides one
+    hour works (15-min, hourly). Returns ``(hourly, metadata)``.
+    """
+    path = Path(path)
+    if clock not in ("prevailing", "standard"):
+        raise InputError(f"clock must be 'prevailing' or 'standard', got {clock!r}", column="clock")
+    try:
+        raw = pd.read_csv(path, dtype=str, keep_default_na=False)
+    except (OSError, pd.errors.ParserError, UnicodeDecodeError) as error:
+        raise InputError(f"cannot read CSV ({error})", file=path) from error
+    raw.columns = [c.strip().lower() for c in raw.columns]
+    for key in ("timestamp", "fuel", "mwh"):
+        if key not in raw.columns:
+            raise InputError("missing column", file=path, column=key, row=1)
+    known = read_emission_factors()
+    fuels = raw["fuel"].str.strip()
+    unknown = ~fuels.isin(known.index)
+    if unknown.any():
+        i = int(np.argmax(unknown.to_numpy()))
+        raise InputError(f"unknown fuel {fuels.iloc[i]!r}; known: {', '.join(known.index)}",
+                         file=path, column="fuel", row=i + 2)
+    mwh = pd.to_numeric(raw["mwh"].str.strip(), errors="coerce")
+    if mwh.isna().any():
+        i = int(np.argmax(mwh.isna().to_numpy()))
+        raise InputError(f"non-numeric value {raw['mwh'].iloc[i]!r}", file=path, column="mwh", row=i + 2)
+    negative = (mwh < 0) & ~fuels.map(known["negative_allowed"]).astype(bool)
+    if negative.any():
+        i = int(np.argmax(negative.to_numpy()))
+        raise InputError(f"negative energy {mwh.iloc[i]} MWh", file=path, column="mwh", row=i + 2)
+    ends = _csv_interval_ends(raw["timestamp"], fuels, clock, ZoneInfo(timezone), path)
+    steps = ends.groupby(fuels).transform(lambda s: s.diff().mode().iloc[0] if len(s) > 1 else pd.Timedelta("1h"))
+    long = pd.DataFrame({"begin": ends - steps, "fuel": fuels, "mwh": mwh,
+                         "where": [f"{path}, row {i + 2}" for i in range(len(raw))]})
+    hourly = hourly_generation(long, file=path)
+    return hourly, {"file": str(path), "clock": clock, "timezone": timezone, "fuels": list(hourly.columns)}
+
+
+def _csv_interval_ends(text: pd.Series, fuels: pd.Series, clock: str, zone: ZoneInfo, path: Path) -> pd.Series:
+    """Interval-end timestamps in local standard time (naive) from the CSV ``timestamp`` strings."""
+    stamps = []
+    for i, value in enumerate(text.str.strip()):
+        try:
+            stamps.append(pd.Timestamp(value))
+        except (ValueError, TypeError):
+            raise InputError(f"not a timestamp: {value!r}", file=path, column="timestamp", row=i + 2) from None
+        if stamps[-1] is pd.NaT:
+            raise InputError(f"not a timestamp: {value!r}", file=path, column="timestamp", row=i + 2)
+    aware = [s.tzinfo is not None for s in stamps]
+    if any(aware) and not all(aware):
+        i = aware.index(not aware[0])
+        raise InputError("mixes timestamps with and without UTC offset", file=path, column="timestamp", row=i + 2)
+    std = _standard_offset(zone, stamps[0].year)
+    if all(aware):
+        utc = pd.DatetimeIndex([s.tz_convert("UTC") for s in stamps]).tz_localize(None)
+        return pd.Series(utc + std, index=text.index)
+    naive = pd.Series(pd.DatetimeIndex(stamps), index=text.index)
+    if clock == "standard":
+        return naive
+    out = pd.Series(pd.NaT, index=text.index, dtype="datetime64[ns]")
+    for _, part in naive.groupby(fuels, sort=False):
+        try:
+            local = pd.DatetimeIndex(part).tz_localize(zone, ambiguous="infer", nonexistent="raise")
+        except Exception as error:  # pytz-style errors from pandas for ambiguous/nonexistent clock times
+            raise InputError(f"cannot place prevailing-time labels on the clock ({error})",
+                             file=path, column="timestamp") from None
+        out.loc[part.index] = local.tz_convert("UTC").tz_localize(None) + std
+    return out
+
+
+@functools.lru_cache(maxsize=512)
+def _day_layout(day: dt.date, timezone: str) -> tuple[tuple[pd.Timestamp, int, int], ...]:
+    """For each real 15-min interval of a local day: (begin in standard time, label minutes, fold)."""
+    zone = ZoneInfo(timezone)
+    start = dt.datetime(day.year, day.month, day.day, tzinfo=zone).astimezone(dt.UTC)
+    nxt = day + dt.timedelta(days=1)
+    stop = dt.datetime(nxt.year, nxt.month, nxt.day, tzinfo=zone).astimezone(dt.UTC)
+    std = _standard_offset(zone, day.year)
+    out = []
+    begin = start
+    while begin < stop:
+        local = begin.astimezone(zone)  # ERCOT labels = the begin's wall-clock time + 15 min
+        minutes = local.hour * 60 + local.minute + 15
+        out.append((pd.Timestamp(begin.replace(tzinfo=None) + std), minutes, local.fold))
+        begin += STEP
+    return tuple(out)
+
+
+def _interval_columns(head: list[str], file: str) -> tuple[dict[int, int], dict[int, int]]:
+    """Map label minutes (15..1440) -> column index, for regular and ``(DST)`` columns."""
+    regular: dict[int, int] = {}
+    extra: dict[int, int] = {}
+    for index, name in enumerate(head):
+        match = _LABEL.match(name)
+        if not match:
+            continue
+        minutes = int(match.group(1)) * 60 + int(match.group(2))
+        minutes = 1440 if minutes == 0 else minutes
+        (extra if match.group(3) else regular)[minutes] = index
+    expected = list(range(15, 1441, 15))
+    if sorted(regular) != expected:
+        missing = next(m for m in expected if m not in regular)
+        raise InputError(f"missing interval column {missing // 60 % 24}:{missing % 60:02d}", file=file, row=1)
+    return regular, extra
+
+
+def _day_values(row, day, regular, extra, zone, head, file, number) -> tuple[list[pd.Timestamp], np.ndarray]:
+    layout = _day_layout(day, zone.key)
+    used: set[int] = set()
+    begins, values = [], []
+    for begin, minutes, fold in layout:
+        columns = extra if fold else regular
+        if minutes not in columns:
+            raise InputError(f"{day} has {len(layout)} intervals (DST change) but the sheet lacks a "
+                             f"'(DST)' column for the repeated hour", file=file, row=number)
+        index = columns[minutes]
+        used.add(index)
+        cell = row[index] if index < len(row) else None
+        if cell is None or (isinstance(cell, str) and not cell.strip()):
+            raise InputError(f"empty cell: gap in the data of {day}", file=file, column=head[index], row=number)
+        begins.append(begin)
+        values.append(_number(cell, file, head[index], number))
+    for index in (*regular.values(), *extra.values()):
+        if index not in used and index < len(row) and row[index] not in (None, "", 0):
+            raise InputError(f"value in an interval that does not exist on {day} (DST change)",
+                             file=file, column=head[index], row=number)
+    return begins, np.asarray(values, dtype=float)
+
+
+def _col_of(k: int, day, zone, regular, extra) -> int:
+    _, minutes, fold = _day_layout(day, zone.key)[k]
+    return (extra if fold else regular)[minutes]
+
+
+def _number(cell, file, column, row) -> float:
+    if isinstance(cell, bool):
+        cell = str(cell)
+    if isinstance(cell, int | float):
+        value = float(cell)
+    else:
+        try:
+            value = float(str(cell).strip())
+        except ValueError:
+            raise InputError(f"non-numeric cell {cell!r}", file=file, column=column, row=row) from None
+    if not np.isfinite(value):
+        raise InputError(f"non-numeric cell {cell!r}", file=file, column=column, row=row)
+    return value
+
+
+def _cell_date(cell, file, row) -> dt.date:
+    if isinstance(cell, dt.datetime):
+        return cell.date()
+    if isinstance(cell, dt.date):
+        return cell
+    try:
+        return pd.Timestamp(str(cell).strip()).date()
+    except (ValueError, TypeError):
+        raise InputError(f"not a date: {cell!r}", file=file, column="Date", row=row) from None
+
+
+def _standard_offset(zone: ZoneInfo, year: int) -> dt.timedelta:
+    probe = dt.datetime(year, 1, 15, 12, tzinfo=zone)
+    return probe.utcoffset() - probe.dst()
