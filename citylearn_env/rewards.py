@@ -1,0 +1,434 @@
+"""Reward functions: callables over the named observations of every building at step t.
+
+A reward is built once (``make_reward(spec, context)``), reset at each episode start with a
+:class:`RewardContext`, and called each step with ``obs``: observation name -> (B,) array of raw values (the
+full per-building observation dict CityLearn gives its reward functions, e.g. ``net_electricity_consumption``
+kWh, ``electricity_pricing`` $/kWh, ``indoor_dry_bulb_temperature`` degC, ``dhw_storage_soc`` 0..1). It returns
+``(value, terms)``: a float for a central agent, a (B,) array otherwise, and named per-building components.
+
+Upstream classes (CityLearn 2.1 ``citylearn.reward_function``) and the SimBuild 2024 classes
+(``src.reward_function``) are registered under their dotted type strings in :data:`REWARDS`, next to short
+names for the paper's four objectives. ``compat=True`` keeps upstream's bugs (docs/environment_kpis.md).
+"""
+
+from __future__ import annotations
+
+import inspect
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from citylearn_env.errors import SchemaError
+
+STORAGES = ("cooling_storage", "heating_storage", "dhw_storage", "electrical_storage")
+#: storages whose capacity does not exceed this (kWh) count as absent (CityLearn's zero-division placeholder)
+ZERO_CAPACITY = 1e-6
+
+
+@dataclass(frozen=True)
+class RewardContext:
+    """Static facts a reward needs: agent mode, building names, storage capacities (kWh) and initial SOCs
+    (0..1) per storage kind as (B,) arrays, and the active-action mask per action name as (B,) bool arrays."""
+
+    central_agent: bool
+    building_names: Sequence[str]
+    capacity: Mapping[str, np.ndarray] = field(default_factory=dict)
+    initial_soc: Mapping[str, np.ndarray] = field(default_factory=dict)
+    active_actions: Mapping[str, np.ndarray] = field(default_factory=dict)
+
+    @property
+    def n_buildings(self) -> int:
+        return len(self.building_names)
+
+    def storage_capacity(self, kind: str) -> np.ndarray:
+        """Capacity (kWh) of storage ``kind`` per building; zeros when the district has none."""
+        return np.asarray(self.capacity.get(kind, np.zeros(self.n_buildings)), dtype=float)
+
+    def storage_initial_soc(self, kind: str) -> np.ndarray:
+        return np.asarray(self.initial_soc.get(kind, np.zeros(self.n_buildings)), dtype=float)
+
+    def action_active(self, name: str) -> np.ndarray:
+        return np.asarray(self.active_actions.get(name, np.zeros(self.n_buildings, bool)), dtype=bool)
+
+
+def _get(obs: Mapping[str, np.ndarray], name: str, default: float | None = None) -> np.ndarray:
+    try:
+        return np.asarray(obs[name], dtype=float)
+    except KeyError:
+        if default is None:
+            raise KeyError(f"reward needs observation {name!r}, which the environment does not provide") from None
+    net = np.asarray(obs["net_electricity_consumption"], dtype=float)
+    return np.full(net.shape, default)
+
+
+class Reward:
+    """Base class: per-building values aggregated by sum (CityLearn) or mean for a central agent."""
+
+    central_aggregate = "sum"
+
+    def __init__(self, *, compat: bool = False):
+        self.compat = compat
+        self.context: RewardContext | None = None
+
+    def reset(self, context: RewardContext) -> None:
+        self.context = context
+
+    def building_values(self, obs: Mapping[str, np.ndarray]) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+        raise NotImplementedError
+
+    def _check(self) -> None:
+        if self.context is None:
+            raise RuntimeError(f"{type(self).__name__}: call reset(context) before the first step")
+
+    def __call__(self, obs: Mapping[str, np.ndarray]) -> tuple[float | np.ndarray, dict[str, np.ndarray]]:
+        self._check()
+        values, terms = self.building_values(obs)
+        return self.aggregate(values), terms
+
+    def aggregate(self, values: np.ndarray) -> float | np.ndarray:
+        if not self.context.central_agent:
+            return values
+        return float(values.mean() if self.central_aggregate == "mean" else values.sum())
+
+
+# ------------------------------------------------------------------------------------ CityLearn 2.1
+class RewardFunction(Reward):
+    """Default: -max(e_b, 0) per building; central: -max(sum_b e_b, 0) on the district net (kWh)."""
+
+    def building_values(self, obs):
+        values = -np.clip(_get(obs, "net_electricity_consumption"), 0.0, None)
+        return values, {"grid_import": values}
+
+    def __call__(self, obs):
+        value, terms = super().__call__(obs)
+        if self.context.central_agent:
+            value = float(min(-_get(obs, "net_electricity_consumption").sum(), 0.0))
+        return value, terms
+
+
+class MARL(Reward):
+    """sign(-e_b) * 0.01 * e_b^2 * max(0, sum_b e_b); central: sum."""
+
+    def building_values(self, obs):
+        e = -_get(obs, "net_electricity_consumption")
+        district = -e.sum()
+        values = np.sign(e) * 0.01 * e ** 2 * max(0.0, district)
+        return values, {"marl": values}
+
+
+class IndependentSACReward(Reward):
+    """-max(e_b, 0)^3 (intended); compat: -max(e_b, 0), CityLearn's operator-precedence bug. Central: sum."""
+
+    def building_values(self, obs):
+        e = np.clip(_get(obs, "net_electricity_consumption"), 0.0, None)
+        values = -e if self.compat else -(e ** 3)
+        return values, {"grid_import": values}
+
+
+class SolarPenaltyReward(Reward):
+    """Sum over storages with capacity > 1e-6 kWh of -(1 + sign(e_b) * soc) * |e_b|; central: sum."""
+
+    def building_values(self, obs):
+        e = _get(obs, "net_electricity_consumption")
+        terms = {}
+        for kind in STORAGES:
+            present = self.context.storage_capacity(kind) > ZERO_CAPACITY
+            soc = _get(obs, f"{kind}_soc", 0.0)
+            terms[kind] = np.where(present, -(1.0 + np.sign(e) * soc) * np.abs(e), 0.0)
+        return sum(terms.values()), terms
+
+
+class ComfortReward(Reward):
+    """Comfort penalty around the set point S with band b (degC): heating mode when heating_demand >
+    cooling_demand. Below S - b: -|T - S|^(lower if heating else higher); in [S - b, S): 0 if heating else
+    -|T - S|; in [S, S + b]: -|T - S| if heating else 0; above S + b: -|T - S|^(higher if heating else lower).
+    Central: sum."""
+
+    def __init__(self, band: float | None = None, lower_exponent: float | None = None,
+                 higher_exponent: float | None = None, *, compat: bool = False):
+        super().__init__(compat=compat)
+        self.band = 2.0 if band is None else float(band)
+        self.lower_exponent = 2.0 if lower_exponent is None else float(lower_exponent)
+        self.higher_exponent = 3.0 if higher_exponent is None else float(higher_exponent)
+
+    def building_values(self, obs):
+        heating = _get(obs, "heating_demand", 0.0) > _get(obs, "cooling_demand", 0.0)
+        t = _get(obs, "indoor_dry_bulb_temperature")
+        s = _get(obs, "indoor_dry_bulb_temperature_set_point")
+        delta = np.abs(t - s)
+        if self.compat:  # CityLearn 2.1 subtracts its float32 observations in float32
+            delta = np.abs(t.astype(np.float32) - s.astype(np.float32)).astype(float)
+        low, high = self.lower_exponent, self.higher_exponent
+        too_cold = -(delta ** np.where(heating, low, high))
+        too_hot = -(delta ** np.where(heating, high, low))
+        values = np.select([t < s - self.band, t < s, t <= s + self.band],
+                           [too_cold, np.where(heating, 0.0, -delta), np.where(heating, -delta, 0.0)], too_hot)
+        return values, {"comfort": values}
+
+
+class SolarPenaltyAndComfortReward(Reward):
+    """coefficients[0] * SolarPenaltyReward + coefficients[1] * ComfortReward (per building; central: the sum
+    of each part, added). compat: each part rounded to float32 first, as CityLearn 2.1."""
+
+    def __init__(self, band: float | None = None, lower_exponent: float | None = None,
+                 higher_exponent: float | None = None, coefficients: Sequence[float] | None = None, *,
+                 compat: bool = False):
+        super().__init__(compat=compat)
+        self.parts = (SolarPenaltyReward(compat=compat),
+                      ComfortReward(band, lower_exponent, higher_exponent, compat=compat))
+        self.coefficients = (1.0, 1.0) if coefficients is None else tuple(float(c) for c in coefficients)
+        if len(self.coefficients) != 2:
+            raise SchemaError(f"needs 2 coefficients, got {len(self.coefficients)}",
+                              column="reward_function.attributes.coefficients")
+
+    def reset(self, context):
+        super().reset(context)
+        for part in self.parts:
+            part.reset(context)
+
+    def _parts(self, obs) -> list[np.ndarray]:
+        return [part.building_values(obs)[0] for part in self.parts]
+
+    def building_values(self, obs):
+        solar, comfort = self._parts(obs)
+        terms = {"solar_penalty": self.coefficients[0] * solar, "comfort": self.coefficients[1] * comfort}
+        return terms["solar_penalty"] + terms["comfort"], terms
+
+    def __call__(self, obs):
+        self._check()
+        parts = self._parts(obs)
+        terms = {"solar_penalty": self.coefficients[0] * parts[0], "comfort": self.coefficients[1] * parts[1]}
+        if self.context.central_agent:
+            parts = [np.array([p.sum()]) for p in parts]
+        if self.compat:
+            parts = [p.astype(np.float32).astype(float) for p in parts]
+        total = self.coefficients[0] * parts[0] + self.coefficients[1] * parts[1]
+        return (float(total[0]) if self.context.central_agent else total), terms
+
+
+# ------------------------------------------------------------------------------------ SimBuild 2024
+class SignalReward(Reward):
+    """-(max(e_b, 0) * s_b)^exponent with s the observation named ``signal`` ($/kWh, kg/kWh) or 1 when None;
+    central: sum. ``window`` is accepted for schema compatibility and unused (as upstream)."""
+
+    default_signal: str | None = None
+
+    def __init__(self, signal: str | None = None, exponent: float | None = None, window: int | None = None, *,
+                 compat: bool = False):
+        super().__init__(compat=compat)
+        self.signal = self.default_signal if signal is None else signal
+        self.exponent = 1.0 if exponent is None else float(exponent)
+        self.window = window
+
+    def _signal(self, obs) -> np.ndarray:
+        return _get(obs, self.signal) if self.signal else np.ones_like(_get(obs, "net_electricity_consumption"))
+
+    def building_values(self, obs):
+        grid = np.clip(_get(obs, "net_electricity_consumption"), 0.0, None)
+        values = -((grid * self._signal(obs)) ** self.exponent)
+        return values, {"signal": values}
+
+
+class StorageSignalReward(SignalReward):
+    """Penalises storing energy while importing: when e_b > 0, with D = sum over storages of
+    (soc - previous soc) * capacity (kWh), r_b = -(|D| * s)^exponent * sign(D); 0 otherwise. compat: for
+    D <= 0 upstream multiplies by D itself instead of its sign. Central: sum."""
+
+    def __init__(self, signal: str | None = None, exponent: float | None = None, *, compat: bool = False):
+        super().__init__(signal, exponent, compat=compat)
+        self.kinds = ("dhw_storage", "cooling_storage", "heating_storage", "electrical_storage")
+        self.previous_soc: dict[str, np.ndarray] = {}
+
+    def reset(self, context):
+        super().reset(context)
+        self.previous_soc = {k: context.storage_initial_soc(k).copy() for k in self.kinds}
+
+    def building_values(self, obs):
+        e = _get(obs, "net_electricity_consumption")
+        soc = {k: _get(obs, f"{k}_soc", 0.0) for k in self.kinds}
+        stored = sum((soc[k] - self.previous_soc[k]) * self.context.storage_capacity(k) for k in self.kinds)
+        self.previous_soc = soc
+        magnitude = (np.abs(stored) * self._signal(obs)) ** self.exponent
+        direction = np.where(stored > 0.0, 1.0, stored) if self.compat else np.sign(stored)
+        values = np.where(e > 0.0, -magnitude * direction, 0.0)
+        return values, {"stored_energy": stored, "signal": values}
+
+
+class StorageCostReductionReward(Reward):
+    """Price-rank reward for active storage actions. With the distinct prices seen so far sorted (n of them)
+    and i the rank of the current price (building 0's observation), each active storage k adds
+    -(1 - soc_k) * (n - i) when idle (|consumption| < 1e-6 kWh), +i when discharging, -i when a thermal storage
+    charges while its device consumes more than the storage; central: sum. The price list persists across
+    episodes, as upstream."""
+
+    def __init__(self, *, compat: bool = False, **_unused: Any):
+        super().__init__(compat=compat)
+        self.prices: list[float] = []
+
+    def building_values(self, obs):
+        price = float(_get(obs, "electricity_pricing")[0])
+        self.prices = sorted(set(self.prices) | {price})
+        i, n = self.prices.index(price), len(self.prices)
+        terms = {}
+        for kind in STORAGES:
+            active = self.context.action_active(kind)
+            if not active.any():
+                continue
+            use = _get(obs, f"{kind}_electricity_consumption", 0.0)
+            soc = _get(obs, f"{kind}_soc", 0.0)
+            device = _get(obs, f"{kind.split('_')[0]}_electricity_consumption", 0.0)
+            charging_on_device = (kind != "electrical_storage") & (use > 0.0) & (device > use)
+            value = np.select([np.abs(use) < ZERO_CAPACITY, use < 0.0, charging_on_device],
+                              [-(1.0 - soc) * (n - i), float(i), -float(i)], 0.0)
+            terms[kind] = np.where(active, value, 0.0)
+        values = sum(terms.values()) if terms else np.zeros_like(_get(obs, "net_electricity_consumption"))
+        return values, terms
+
+
+class SetPointDeviationReward(Reward):
+    """SimBuild's ComfortReward: -|T - T_set| (degC) per building; central: mean over buildings."""
+
+    central_aggregate = "mean"
+
+    def building_values(self, obs):
+        values = -np.abs(_get(obs, "indoor_dry_bulb_temperature")
+                         - _get(obs, "indoor_dry_bulb_temperature_set_point"))
+        return values, {"set_point_deviation": values}
+
+
+class ComfortAndConsumptionReductionReward(Reward):
+    """The paper's discomfort & consumption reward: -multiplier * |T - T_set| when T < T_set (over-cooling
+    wastes energy), else -|T - T_set| (degC); central: mean over buildings."""
+
+    central_aggregate = "mean"
+
+    def __init__(self, multiplier: float | None = None, *, compat: bool = False):
+        super().__init__(compat=compat)
+        self.multiplier = 3.0 if multiplier is None else float(multiplier)
+
+    def building_values(self, obs):
+        delta = _get(obs, "indoor_dry_bulb_temperature") - _get(obs, "indoor_dry_bulb_temperature_set_point")
+        values = -np.abs(np.where(delta < 0.0, delta * self.multiplier, delta))
+        return values, {"over_cooling": np.where(delta < 0.0, values, 0.0),
+                        "under_cooling": np.where(delta < 0.0, 0.0, values)}
+
+
+class PeakReductionReward(Reward):
+    """Running peak p of max(e, 0) since reset (kWh; per building, or of the district sum for a central
+    agent); reward = p - max(e, 0) >= 0."""
+
+    def reset(self, context):
+        super().reset(context)
+        self.peak = np.zeros(1 if context.central_agent else context.n_buildings)
+
+    def building_values(self, obs):
+        grid = np.clip(_get(obs, "net_electricity_consumption"), 0.0, None)
+        return grid, {"grid_import": grid}
+
+    def __call__(self, obs):
+        self._check()
+        grid, terms = self.building_values(obs)
+        load = np.array([grid.sum()]) if self.context.central_agent else grid
+        self.peak = np.maximum(self.peak, load)
+        values = self.peak - load
+        return (float(values[0]) if self.context.central_agent else values), terms
+
+
+# ------------------------------------------------------------------------------------ the paper's rewards
+class CostReward(SignalReward):
+    """The paper's cost reward: -max(e_b, 0) * price ($); central: sum."""
+
+    default_signal = "electricity_pricing"
+
+
+class EmissionsReward(SignalReward):
+    """The paper's emissions reward: -max(e_b, 0) * carbon intensity (kg); central: sum."""
+
+    default_signal = "carbon_intensity"
+
+
+class AverageDailyPeakReward(Reward):
+    """The paper's average-daily-peak reward: -max(P, 0) with P the district net demand (kWh per step) for a
+    central agent (``aggregate="district"``), or -sum_b max(e_b, 0) (``aggregate="buildings"``: what the
+    published SimBuild runs computed with SignalReward and no signal); decentralised: -max(e_b, 0)."""
+
+    def __init__(self, aggregate: str = "district", *, compat: bool = False):
+        super().__init__(compat=compat)
+        if aggregate not in ("district", "buildings"):
+            raise SchemaError(f"aggregate must be 'district' or 'buildings', got {aggregate!r}",
+                              column="reward_function.attributes.aggregate")
+        self.aggregate_mode = aggregate
+
+    def building_values(self, obs):
+        values = -np.clip(_get(obs, "net_electricity_consumption"), 0.0, None)
+        return values, {"grid_import": values}
+
+    def __call__(self, obs):
+        value, terms = super().__call__(obs)
+        if self.context.central_agent and self.aggregate_mode == "district":
+            value = -max(float(_get(obs, "net_electricity_consumption").sum()), 0.0)
+        return value, terms
+
+
+# ------------------------------------------------------------------------------------ registry
+_CITYLEARN = "citylearn.reward_function."
+_SIMBUILD = "src.reward_function."
+#: reward type string (upstream dotted path or short name) -> class; never resolved by importing
+REWARDS: dict[str, type[Reward]] = {
+    _CITYLEARN + "RewardFunction": RewardFunction,
+    _CITYLEARN + "MARL": MARL,
+    _CITYLEARN + "IndependentSACReward": IndependentSACReward,
+    _CITYLEARN + "SolarPenaltyReward": SolarPenaltyReward,
+    _CITYLEARN + "ComfortReward": ComfortReward,
+    _CITYLEARN + "SolarPenaltyAndComfortReward": SolarPenaltyAndComfortReward,
+    _SIMBUILD + "SignalReward": SignalReward,
+    _SIMBUILD + "StorageSignalReward": StorageSignalReward,
+    _SIMBUILD + "StorageCostReductionReward": StorageCostReductionReward,
+    _SIMBUILD + "ComfortReward": SetPointDeviationReward,
+    _SIMBUILD + "ComfortandConsumptionReductionReward": ComfortAndConsumptionReductionReward,
+    _SIMBUILD + "PeakReductionReward": PeakReductionReward,
+    "default": RewardFunction,
+    "marl": MARL,
+    "independent_sac": IndependentSACReward,
+    "solar_penalty": SolarPenaltyReward,
+    "comfort": ComfortReward,
+    "solar_penalty_and_comfort": SolarPenaltyAndComfortReward,
+    "signal": SignalReward,
+    "storage_signal": StorageSignalReward,
+    "storage_cost_reduction": StorageCostReductionReward,
+    "setpoint_deviation": SetPointDeviationReward,
+    "peak_reduction": PeakReductionReward,
+    "cost": CostReward,
+    "emissions": EmissionsReward,
+    "discomfort_consumption": ComfortAndConsumptionReductionReward,
+    "average_daily_peak": AverageDailyPeakReward,
+}
+
+
+def make_reward(spec: Mapping[str, Any] | str | None, context: RewardContext, *, compat: bool = False) -> Reward:
+    """Build and reset the reward of a schema's ``reward_function`` entry (``{"type": ..., "attributes":
+    {...}}``), a type string, or None (the default :class:`RewardFunction`). Raises SchemaError for an unknown
+    type (listing the known ones) or attributes the class does not take."""
+    if spec is None:
+        spec = {"type": "default"}
+    elif isinstance(spec, str):
+        spec = {"type": spec}
+    elif not isinstance(spec, Mapping):
+        raise SchemaError(f"reward function spec must be a mapping or a type string, got {type(spec).__name__}",
+                          column="reward_function")
+    name = spec.get("type")
+    cls = REWARDS.get(name) if isinstance(name, str) else None
+    if cls is None:
+        raise SchemaError(f"unknown reward function type {name!r}; known: {', '.join(REWARDS)}",
+                          column="reward_function.type")
+    attributes = dict(spec.get("attributes") or {})
+    accepted = [p for p in inspect.signature(cls.__init__).parameters if p not in ("self", "compat", "_unused")]
+    try:
+        reward = cls(**attributes, compat=compat)
+    except TypeError as error:
+        raise SchemaError(f"{name} does not take attributes {sorted(attributes)} ({error}); it takes "
+                          f"{', '.join(accepted) or 'none'}", column="reward_function.attributes") from None
+    reward.reset(context)
+    return reward
