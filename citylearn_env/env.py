@@ -1,0 +1,297 @@
+"""The gymnasium environment: spaces, reset, step, history. ``step`` only coordinates.
+
+Step timing follows CityLearn 2.1: ``reset`` puts the district at t = 0 (nothing controlled; devices serve
+the data-set demands) and returns the observation at t = 0; ``step(a)`` advances to t + 1, applies ``a``
+there, books consumption, runs the temperature model, computes the reward at t + 1 and returns its
+observation. An episode of T time steps has T - 1 step calls; ``terminated`` is true on the last.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+from citylearn_env import observations as obs_mod
+from citylearn_env.config import DistrictConfig
+from citylearn_env.district import District
+from citylearn_env.errors import SchemaError
+from citylearn_env.schema import load_schema
+
+STORAGE_ACTIONS = ("cooling_storage", "heating_storage", "dhw_storage", "electrical_storage")
+DEVICE_ACTIONS = ("cooling_device", "heating_device")
+
+
+class CityLearnEnv(gym.Env):
+    """A district of buildings as one gymnasium environment with a central Box observation and action.
+
+    Parameters
+    ----------
+    schema: a CityLearn v2 schema.json path, a schema dict, or a :class:`DistrictConfig`.
+    compat: reproduce CityLearn 2.1 exactly, bugs included (see docs/environment.md); default corrected.
+    reward_function: a reward spec (``{"type": ..., "attributes": ...}`` or a registered short name) or a
+        reward object; default: the schema's.
+    central_agent: override the schema's flag (decides whether the reward is central or per building).
+    """
+
+    metadata = {"render_modes": []}
+
+    def __init__(
+        self,
+        schema: str | Path | Mapping[str, Any] | DistrictConfig,
+        *,
+        compat: bool = False,
+        reward_function: Any = None,
+        central_agent: bool | None = None,
+        episode_time_steps: int | None = None,
+    ):
+        config = schema if isinstance(schema, DistrictConfig) else load_schema(schema, compat=compat)
+        self.config, self.compat = config, compat
+        self.central_agent = config.central_agent if central_agent is None else central_agent
+        self.district = District(config, compat=compat)
+        self.layout = obs_mod.ObservationLayout(self.district)
+        self.building_names = config.building_names
+        self._setup_actions()
+        self._setup_episodes(episode_time_steps)
+        self._setup_dynamics()
+        self.reward_function = self._make_reward(reward_function)
+        lo, hi = self.layout.bounds()
+        self._obs_low, self._obs_high = lo, hi
+        ci = self.layout.central_index
+        self.observation_space = gym.spaces.Box(lo[ci].astype(np.float32), hi[ci].astype(np.float32),
+                                                dtype=np.float32)
+        self.action_space = gym.spaces.Box(self._act_low.astype(np.float32), self._act_high.astype(np.float32),
+                                           dtype=np.float32)
+        self.episode = -1
+        self.t = 0
+
+    # ------------------------------------------------------------------ setup
+    def _setup_actions(self) -> None:
+        d = self.district
+        self.action_pairs: list[tuple[str, int]] = []
+        for b, building in enumerate(self.config.buildings):
+            self.action_pairs.extend((name, b) for name in building.active_actions)
+        lo, hi = [], []
+        for name, b in self.action_pairs:
+            if name in DEVICE_ACTIONS:
+                lo.append(0.0), hi.append(1.0)
+                continue
+            if name == "electrical_storage":
+                cap, power = d.battery["capacity"][b], d.battery["nominal_power"][b]
+                bound = power / cap if cap > 0 else 1.0
+            else:
+                k = name.removesuffix("_storage")
+                cap = d.p[f"{k}_capacity"][b]
+                bound = min(float(d.series[f"{k}_demand"][b].max()) / cap, 1.0) if cap > 0 else 1.0
+            lo.append(-bound), hi.append(bound)
+        self._act_low, self._act_high = np.array(lo), np.array(hi)
+        self._action_index = {
+            name: (np.array([i for i, (n, _) in enumerate(self.action_pairs) if n == name], dtype=np.intp),
+                   np.array([b for n, b in self.action_pairs if n == name], dtype=np.intp))
+            for name in (*STORAGE_ACTIONS, *DEVICE_ACTIONS)
+        }
+
+    def _setup_episodes(self, override: int | None) -> None:
+        cfg = self.config
+        n = cfg.simulation_end_time_step - cfg.simulation_start_time_step + 1
+        episode = override if override is not None else cfg.episode_time_steps
+        if episode is None:
+            self.splits = [(0, n)]
+        elif isinstance(episode, int):
+            if not 2 <= episode <= n:
+                raise SchemaError(f"must be between 2 and the simulation length {n}", column="episode_time_steps")
+            step = 1 if cfg.rolling_episode_split else episode
+            self.splits = [(s, episode) for s in range(0, n - episode + 1, step)]
+        else:
+            base = cfg.simulation_start_time_step
+            self.splits = [(a - base, b - a + 1) for a, b in episode]
+            for a, length in self.splits:
+                if a < 0 or a + length > n or length < 2:
+                    raise SchemaError("split outside the simulation range", column="episode_time_steps")
+
+    def _setup_dynamics(self) -> None:
+        d = self.district
+        self.dyn_index = np.flatnonzero(d.dynamics)
+        self.bank = None
+        if len(self.dyn_index):
+            from citylearn_env.dynamics import build_bank
+
+            self.bank = build_bank([self.config.buildings[i] for i in self.dyn_index], compat=self.compat)
+
+    def _make_reward(self, spec: Any):
+        from citylearn_env import rewards
+
+        d = self.district
+        context = rewards.RewardContext(
+            central_agent=self.central_agent,
+            building_names=self.building_names,
+            capacity={f"{k}_storage": d.p[f"{k}_capacity"] for k in ("cooling", "heating", "dhw")}
+            | {"electrical_storage": d.battery["capacity"]},
+            initial_soc={f"{k}_storage": d.p[f"{k}_initial_soc"] for k in ("cooling", "heating", "dhw")}
+            | {"electrical_storage": d.battery["initial_soc"]},
+            active_actions={name: np.isin(np.arange(d.n), self._action_index[name][1])
+                            for name in (*STORAGE_ACTIONS, *DEVICE_ACTIONS)},
+        )
+        self._reward_context = context
+        if spec is None:
+            spec = self.config.reward_function
+        if callable(spec) and hasattr(spec, "reset"):
+            reward = spec
+        else:
+            reward = rewards.make_reward(spec, context, compat=self.compat)
+        return reward
+
+    # ------------------------------------------------------------------ gymnasium API
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        super().reset(seed=seed)
+        self.episode += 1
+        if self.config.random_episode_split and self.compat:
+            # CityLearn 2.1: legacy RandomState(seed * (episode + 1)), never the last split
+            rs = np.random.RandomState((self.config.random_seed or 0) * (self.episode + 1))
+            if len(self.splits) < 2:
+                raise SchemaError("CityLearn 2.1 cannot pick a random split among one", column="episode_time_steps")
+            start, length = self.splits[int(rs.choice(len(self.splits) - 1))]
+        elif self.config.random_episode_split:
+            start, length = self.splits[int(self.np_random.integers(len(self.splits)))]
+        else:
+            start, length = self.splits[self.episode % len(self.splits)]
+        self.t = 0
+        self.episode_start = start
+        self.district.reset(start, length, self._outage_signal(start, length))
+        self._static = self.layout.episode_matrix()
+        if self.bank is not None:
+            self.bank.reset()
+        self.reward_function.reset(self._reward_context)
+        self.rewards = np.full(length, np.nan)
+        return self._observation(0), {"time_step": 0}
+
+    def step(self, action):
+        a = np.asarray(action, dtype=np.float64).reshape(-1)
+        if a.shape != self._act_low.shape:
+            raise SchemaError(f"action has {a.size} values, the action space has {self._act_low.size} "
+                              f"({', '.join(f'{self.building_names[b]}.{n}' for n, b in self.action_pairs)})",
+                              column="action")
+        if not np.isfinite(a).all():
+            i = int((~np.isfinite(a)).argmax())
+            name, b = self.action_pairs[i]
+            raise SchemaError(f"action value {a[i]!r} is not finite", column=f"{self.building_names[b]}.{name}",
+                              row=i)
+        if self.t >= self.district.length - 1:
+            raise RuntimeError("episode is over: call reset()")
+        actions = self._split_actions(a)
+        override = self._lstm_demands(actions)
+        self.district.step(actions, override)
+        self.t = t = self.district.t
+        if self.bank is not None:
+            self._lstm_temperature(t)
+        value, terms = self.reward_function(obs_mod.StepObservations(self.district, t))
+        reward = float(np.sum(value))
+        self.rewards[t] = reward
+        terminated = t == self.district.length - 1
+        info = {"time_step": t}
+        if not np.isscalar(value):
+            info["building_rewards"] = np.asarray(value)
+        return self._observation(t), reward, terminated, False, info
+
+    # ------------------------------------------------------------------ helpers
+    def _observation(self, t: int) -> np.ndarray:
+        flat = self.layout.vector(self._static[t], t)
+        self._last_flat = flat
+        return flat[self.layout.central_index].astype(np.float32)
+
+    def _split_actions(self, a: np.ndarray) -> dict[str, np.ndarray]:
+        n = self.district.n
+        out = {}
+        for name, (pos, bidx) in self._action_index.items():
+            v = np.zeros(n) if name in STORAGE_ACTIONS else np.full(n, np.nan)
+            v[bidx] = a[pos]
+            out[name] = v
+        return out
+
+    def _lstm_demands(self, actions: dict[str, np.ndarray]) -> dict[str, np.ndarray] | None:
+        """Demand from heat-pump actions for warm LSTM buildings: min(a * P, P) * COP in the matching mode."""
+        if self.bank is None:
+            return None
+        d, t = self.district, self.district.t + 1
+        warm = np.zeros(d.n, dtype=bool)
+        warm[self.dyn_index] = self.bank.is_warm
+        hvac = d.ep["hvac_mode"][:, t]
+        out = {}
+        for k, mode, action in (("cooling", 1, "cooling_device"), ("heating", 2, "heating_device")):
+            a = actions[action]
+            use = warm & np.isfinite(a)
+            if not use.any():
+                continue
+            power = d.p[f"{k}_nominal_power"]
+            q = np.where(hvac == mode, np.minimum(np.maximum(a, 0.0) * power, power), 0.0)
+            out[f"{k}_demand"] = np.where(use, q * d.ep[f"{k}_device_cop"][:, t], np.nan)
+        return out or None
+
+    def _lstm_temperature(self, t: int) -> None:
+        d = self.district
+        view = obs_mod.StepObservations(d, t)
+        idx = self.dyn_index
+        inputs = {name: view[name][idx] for name in self.bank.input_names}
+        predicted = self.bank.step(inputs, d.ep["hvac_mode"][idx, t])
+        temps = d.rec["indoor_dry_bulb_temperature"]
+        temps[idx, t] = np.where(np.isnan(predicted), temps[idx, t], predicted)
+
+    def _outage_signal(self, start: int, length: int) -> np.ndarray:
+        d = self.district
+        signal = np.zeros((d.n, length))
+        for b, building in enumerate(self.config.buildings):
+            o = building.outage
+            if not o.simulate:
+                continue
+            if not o.stochastic:
+                signal[b] = d.series["power_outage"][b, start : start + length]
+                continue
+            from citylearn_env.outages import reliability_outage_signal
+
+            seed = o.random_seed
+            if seed is None:
+                seed = int(self.np_random.integers(2**31 - 1))
+            signal[b] = reliability_outage_signal(
+                length, saifi=o.saifi, caidi=o.caidi, seed=int(seed),
+                seconds_per_time_step=self.config.seconds_per_time_step,
+                start_time_steps=o.start_time_steps, compat=self.compat,
+            )
+        return signal
+
+    # ------------------------------------------------------------------ results
+    @property
+    def observation_names(self) -> list[str]:
+        """Names of the central observation vector's entries."""
+        return self.layout.names(central=True)
+
+    @property
+    def action_names(self) -> list[str]:
+        return [name for name, _ in self.action_pairs]
+
+    def series(self, window: slice | None = None) -> dict[str, np.ndarray]:
+        """Recorded and derived episode series, name -> (B, t + 1) arrays (see :mod:`citylearn_env.history`)."""
+        from citylearn_env.history import episode_series
+
+        return episode_series(self.district, self.t, window)
+
+    def history(self, include_district: bool = True):
+        """One row per (building, time_step) so far, columns named as CityLearn's building properties."""
+        from citylearn_env.history import history_frame
+
+        return history_frame(self.district, self.t, include_district=include_district)
+
+    def evaluate(self, *, comfort_band: float = 2.0, window: slice | None = None):
+        """The CityLearn KPI table (long form: cost_function, value, name, level) over the episode so far."""
+        from citylearn_env import kpis
+
+        return kpis.evaluate(self.series(), self.building_names, dynamics=list(self.district.dynamics),
+                             comfort_band=comfort_band, window=window, compat=self.compat)
+
+    def objectives(self, window: slice | None = None) -> dict[str, Any]:
+        """The SimBuild paper's five objectives in absolute units over ``window`` of the episode so far."""
+        from citylearn_env import kpis
+
+        return kpis.objectives(self.series(), window=window)

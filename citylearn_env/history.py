@@ -1,0 +1,85 @@
+"""Episode series for KPIs and the ``history()`` table, derived from the recorded arrays after the fact.
+
+Counterfactual ("baseline") series follow CityLearn 2.1 (kWh per step; cost in $, emission in kg):
+``without_storage`` removes every storage's electricity, ``and_pv`` adds the PV generation back, and
+``without_storage_and_partial_load`` also adds back the heat-pump electricity an LSTM building saved by
+serving less than its ideal load: (ideal - served demand) / COP.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from citylearn_env.district import END_USES, RECORDED, District
+
+#: data series copied into the history (name in history -> name in the episode data)
+DATA_COLUMNS = {
+    "dhw_demand": "dhw_demand",
+    "non_shiftable_load": "non_shiftable_load",
+    "cooling_demand_without_partial_load": "cooling_demand",
+    "heating_demand_without_partial_load": "heating_demand",
+    "indoor_dry_bulb_temperature_without_partial_load": "indoor_dry_bulb_temperature",
+    "indoor_dry_bulb_temperature_set_point": "indoor_dry_bulb_temperature_set_point",
+    "occupant_count": "occupant_count",
+    "hvac_mode": "hvac_mode",
+    "power_outage": "power_outage",
+    "outdoor_dry_bulb_temperature": "outdoor_dry_bulb_temperature",
+    "electricity_pricing": "electricity_pricing",
+    "carbon_intensity": "carbon_intensity",
+    "cooling_device_cop": "cooling_device_cop",
+    "heating_device_cop": "heating_device_cop",
+}
+
+#: series that add up over buildings (the district rows of the history)
+ADDITIVE_PREFIXES = ("net_electricity_consumption", "energy_", "solar_generation", "non_shiftable_load",
+                     "dhw_demand", "cooling_demand", "heating_demand", "power_outage")
+
+
+def episode_series(district: District, t_end: int, window: slice | None = None) -> dict[str, np.ndarray]:
+    """All recorded and derived series over time steps 0..t_end (optionally a ``window`` of them), (B, T)."""
+    n = t_end + 1
+    e = district.ep
+    out = {k: district.rec[k][:, :n] for k in RECORDED}
+    out.update({k: e[src][:, :n] for k, src in DATA_COLUMNS.items()})
+    out["solar_generation"] = -e["pv_generation"][:, :n]
+    out["pv_nominal_power"] = np.repeat(district.pv_nominal_power[:, None], n, axis=1)
+    price, carbon = out["electricity_pricing"], out["carbon_intensity"]
+    net = out["net_electricity_consumption"]
+    storage = sum(out[f"{k}_storage_electricity_consumption"] for k in (*END_USES, "electrical"))
+    partial = np.zeros_like(net)
+    for k in ("cooling", "heating"):
+        saved = (out[f"{k}_demand_without_partial_load"] - out[f"{k}_demand"]) / e[f"{k}_device_cop"][:, :n]
+        partial += np.where(district.dynamics[:, None], saved, 0.0)
+    base = {
+        "": net,
+        "_without_storage": net - storage,
+        "_without_storage_and_pv": net - storage - out["solar_generation"],
+        "_without_storage_and_partial_load": net - storage + partial,
+        "_without_storage_and_partial_load_and_pv": net - storage + partial - out["solar_generation"],
+    }
+    for suffix, values in base.items():
+        out[f"net_electricity_consumption{suffix}"] = values
+        out[f"net_electricity_consumption_cost{suffix}"] = values * price
+        out[f"net_electricity_consumption_emission{suffix}"] = np.maximum(0.0, values * carbon)
+    if window is not None:
+        out = {k: v[:, window] for k, v in out.items()}
+    return out
+
+
+def history_frame(district: District, t_end: int, *, include_district: bool = True):
+    """A long DataFrame: one row per (building, time_step); district sums as building ``"District"``."""
+    import pandas as pd
+
+    series = episode_series(district, t_end)
+    names = list(district.names)
+    n = t_end + 1
+    frame = pd.DataFrame({k: v.reshape(-1) for k, v in series.items()})
+    frame.insert(0, "time_step", np.tile(np.arange(n), len(names)))
+    frame.insert(0, "building", np.repeat(names, n))
+    if include_district:
+        district_rows = {"building": ["District"] * n, "time_step": np.arange(n)}
+        for k, v in series.items():
+            additive = k.startswith(ADDITIVE_PREFIXES) or k.endswith("_electricity_consumption")
+            district_rows[k] = v.sum(axis=0) if additive else np.full(n, np.nan)
+        frame = pd.concat([frame, pd.DataFrame(district_rows)], ignore_index=True)
+    return frame

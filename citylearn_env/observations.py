@@ -1,0 +1,181 @@
+"""Observation names, their values at a time step, and their bounds (CityLearn 2.1 conventions).
+
+Values are raw (un-normalised). A *static* observation depends only on data (calendar, weather, prices,
+carbon intensity, loads, PV yield, COPs, outage signal); a *dynamic* one on the simulation state. Static
+columns of the observation vector are laid out once per episode; each step only fills the dynamic ones.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator, Mapping
+
+import numpy as np
+
+from citylearn_env.district import END_USES, District
+from citylearn_env.errors import SchemaError
+
+#: observation name -> data series name, for observations that are plain data
+STATIC_ALIASES = {
+    "solar_generation": "pv_generation",
+    "cooling_device_cop": "cooling_device_cop",
+    "heating_device_cop": "heating_device_cop",
+    "dhw_device_cop": "dhw_device_cop",
+    "indoor_dry_bulb_temperature_without_control": "indoor_dry_bulb_temperature",
+    "cooling_demand_without_control": "cooling_demand",
+    "heating_demand_without_control": "heating_demand",
+    "dhw_demand_without_control": "dhw_demand",
+    "non_shiftable_load_without_control": "non_shiftable_load",
+    "indoor_relative_humidity_without_control": "indoor_relative_humidity",
+    "indoor_dry_bulb_temperature_set_point_without_control": "indoor_dry_bulb_temperature_set_point",
+}
+
+DYNAMIC = (
+    "indoor_dry_bulb_temperature",
+    "indoor_dry_bulb_temperature_delta",
+    "net_electricity_consumption",
+    "cooling_demand",
+    "heating_demand",
+    "dhw_demand",
+    *(f"{k}_storage_soc" for k in (*END_USES, "electrical")),
+    *(f"{k}_electricity_consumption" for k in END_USES),
+    *(f"{k}_storage_electricity_consumption" for k in (*END_USES, "electrical")),
+)
+
+
+def dynamic_value(district: District, name: str, t: int) -> np.ndarray:
+    """The (B,) value of dynamic observation ``name`` at episode step ``t``."""
+    r = district.rec
+    if name in ("cooling_demand", "heating_demand", "dhw_demand"):
+        k = name.removesuffix("_demand")
+        return r[f"energy_from_{k}_device"][:, t] + r[f"energy_from_{k}_storage"][:, t]
+    if name == "indoor_dry_bulb_temperature_delta":
+        setpoint = district.ep["indoor_dry_bulb_temperature_set_point"][:, t]
+        return np.abs(r["indoor_dry_bulb_temperature"][:, t] - setpoint)
+    return r[name][:, t]
+
+
+def is_known(district: District, name: str) -> bool:
+    return name in DYNAMIC or name in STATIC_ALIASES or name in district.series
+
+
+class StepObservations(Mapping):
+    """All observations of every building at step ``t`` as name -> (B,) arrays, computed on access.
+
+    This is what reward functions receive (CityLearn passes each building's full observation dict).
+    """
+
+    def __init__(self, district: District, t: int):
+        self._d, self._t = district, t
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        d = self._d
+        if name in DYNAMIC:
+            return dynamic_value(d, name, self._t)
+        series = d.ep.get(STATIC_ALIASES.get(name, name))
+        if series is None:
+            raise KeyError(name)
+        return series[:, self._t]
+
+    def __iter__(self) -> Iterator[str]:
+        d = self._d
+        names = set(DYNAMIC) | set(STATIC_ALIASES) | set(d.ep)
+        return iter(sorted(names))
+
+    def __len__(self) -> int:
+        return sum(1 for _ in self)
+
+
+class ObservationLayout:
+    """Where each (name, building) pair sits in the flat vector of all buildings' active observations.
+
+    ``central_index`` picks the central-agent vector from it (shared names once, from the first building
+    that has them); ``building_slices`` the per-building vectors.
+    """
+
+    def __init__(self, district: District):
+        config = district.config
+        self.pairs: list[tuple[str, int]] = []
+        self.building_slices: list[slice] = []
+        order = [name for name, _ in config.observations]
+        for b, building in enumerate(config.buildings):
+            names = [n for n in order if n in building.active_observations]
+            for name in names:
+                if not is_known(district, name):
+                    raise SchemaError(f"observation {name!r} is active but cannot be produced",
+                                      column=f"observations.{name}")
+            start = len(self.pairs)
+            self.pairs.extend((n, b) for n in names)
+            self.building_slices.append(slice(start, len(self.pairs)))
+        shared = set(config.shared_observations)
+        seen: set[str] = set()
+        central = []
+        for i, (name, _) in enumerate(self.pairs):
+            if name in shared:
+                if name in seen:
+                    continue
+                seen.add(name)
+            central.append(i)
+        self.central_index = np.array(central, dtype=np.intp)
+        self.district = district
+        groups: dict[str, list[int]] = {}
+        for i, (name, _) in enumerate(self.pairs):
+            groups.setdefault(name, []).append(i)
+        self.groups = {n: (np.array(ix), np.array([self.pairs[i][1] for i in ix])) for n, ix in groups.items()}
+        self.dynamic = [(n, pos, bidx) for n, (pos, bidx) in self.groups.items() if n in DYNAMIC]
+
+    def names(self, central: bool = True) -> list[str]:
+        index = self.central_index if central else range(len(self.pairs))
+        return [self.pairs[i][0] for i in index]
+
+    def episode_matrix(self) -> np.ndarray:
+        """(T, n_pairs) matrix of the static observations over the current episode (dynamic columns 0)."""
+        d = self.district
+        matrix = np.zeros((d.length, len(self.pairs)))
+        for name, (pos, bidx) in self.groups.items():
+            if name not in DYNAMIC:
+                matrix[:, pos] = d.ep[STATIC_ALIASES.get(name, name)][bidx].T
+        return matrix
+
+    def vector(self, static_row: np.ndarray, t: int) -> np.ndarray:
+        """The flat vector of all active observations at ``t`` (static row plus dynamic values)."""
+        out = static_row.copy()
+        for name, pos, bidx in self.dynamic:
+            out[pos] = dynamic_value(self.district, name, t)[bidx]
+        return out
+
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """Lower and upper bounds of every (name, building) pair, estimated over the simulation range."""
+        lo, hi = np.zeros(len(self.pairs)), np.zeros(len(self.pairs))
+        for i, (name, b) in enumerate(self.pairs):
+            lo[i], hi[i] = _bound(self.district, name, b)
+        return lo, hi
+
+
+def _bound(d: District, name: str, b: int) -> tuple[float, float]:
+    s, p, bat = d.series, d.p, d.battery
+    pv = s["pv_generation"][b]
+    p_batt = bat["nominal_power"][b]
+    if name == "net_electricity_consumption":
+        nsl = s["non_shiftable_load"][b]
+        low = min(float(np.min(nsl - p_batt - pv)), 0.0)
+        devices_power = sum(p[f"{k}_nominal_power"][b] for k in END_USES)
+        return low, float(np.max(nsl + devices_power + p_batt - pv))
+    if name.endswith("_soc") or name == "power_outage":
+        return 0.0, 1.0
+    if name == "indoor_dry_bulb_temperature":
+        t = s["indoor_dry_bulb_temperature"][b]
+        return float(t.min()) - 10.0, float(t.max()) + 10.0
+    if name == "indoor_dry_bulb_temperature_delta":
+        return 0.0, 10.0
+    if name in ("cooling_demand", "heating_demand", "dhw_demand"):
+        return 0.0, 1.15 * float(s[name][b].max())
+    for k in END_USES:
+        if name == f"{k}_electricity_consumption":
+            return 0.0, float(p[f"{k}_nominal_power"][b])
+        if name == f"{k}_storage_electricity_consumption":
+            low = -float(np.max(s[f"{k}_demand"][b] / s[f"{k}_device_cop"][b]))
+            return low, float(p[f"{k}_nominal_power"][b])
+    if name == "electrical_storage_electricity_consumption":
+        return -float(p_batt), float(p_batt)
+    values = s[STATIC_ALIASES.get(name, name)][b]
+    return float(values.min()), float(values.max())

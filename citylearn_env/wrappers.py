@@ -1,0 +1,124 @@
+"""Wrappers: upstream-style normalisation and a PettingZoo ParallelEnv for independent agents."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+#: periodic observations and their periods (hour 1..24, month 1..12, day_type 1..7 (+8 holiday))
+PERIODS = {"hour": 24.0, "month": 12.0, "day_type": 7.0}
+
+
+class NormalizedObservationWrapper(gym.ObservationWrapper):
+    """Periodic hour/day_type/month as (cos, sin) pairs, then min-max scaling of everything to [0, 1].
+
+    The bounds are the environment's observation bounds (estimated over the simulation range); values
+    outside them are not clipped (as upstream). With ``compat=True`` the day_type period is 8 (CityLearn 2.1).
+    """
+
+    def __init__(self, env: gym.Env, *, compat: bool | None = None):
+        super().__init__(env)
+        base = env.unwrapped
+        compat = base.compat if compat is None else compat
+        periods = dict(PERIODS, day_type=8.0 if compat else 7.0)
+        names = base.observation_names
+        low, high = base.observation_space.low.astype(np.float64), base.observation_space.high.astype(np.float64)
+        self._plan: list[tuple[int, float | None]] = []
+        out_names, lo, hi = [], [], []
+        for i, name in enumerate(names):
+            if name in periods:
+                self._plan.append((i, periods[name]))
+                out_names += [f"{name}_cos", f"{name}_sin"]
+                lo += [-1.0, -1.0]
+                hi += [1.0, 1.0]
+            else:
+                self._plan.append((i, None))
+                out_names.append(name)
+                lo.append(low[i])
+                hi.append(high[i])
+        self.observation_names = out_names
+        self._lo = np.array(lo)
+        span = np.array(hi) - self._lo
+        self._span = np.where(span > 0, span, 1.0)
+        self.observation_space = gym.spaces.Box(0.0, 1.0, shape=(len(out_names),), dtype=np.float32)
+
+    def observation(self, observation: np.ndarray) -> np.ndarray:
+        values = []
+        for i, period in self._plan:
+            x = float(observation[i])
+            if period is None:
+                values.append(x)
+            else:
+                angle = 2.0 * np.pi * x / period
+                values += [np.cos(angle), np.sin(angle)]
+        return ((np.array(values) - self._lo) / self._span).astype(np.float32)
+
+
+class NormalizedActionWrapper(gym.ActionWrapper):
+    """The agent acts in [0, 1] per action; mapped linearly onto the environment's [low, high]."""
+
+    def __init__(self, env: gym.Env):
+        super().__init__(env)
+        self._low = env.action_space.low.astype(np.float64)
+        self._span = env.action_space.high.astype(np.float64) - self._low
+        self.action_space = gym.spaces.Box(0.0, 1.0, shape=env.action_space.shape, dtype=np.float32)
+
+    def action(self, action: np.ndarray) -> np.ndarray:
+        return self._low + np.asarray(action, dtype=np.float64) * self._span
+
+
+def parallel_env(schema: Any, **kwargs: Any):
+    """A PettingZoo ParallelEnv with one agent per building (its own observations, actions and reward)."""
+    from pettingzoo import ParallelEnv
+
+    from citylearn_env.env import CityLearnEnv
+
+    class CityLearnParallelEnv(ParallelEnv):
+        metadata = {"name": "citylearn_env_parallel_v0", "render_modes": []}
+
+        def __init__(self):
+            self.env = CityLearnEnv(schema, central_agent=False, **kwargs)
+            env = self.env
+            self.possible_agents = list(env.building_names)
+            self.agents = list(self.possible_agents)
+            lo, hi = env._obs_low, env._obs_high
+            self._obs_slices = dict(zip(self.possible_agents, env.layout.building_slices, strict=True))
+            self._act_index = {a: [i for i, (_, b) in enumerate(env.action_pairs) if b == k]
+                               for k, a in enumerate(self.possible_agents)}
+            self._obs_spaces = {a: gym.spaces.Box(lo[s].astype(np.float32), hi[s].astype(np.float32),
+                                                  dtype=np.float32) for a, s in self._obs_slices.items()}
+            self._act_spaces = {a: gym.spaces.Box(env.action_space.low[ix], env.action_space.high[ix],
+                                                  dtype=np.float32) for a, ix in self._act_index.items()}
+
+        def observation_space(self, agent):
+            return self._obs_spaces[agent]
+
+        def action_space(self, agent):
+            return self._act_spaces[agent]
+
+        def _split(self):
+            flat = self.env._last_flat
+            return {a: flat[s].astype(np.float32) for a, s in self._obs_slices.items()}
+
+        def reset(self, seed=None, options=None):
+            self.agents = list(self.possible_agents)
+            self.env.reset(seed=seed, options=options)
+            return self._split(), {a: {} for a in self.agents}
+
+        def step(self, actions):
+            vector = np.zeros(self.env.action_space.shape)
+            for a, ix in self._act_index.items():
+                vector[ix] = np.asarray(actions[a], dtype=np.float64).reshape(-1)
+            _, reward, terminated, truncated, info = self.env.step(vector)
+            rewards = info.get("building_rewards", np.full(len(self.agents), reward / len(self.agents)))
+            obs = self._split()
+            out = ({a: float(r) for a, r in zip(self.agents, rewards, strict=True)},
+                   {a: terminated for a in self.agents}, {a: truncated for a in self.agents},
+                   {a: {} for a in self.agents})
+            if terminated or truncated:
+                self.agents = []
+            return (obs, *out)
+
+    return CityLearnParallelEnv()

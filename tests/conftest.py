@@ -1,0 +1,27 @@
+"""Shared test settings: where ../shared is, and quiet, isolated Prefect settings."""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+SHARED = ROOT.parent / "shared"
+DATASET = SHARED / "data" / "citylearn" / "citylearn_challenge_2023_phase_3_1-v2.1"
+GOLDEN = SHARED / "reference" / "citylearn-2.1.2"
+
+# Prefect: never touch ~/.prefect, no telemetry, quiet logs (must be set before prefect is imported).
+os.environ.setdefault("PREFECT_HOME", tempfile.mkdtemp(prefix="prefect_home_"))
+os.environ.setdefault("PREFECT_SERVER_ANALYTICS_ENABLED", "false")
+os.environ.setdefault("PREFECT_LOGGING_LEVEL", "WARNING")
+os.environ.setdefault("PREFECT_SERVER_DATABASE_CONNECTION_URL", "sqlite+aiosqlite:///:memory:")
+
+
+def need_shared(*paths: Path) -> None:
+    """Skip the calling test when a ../shared file it needs is absent (fresh clone without shared/)."""
+    for path in paths:
+        if not path.exists():
+            pytest.skip(f"../shared data not present: {path} (tests on real data need the shared folder)")
