@@ -1,0 +1,164 @@
+"""Inner loops of :class:`citylearn_env.dynamics.LSTMBank`: one environment step for a group of LSTM models.
+
+Both implementations do the same work for every *active* model slot ``m`` (one per building):
+
+1. shift the model's input buffer ``buf[m]`` (lookback + 1 rows, oldest first) by one row and write the
+   newest normalised inputs, built from the raw per-building row ``raw[b]``: column ``src[m, i]`` of the raw
+   row, optionally periodic-encoded (``kind`` 1 = sin, 2 = cos of 2*pi*x/period), then min-max normalised
+   ``(x - lo) / span``;
+2. once the buffer is full, run the ``lookback``-step window (exogenous inputs from rows 1..lookback, the
+   indoor-temperature column ``tcol`` from rows 0..lookback-1) through the stacked LSTM, starting from the
+   carried hidden/cell state ``h``, ``c`` and leaving the final state there;
+3. ``y = w_lin . h_top + b_lin`` replaces the temperature entry of the newest row, and
+   ``y * out_span + out_lo`` is written to ``out[b]`` (NaN while the buffer is not full).
+
+Weights are stored transposed (``wih0t`` (M, I, 4H), ``wihrt`` (M, L-1, H, 4H), ``whht`` (M, L, H, 4H)) so the
+innermost loop runs over the 4H gate rows (i, f, g, o) and vectorises without reordering any sum.
+``f32`` rounds the window inputs and the output to float32 as torch does in CityLearn 2.1.
+numba is imported lazily by :func:`get_numba_kernel`; this module itself needs numpy only.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+_KERNEL = None
+
+
+def _lstm_group_step(raw, bidx, slots, src, kind, period, lo, span, tcol, out_lo, out_span,
+                     buf, count, wih0t, wihrt, whht, bias, wlin, blin, h, c, f32, out):  # pragma: no cover
+    lookback = buf.shape[1] - 1
+    n_in = buf.shape[2]
+    n_layers = h.shape[1]
+    n_hidden = h.shape[2]
+    g4 = 4 * n_hidden
+    x = np.empty(max(n_in, n_hidden))
+    z = np.empty(g4)
+    for a in range(slots.shape[0]):
+        m = slots[a]
+        b = bidx[a]
+        for k in range(lookback):
+            for i in range(n_in):
+                buf[m, k, i] = buf[m, k + 1, i]
+        for i in range(n_in):
+            v = raw[b, src[m, i]]
+            if kind[m, i] == 1:
+                v = math.sin(2.0 * math.pi * v / period[m, i])
+            elif kind[m, i] == 2:
+                v = math.cos(2.0 * math.pi * v / period[m, i])
+            buf[m, lookback, i] = (v - lo[m, i]) / span[m, i]
+        if count[m] <= lookback:
+            count[m] += 1
+        if count[m] <= lookback:
+            out[b] = np.nan
+            continue
+        t_col = tcol[m]
+        for s in range(lookback):
+            for i in range(n_in):
+                v = buf[m, s, i] if i == t_col else buf[m, s + 1, i]
+                x[i] = np.float32(v) if f32 else v
+            width = n_in
+            for layer in range(n_layers):
+                for g in range(g4):
+                    z[g] = bias[m, layer, g]
+                for i in range(width):
+                    xi = x[i]
+                    if layer == 0:
+                        for g in range(g4):
+                            z[g] += wih0t[m, i, g] * xi
+                    else:
+                        for g in range(g4):
+                            z[g] += wihrt[m, layer - 1, i, g] * xi
+                for j in range(n_hidden):
+                    hj = h[m, layer, j]
+                    for g in range(g4):
+                        z[g] += whht[m, layer, j, g] * hj
+                for j in range(n_hidden):
+                    gi = 1.0 / (1.0 + math.exp(-z[j]))
+                    gf = 1.0 / (1.0 + math.exp(-z[n_hidden + j]))
+                    gg = math.tanh(z[2 * n_hidden + j])
+                    go = 1.0 / (1.0 + math.exp(-z[3 * n_hidden + j]))
+                    cj = gf * c[m, layer, j] + gi * gg
+                    c[m, layer, j] = cj
+                    hj = go * math.tanh(cj)
+                    h[m, layer, j] = hj
+                    x[j] = hj
+                width = n_hidden
+        y = blin[m]
+        for j in range(n_hidden):
+            y += wlin[m, j] * h[m, n_layers - 1, j]
+        if f32:
+            y = np.float32(y)
+            out[b] = np.float32(np.float32(y) * np.float32(out_span[m]) + np.float32(out_lo[m]))
+        else:
+            out[b] = y * out_span[m] + out_lo[m]
+        buf[m, lookback, t_col] = y
+
+
+def get_numba_kernel():
+    """The numba-compiled version of the group step, or None when numba is not installed."""
+    global _KERNEL
+    if _KERNEL is None:
+        try:
+            from numba import njit
+        except ImportError:  # pragma: no cover - numba is optional
+            _KERNEL = False
+        else:
+            _KERNEL = njit(cache=True, nogil=True)(_lstm_group_step)
+    return _KERNEL or None
+
+
+def _sigmoid(z: np.ndarray) -> np.ndarray:
+    return 1.0 / (1.0 + np.exp(-z))
+
+
+def numpy_group_step(raw, bidx, slots, src, kind, period, lo, span, tcol, out_lo, out_span,
+                     buf, count, wih0t, wihrt, whht, bias, wlin, blin, h, c, f32, out) -> None:
+    """Vectorised NumPy version of the group step (same arguments, same results up to round-off)."""
+    lookback = buf.shape[1] - 1
+    n_layers, n_hidden = h.shape[1], h.shape[2]
+    v = raw[bidx[:, None], src[slots]]
+    k, p = kind[slots], period[slots]
+    angle = 2.0 * np.pi * v / p
+    v = np.where(k == 1, np.sin(angle), np.where(k == 2, np.cos(angle), v))
+    buf[slots, :-1] = buf[slots, 1:]
+    buf[slots, -1] = (v - lo[slots]) / span[slots]
+    count[slots] = np.minimum(count[slots] + 1, lookback + 1)
+    warm = count[slots] > lookback
+    out[bidx[~warm]] = np.nan
+    if not warm.any():
+        return
+    slots, bidx = slots[warm], bidx[warm]
+    rows = np.arange(len(slots))
+    window = buf[slots, 1:].copy()
+    window[rows, :, tcol[slots]] = buf[slots, :-1][rows, :, tcol[slots]]
+    if f32:
+        window = window.astype(np.float32).astype(np.float64)
+    hh, cc = h[slots], c[slots]
+    seq = window
+    for layer in range(n_layers):
+        w_in = wih0t[slots] if layer == 0 else wihrt[slots, layer - 1]
+        proj = seq @ w_in + bias[slots, layer][:, None, :]
+        w_hh = whht[slots, layer]
+        hl, cl = hh[:, layer], cc[:, layer]
+        hs = np.empty((len(slots), lookback, n_hidden))
+        for s in range(lookback):
+            zz = proj[:, s] + np.einsum("aj,ajg->ag", hl, w_hh)
+            gi, gf, gg, go = np.split(zz, 4, axis=1)
+            cl = _sigmoid(gf) * cl + _sigmoid(gi) * np.tanh(gg)
+            hl = _sigmoid(go) * np.tanh(cl)
+            hs[:, s] = hl
+        hh[:, layer], cc[:, layer] = hl, cl
+        seq = hs
+    h[slots], c[slots] = hh, cc
+    y = blin[slots] + np.einsum("aj,aj->a", wlin[slots], hh[:, -1])
+    if f32:
+        y = y.astype(np.float32)
+        temp = y * out_span[slots].astype(np.float32) + out_lo[slots].astype(np.float32)
+        y = y.astype(np.float64)
+    else:
+        temp = y * out_span[slots] + out_lo[slots]
+    buf[slots, -1, tcol[slots]] = y
+    out[bidx] = temp

@@ -1,0 +1,403 @@
+"""LSTM indoor-temperature dynamics: a torch-free ``.pth`` reader and a batched bank of building models.
+
+``read_pth_state_dict`` reads a PyTorch zip checkpoint with a restricted unpickler (tensors and plain
+containers only, nothing executed). :class:`LSTMBank` advances the LSTM models of all dynamics buildings of a
+district together, one call per environment step, with CityLearn 2.1 semantics (see
+docs/environment_dynamics.md for the window/state rules and the ``compat`` quirks).
+"""
+
+from __future__ import annotations
+
+import collections
+import pickle
+import zipfile
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from citylearn_env import _lstm_kernels
+from citylearn_env.errors import SchemaError
+
+TEMPERATURE = "indoor_dry_bulb_temperature"
+PERIODS = {"hour": 24.0, "month": 12.0, "day_type": 7.0}
+COMPAT_PERIODS = {"hour": 24.0, "month": 12.0, "day_type": 8.0}
+
+# ------------------------------------------------------------------------------------------- .pth reader
+_STORAGE_DTYPES = {
+    "DoubleStorage": "<f8", "FloatStorage": "<f4", "HalfStorage": "<f2", "BFloat16Storage": "bfloat16",
+    "LongStorage": "<i8", "IntStorage": "<i4", "ShortStorage": "<i2", "CharStorage": "i1",
+    "ByteStorage": "u1", "BoolStorage": "?",
+}
+
+
+@dataclass(frozen=True)
+class _StorageType:
+    name: str
+
+
+def _rebuild_tensor(storage, offset, size, stride, requires_grad=False, hooks=None, metadata=None):
+    size, stride = tuple(int(s) for s in size), tuple(int(s) for s in stride)
+    if len(size) != len(stride) or any(s < 0 for s in (*size, *stride)) or int(offset) < 0:
+        raise ValueError(f"bad tensor layout size={size} stride={stride} offset={offset}")
+    if 0 in size:
+        return np.zeros(size, dtype=storage.dtype)
+    last = int(offset) + sum((n - 1) * s for n, s in zip(size, stride, strict=True))
+    if last >= storage.size:
+        raise ValueError(f"tensor (size={size}, stride={stride}, offset={offset}) overruns its storage")
+    item = storage.itemsize
+    view = np.lib.stride_tricks.as_strided(storage[int(offset):], size, tuple(s * item for s in stride))
+    return np.array(view, copy=True)
+
+
+def _rebuild_parameter(data, requires_grad=False, hooks=None, state=None):
+    return data
+
+
+_ALLOWED_GLOBALS = {
+    ("collections", "OrderedDict"): collections.OrderedDict,
+    ("torch._utils", "_rebuild_tensor_v2"): _rebuild_tensor,
+    ("torch._utils", "_rebuild_parameter"): _rebuild_parameter,
+    ("torch._utils", "_rebuild_parameter_with_state"): _rebuild_parameter,
+} | {("torch", name): _StorageType(name) for name in _STORAGE_DTYPES}
+
+
+class _RefusedGlobal(Exception):
+    pass
+
+
+class _WeightsUnpickler(pickle.Unpickler):
+    """Resolves only tensor-rebuild helpers, storage types and OrderedDict; storages come from the zip."""
+
+    def __init__(self, data: bytes, archive: zipfile.ZipFile, folder: str, byteorder: str):
+        import io
+
+        super().__init__(io.BytesIO(data))
+        self._archive, self._folder, self._byteorder = archive, folder, byteorder
+        self._storages: dict[str, np.ndarray] = {}
+
+    def find_class(self, module: str, name: str):
+        try:
+            return _ALLOWED_GLOBALS[(module, name)]
+        except KeyError:
+            raise _RefusedGlobal(f"{module}.{name}") from None
+
+    def persistent_load(self, pid):
+        if not (isinstance(pid, tuple) and len(pid) == 5 and pid[0] == "storage"
+                and isinstance(pid[1], _StorageType)):
+            raise ValueError(f"unsupported persistent id {pid!r}")
+        _, storage_type, key, _location, numel = pid
+        if key not in self._storages:
+            raw = self._archive.read(f"{self._folder}/data/{key}")
+            code = _STORAGE_DTYPES[storage_type.name]
+            if code == "bfloat16":
+                bits = np.frombuffer(raw, dtype=self._byteorder + "u2").astype(np.uint32) << 16
+                array = bits.view(np.float32)
+            else:
+                array = np.frombuffer(raw, dtype=np.dtype(code).newbyteorder(self._byteorder))
+            if array.size < int(numel):
+                raise ValueError(f"storage {key} holds {array.size} values, {numel} expected")
+            self._storages[key] = array.astype(array.dtype.newbyteorder("="), copy=False)
+        return self._storages[key]
+
+
+def read_pth_state_dict(path: str | Path) -> dict[str, np.ndarray]:
+    """Read the model weights of a PyTorch zip checkpoint (``torch.save``) without torch.
+
+    Accepts a ``{'model_state_dict': {...}, ...}`` checkpoint or a bare state dict. The pickle may only
+    reference tensor/storage rebuild helpers and ``collections.OrderedDict``; any other global (code) is
+    refused with :class:`SchemaError` before anything is executed. Returns name -> numpy array (dtype of the
+    stored tensor, C-contiguous copies).
+    """
+    path = Path(path)
+    try:
+        archive = zipfile.ZipFile(path)
+    except (OSError, zipfile.BadZipFile) as exc:
+        raise SchemaError(f"cannot read as a PyTorch zip checkpoint ({exc}); the legacy non-zip torch.save "
+                          "format is not supported", file=path) from None
+    with archive:
+        pickles = [n for n in archive.namelist() if n.endswith("/data.pkl") and n.count("/") == 1]
+        if len(pickles) != 1:
+            raise SchemaError("not a PyTorch checkpoint: expected exactly one '<folder>/data.pkl' entry",
+                              file=path)
+        folder = pickles[0].split("/")[0]
+        byteorder = "<"
+        if f"{folder}/byteorder" in archive.namelist():
+            byteorder = ">" if archive.read(f"{folder}/byteorder").strip() == b"big" else "<"
+        unpickler = _WeightsUnpickler(archive.read(pickles[0]), archive, folder, byteorder)
+        try:
+            obj = unpickler.load()
+        except _RefusedGlobal as exc:
+            raise SchemaError(f"refusing to load: global '{exc}' is not allowed in a weights file "
+                              "(only tensors and plain containers)", file=path) from None
+        except Exception as exc:  # corrupt pickle / storage: one clear message, no deep traceback
+            raise SchemaError(f"cannot unpickle checkpoint: {type(exc).__name__}: {exc}", file=path) from None
+    state = obj.get("model_state_dict", obj) if isinstance(obj, dict) else obj
+    if not isinstance(state, dict) or not state:
+        raise SchemaError("no state dict found (expected a dict of tensors or a 'model_state_dict' entry)",
+                          file=path)
+    for key, value in state.items():
+        if not isinstance(key, str) or not isinstance(value, np.ndarray):
+            raise SchemaError(f"state dict entry is not a tensor ({type(value).__name__})", file=path,
+                              column=key)
+    return dict(state)
+
+
+# ------------------------------------------------------------------------------------------ model specs
+@dataclass(frozen=True, eq=False)
+class LSTMSpec:
+    """One trained LSTM temperature model: weights plus the input contract.
+
+    ``state_dict``: ``<lstm>.weight_ih_l{k}`` (4H, in), ``<lstm>.weight_hh_l{k}`` (4H, H), ``<lstm>.bias_ih_l{k}``,
+    ``<lstm>.bias_hh_l{k}`` (4H) for k < num_layers, plus one linear head ``<head>.weight`` (1, H),
+    ``<head>.bias`` (1,). Inputs are min-max normalised with the given bounds (same units as the observations:
+    W/m2, degC, kWh, people; ``*_sin``/``*_cos`` names are periodic encodings of hour/month/day_type).
+    """
+
+    state_dict: Mapping[str, np.ndarray]
+    input_observation_names: tuple[str, ...]
+    input_normalization_minimum: tuple[float, ...]
+    input_normalization_maximum: tuple[float, ...]
+    hidden_size: int
+    num_layers: int
+    lookback: int
+    source: str = "LSTM model"
+
+    def arrays(self) -> dict[str, np.ndarray]:
+        """Validated float64 weights: wih (list), whh (list), bias (L, 4H: b_ih + b_hh), wlin (H,), blin."""
+        names, n_in, hid, n_layers = self.input_observation_names, len(self.input_observation_names), \
+            int(self.hidden_size), int(self.num_layers)
+        where = self.source
+        if not (len(self.input_normalization_minimum) == len(self.input_normalization_maximum) == n_in):
+            raise SchemaError(f"{n_in} input names but {len(self.input_normalization_minimum)} minima and "
+                              f"{len(self.input_normalization_maximum)} maxima", file=where)
+        if TEMPERATURE not in names:
+            raise SchemaError(f"input_observation_names must include {TEMPERATURE!r}", file=where)
+        if hid < 1 or n_layers < 1 or int(self.lookback) < 1:
+            raise SchemaError("hidden_size, num_layers and lookback must be >= 1", file=where)
+        span = np.asarray(self.input_normalization_maximum, float) - np.asarray(self.input_normalization_minimum,
+                                                                                  float)
+        if not np.all(np.isfinite(span)) or np.any(span == 0):
+            i = int(np.flatnonzero(~np.isfinite(span) | (span == 0))[0])
+            raise SchemaError("normalization maximum equals minimum", file=where, column=names[i])
+        sd = self.state_dict
+        lstm = [k[: -len("weight_ih_l0")] for k in sd if k.endswith("weight_ih_l0")]
+        if len(lstm) != 1:
+            raise SchemaError("expected one LSTM (a single '*weight_ih_l0' key) in the state dict", file=where)
+        prefix = lstm[0]
+
+        def get(key: str, shape: tuple[int, ...]) -> np.ndarray:
+            if key not in sd:
+                raise SchemaError("missing weight", file=where, column=key)
+            value = np.asarray(sd[key], dtype=np.float64)
+            if value.shape != shape:
+                raise SchemaError(f"shape {value.shape}, expected {shape}", file=where, column=key)
+            return value
+
+        out: dict = {"wih": [], "whh": [], "bias": []}
+        for k in range(n_layers):
+            out["wih"].append(get(f"{prefix}weight_ih_l{k}", (4 * hid, n_in if k == 0 else hid)))
+            out["whh"].append(get(f"{prefix}weight_hh_l{k}", (4 * hid, hid)))
+            out["bias"].append(get(f"{prefix}bias_ih_l{k}", (4 * hid,)) + get(f"{prefix}bias_hh_l{k}", (4 * hid,)))
+        if f"{prefix}weight_ih_l{n_layers}" in sd:
+            raise SchemaError(f"state dict has more than num_layers={n_layers} layers", file=where)
+        heads = [k[: -len("weight")] for k in sd if k.endswith("weight") and not k.startswith(prefix)]
+        if len(heads) != 1:
+            raise SchemaError("expected one linear head ('*.weight', '*.bias') besides the LSTM", file=where)
+        out["wlin"] = get(f"{heads[0]}weight", (1, hid))[0]
+        out["blin"] = float(get(f"{heads[0]}bias", (1,))[0])
+        out["bias"] = np.array(out["bias"])
+        return out
+
+
+def spec_from_model(model, *, state_cache: dict | None = None) -> LSTMSpec:
+    """An :class:`LSTMSpec` from a config object with ``filepath``, ``input_observation_names``, bounds,
+    ``hidden_size``, ``num_layers``, ``lookback`` (e.g. ``citylearn_env.config.LSTMModel``)."""
+    cache = {} if state_cache is None else state_cache
+    path = str(model.filepath)
+    if path not in cache:
+        cache[path] = read_pth_state_dict(path)
+    return LSTMSpec(cache[path], tuple(model.input_observation_names),
+                    tuple(float(x) for x in model.input_normalization_minimum),
+                    tuple(float(x) for x in model.input_normalization_maximum),
+                    int(model.hidden_size), int(model.num_layers), int(model.lookback), source=path)
+
+
+# ------------------------------------------------------------------------------------------------- bank
+def _parse_input(name: str, periods: Mapping[str, float]) -> tuple[str, int, float]:
+    """(raw observation name, kind 0 plain / 1 sin / 2 cos, period) of one model input name."""
+    for suffix, kind in (("_sin", 1), ("_cos", 2)):
+        if name.endswith(suffix) and name[: -len(suffix)] in periods:
+            return name[: -len(suffix)], kind, periods[name[: -len(suffix)]]
+    return name, 0, 1.0
+
+
+class _Group:
+    """Stacked weights and state of all model instances that share one architecture."""
+
+    def __init__(self, specs: list[LSTMSpec], raw_index: Mapping[str, int], periods, compat: bool):
+        arrays = [s.arrays() for s in specs]
+        first = specs[0]
+        n_in, hid, n_layers = len(first.input_observation_names), first.hidden_size, first.num_layers
+        self.lookback = first.lookback
+        self.wih0t = np.ascontiguousarray(np.stack([a["wih"][0].T for a in arrays]))
+        rest = [np.stack([w.T for w in a["wih"][1:]]) if n_layers > 1 else np.zeros((1, hid, 4 * hid))
+                for a in arrays]
+        self.wihrt = np.ascontiguousarray(np.stack(rest))
+        self.whht = np.ascontiguousarray(np.stack([np.stack([w.T for w in a["whh"]]) for a in arrays]))
+        self.bias = np.stack([a["bias"] for a in arrays])
+        self.wlin = np.stack([a["wlin"] for a in arrays])
+        self.blin = np.array([a["blin"] for a in arrays])
+        parsed = [[_parse_input(n, periods) for n in s.input_observation_names] for s in specs]
+        self.src = np.array([[raw_index[p[0]] for p in row] for row in parsed], dtype=np.int64)
+        self.kind = np.array([[p[1] for p in row] for row in parsed], dtype=np.int64)
+        self.period = np.array([[p[2] for p in row] for row in parsed], dtype=np.float64)
+        self.lo = np.array([s.input_normalization_minimum for s in specs], dtype=np.float64)
+        self.span = np.array([s.input_normalization_maximum for s in specs], dtype=np.float64) - self.lo
+        self.tcol = np.array([s.input_observation_names.index(TEMPERATURE) for s in specs], dtype=np.int64)
+        out_col = np.full(len(specs), n_in - 1) if compat else self.tcol
+        self.out_lo = self.lo[np.arange(len(specs)), out_col].copy()
+        self.out_span = self.span[np.arange(len(specs)), out_col].copy()
+        self.buf = np.zeros((len(specs), self.lookback + 1, n_in))
+        self.count = np.zeros(len(specs), dtype=np.int64)
+        self.h = np.zeros((len(specs), n_layers, hid))
+        self.c = np.zeros_like(self.h)
+
+    def clear(self, slots) -> None:
+        self.buf[slots] = 0.0
+        self.count[slots] = 0
+        self.h[slots] = 0.0
+        self.c[slots] = 0.0
+
+
+class LSTMBank:
+    """The LSTM temperature models of B buildings, advanced together once per environment step.
+
+    ``cooling[b]`` / ``heating[b]`` are building b's models; the heating model serves hvac_mode 2, the cooling
+    model every other mode (0 off, 1 cooling). ``heating[b] = None`` uses the cooling model for all modes.
+    When the selected model of a building changes between steps, the newly selected model starts again from
+    an empty buffer and zero state (a new warm-up of ``lookback + 1`` steps).
+    ``compat=True`` reproduces CityLearn 2.1 (day_type period 8, de-normalisation with the last bound pair,
+    float32 rounding of the window and output); ``compat=False`` uses day_type period 7 and the indoor
+    temperature's own bounds. ``backend``: "auto" (numba if installed), "numba" or "numpy".
+    """
+
+    def __init__(self, cooling: Sequence[LSTMSpec], heating: Sequence[LSTMSpec | None] | None = None, *,
+                 compat: bool = False, backend: str = "auto"):
+        n = len(cooling)
+        heating = list(heating) if heating is not None else [None] * n
+        if len(heating) != n or n == 0:
+            raise SchemaError(f"LSTMBank needs one cooling model per building ({n}) and as many heating entries "
+                              f"({len(heating)})", column="dynamics")
+        instances: list[LSTMSpec] = []
+        self._table = np.zeros((n, 2), dtype=np.int64)
+        for b in range(n):
+            instances.append(cooling[b])
+            self._table[b] = len(instances) - 1
+            if heating[b] is not None:
+                instances.append(heating[b])
+                self._table[b, 1] = len(instances) - 1
+        periods = COMPAT_PERIODS if compat else PERIODS
+        names: dict[str, int] = {}
+        for spec in instances:
+            for name in spec.input_observation_names:
+                names.setdefault(_parse_input(name, periods)[0], len(names))
+        self.input_names: tuple[str, ...] = tuple(names)
+        keys: dict[tuple, list[int]] = {}
+        for i, spec in enumerate(instances):
+            key = (len(spec.input_observation_names), spec.hidden_size, spec.num_layers, spec.lookback)
+            keys.setdefault(key, []).append(i)
+        self._groups = [_Group([instances[i] for i in members], names, periods, compat) for members in keys.values()]
+        self._inst_group = np.zeros(len(instances), dtype=np.int64)
+        self._inst_slot = np.zeros(len(instances), dtype=np.int64)
+        for g, members in enumerate(keys.values()):
+            self._inst_group[members] = g
+            self._inst_slot[members] = np.arange(len(members))
+        self.compat, self.n_buildings = bool(compat), n
+        if backend not in ("auto", "numba", "numpy"):
+            raise ValueError(f"backend must be 'auto', 'numba' or 'numpy', not {backend!r}")
+        kernel = _lstm_kernels.get_numba_kernel() if backend != "numpy" else None
+        if backend == "numba" and kernel is None:
+            raise ImportError("backend='numba' needs the numba package")
+        self.backend = "numba" if kernel is not None else "numpy"
+        self._kernel = kernel or _lstm_kernels.numpy_group_step
+        self._raw = np.zeros((n, len(names)))
+        self._rows = np.arange(n)
+        self.reset()
+
+    def reset(self) -> None:
+        """Empty every buffer and zero every hidden/cell state (episode start)."""
+        for group in self._groups:
+            group.clear(slice(None))
+        self._current = np.full(self.n_buildings, -1, dtype=np.int64)
+        self._members: list[tuple[np.ndarray, np.ndarray]] = []
+
+    def _instances(self, hvac_mode) -> np.ndarray:
+        heating = np.asarray(hvac_mode, dtype=np.float64).reshape(self.n_buildings) > 1
+        return self._table[self._rows, heating.astype(np.int64)]
+
+    def _warm(self, inst: np.ndarray) -> np.ndarray:
+        warm = np.zeros(self.n_buildings, dtype=bool)
+        for g, group in enumerate(self._groups):
+            sel = (self._inst_group[inst] == g) & (inst >= 0)
+            warm[sel] = group.count[self._inst_slot[inst[sel]]] > group.lookback
+        return warm
+
+    @property
+    def is_warm(self) -> np.ndarray:
+        """(B,) bool: the model used at the last step has a full buffer (it predicted at that step)."""
+        return self._warm(self._current)
+
+    def warm(self, hvac_mode) -> np.ndarray:
+        """(B,) bool: the model that ``hvac_mode`` (values at the coming step) selects has a full buffer.
+
+        False where the coming step switches model (its buffer is cleared). CityLearn applies a device action
+        to the demand only where this is True.
+        """
+        inst = self._instances(hvac_mode)
+        return self._warm(inst) & (inst == self._current)
+
+    def step(self, obs: Mapping[str, np.ndarray], hvac_mode) -> np.ndarray:
+        """Append the inputs of the current time step and predict its indoor temperature.
+
+        ``obs`` maps every name of :attr:`input_names` to a (B,) array of raw values at t (W/m2, degC, kWh
+        *delivered* cooling/heating energy, people, month 1-12, hour 1-24, day_type 1-8); the indoor
+        temperature is the value the building holds at t before prediction. ``hvac_mode`` (B,) at t.
+        Returns the predicted indoor dry-bulb temperature (B,) in degC, NaN where the buffer is not yet full.
+        """
+        raw = self._raw
+        try:
+            for j, name in enumerate(self.input_names):
+                raw[:, j] = obs[name]
+        except KeyError as exc:
+            raise SchemaError(f"LSTM input {exc.args[0]!r} missing from the step inputs",
+                              column=exc.args[0]) from None
+        inst = self._instances(hvac_mode)
+        if not self._members or not np.array_equal(inst, self._current):
+            changed = inst != self._current
+            for b in np.flatnonzero(changed):
+                self._groups[self._inst_group[inst[b]]].clear(self._inst_slot[inst[b]])
+            self._current = inst
+            self._members = []
+            for g in range(len(self._groups)):
+                bidx = np.flatnonzero(self._inst_group[inst] == g)
+                self._members.append((bidx, self._inst_slot[inst[bidx]]))
+        out = np.full(self.n_buildings, np.nan)
+        for group, (bidx, slots) in zip(self._groups, self._members, strict=True):
+            if len(bidx):
+                self._kernel(raw, bidx, slots, group.src, group.kind, group.period, group.lo, group.span,
+                             group.tcol, group.out_lo, group.out_span, group.buf, group.count, group.wih0t,
+                             group.wihrt, group.whht, group.bias, group.wlin, group.blin, group.h, group.c,
+                             self.compat, out)
+        return out
+
+
+def build_bank(buildings: Sequence, *, compat: bool = False, backend: str = "auto") -> LSTMBank:
+    """An :class:`LSTMBank` for buildings with ``cooling_model`` / ``heating_model`` config attributes."""
+    cache: dict = {}
+    cooling = [spec_from_model(b.cooling_model or b.heating_model, state_cache=cache) for b in buildings]
+    heating = [spec_from_model(b.heating_model, state_cache=cache) if b.heating_model is not None
+               and b.cooling_model is not None else None for b in buildings]
+    return LSTMBank(cooling, heating, compat=compat, backend=backend)
+
