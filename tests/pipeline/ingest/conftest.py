@@ -41,3 +41,21 @@ def workbook_rows():
                 rows[(row[0].date(), row[1])] = (row[3], list(row[4:]))
     book.close()
     return rows
+
+
+@pytest.fixture(scope="session")
+def epw_path() -> Path:
+    """The real Austin Camp Mabry TMY3 EPW (skips when ../shared/data is absent)."""
+    return need(EPW)
+
+
+@pytest.fixture(scope="session")
+def resstock_weather_path() -> Path:
+    """The real ResStock county weather CSV sample (skips when absent)."""
+    return need(RESSTOCK_WEATHER)
+
+
+@pytest.fixture(scope="session")
+def workbook_path() -> Path:
+    """The real ERCOT 2017 workbook (skips when absent)."""
+    return need(WORKBOOK)
