@@ -349,7 +349,7 @@ class EmissionsReward(SignalReward):
     default_signal = "carbon_intensity"
 
 
-class AverageDailyPeakReward(Reward):
+class AverageDailyPeakReward(RewardFunction):
     """The paper's average-daily-peak reward: -max(P, 0) with P the district net demand (kWh per step) for a
     central agent (``aggregate="district"``), or -sum_b max(e_b, 0) (``aggregate="buildings"``: what the
     published SimBuild runs computed with SignalReward and no signal); decentralised: -max(e_b, 0)."""
@@ -361,15 +361,8 @@ class AverageDailyPeakReward(Reward):
                               column="reward_function.attributes.aggregate")
         self.aggregate_mode = aggregate
 
-    def building_values(self, obs):
-        values = -np.clip(_get(obs, "net_electricity_consumption"), 0.0, None)
-        return values, {"grid_import": values}
-
     def __call__(self, obs):
-        value, terms = super().__call__(obs)
-        if self.context.central_agent and self.aggregate_mode == "district":
-            value = -max(float(_get(obs, "net_electricity_consumption").sum()), 0.0)
-        return value, terms
+        return super().__call__(obs) if self.aggregate_mode == "district" else Reward.__call__(self, obs)
 
 
 # ------------------------------------------------------------------------------------ registry
