@@ -124,18 +124,19 @@ def test_division_compat_and_safe():
 
 
 def test_discomfort_by_hand():
-    temperature = np.array([20.0, 25.5, 23.0, 18.0, 30.0])
-    set_point = np.full(5, 23.0)
-    occupants = np.array([1, 2, 0, 1, 1])  # step 2 unoccupied; step 4 (30 C) is occupied
+    temperature = np.array([20.0, 25.5, 23.0, 18.0, 30.0, 21.0])
+    set_point = np.full(6, 23.0)
+    occupants = np.array([1, 2, 0, 1, 1, 1])  # step 2 unoccupied; step 5 sits exactly on the band edge
     stats = kpis.discomfort(temperature, set_point, 2.0, occupants)
-    # occupied deltas -3, 2.5, -5, 7: all four beyond the 2 C band
-    assert stats["discomfort_proportion"] == 1.0
-    assert stats["discomfort_too_cold_proportion"] == 0.5
+    # occupied deltas -3, 2.5, -5, 7, -2: four strictly beyond the 2 C band, two of them too cold
+    assert stats["discomfort_proportion"] == pytest.approx(4 / 5)
+    assert stats["discomfort_too_cold_proportion"] == pytest.approx(2 / 5)
+    assert stats["discomfort_too_hot_proportion"] == pytest.approx(2 / 5)
     assert stats["discomfort_delta_minimum"] == -5.0 and stats["discomfort_delta_maximum"] == 7.0
-    assert stats["discomfort_delta_average"] == pytest.approx(1.5 / 4)
+    assert stats["discomfort_delta_average"] == pytest.approx(-0.5 / 5)
     compat = kpis.discomfort(temperature, set_point, 2.0, occupants, compat=True)
-    assert compat["discomfort_delta_average"] == pytest.approx(1.5 / 5)
-    empty = kpis.discomfort(temperature, set_point, 2.0, np.zeros(5))
+    assert compat["discomfort_delta_average"] == pytest.approx(-0.5 / 6)
+    empty = kpis.discomfort(temperature, set_point, 2.0, np.zeros(6))
     assert math.isnan(empty["discomfort_proportion"]) and math.isnan(empty["discomfort_delta_average"])
 
 
@@ -193,3 +194,14 @@ def test_missing_series_is_named():
     del series["carbon_intensity"]
     with pytest.raises(SchemaError, match="carbon_intensity"):
         kpis.objectives(series)
+
+
+def test_non_compat_agrees_with_compat_where_no_correction_applies(golden):
+    """On the outage scenario no division is by zero, so only the delta statistics (#11) may differ."""
+    series, names = golden["full_random_outage"]
+    key = ["name", "cost_function"]
+    fixed = kpis.evaluate(series, names, dynamics=[True] * 6).set_index(key)["value"]
+    compat = kpis.evaluate(series, names, dynamics=[True] * 6, compat=True).set_index(key)["value"]
+    deltas = fixed.index.get_level_values("cost_function").str.startswith("discomfort_delta")
+    assert all(close(a, b, 1e-12) for a, b in zip(fixed[~deltas], compat[~deltas], strict=True))
+    assert not np.allclose(fixed[deltas], compat[deltas])
