@@ -192,35 +192,41 @@ class District:
         r["net_electricity_consumption"][:, t] = np.where(outage, 0.0, total - pv)
 
     def _end_use(self, k: str, t: int, demand: np.ndarray, action: np.ndarray, flex) -> np.ndarray:
-        """Serve end use ``k`` with its device and storage; return the electricity booked (B,)."""
+        """Serve end use ``k`` with its device and storage; return the electricity booked (B,).
+
+        Where the storage action is negative the storage discharges first and the device serves the rest;
+        otherwise the device serves the demand and the storage charges with the device's remaining power.
+        Both cases need one storage call: the discharge request does not depend on the device.
+        """
         e, r, p = self.ep, self.rec, self.p
         cop = e[f"{k}_device_cop"][:, t]
-        nominal, capacity = p[f"{k}_nominal_power"], p[f"{k}_capacity"]
-        soc_prev = r[f"{k}_storage_soc"][:, t - 1]
-        request = action * capacity
-        discharge = action < 0
+        nominal = p[f"{k}_nominal_power"]
         f0 = flex()
-        from_storage = 0.0
-        if self.has_storage[k] and discharge.any():
-            ask = np.maximum(np.maximum(-demand, request), -p[f"{k}_max_out"])
-            _, bal = devices.storage_charge(soc_prev, ask, capacity, p[f"{k}_loss"], p[f"{k}_one_way"])
-            from_storage = np.where(discharge, -np.minimum(bal, 0.0), 0.0)
         q_max = np.minimum(f0, nominal) * cop
-        q_dev = np.minimum(demand - from_storage, q_max)
+        q_dev = np.minimum(demand, q_max)
         booked = np.maximum(0.0, q_dev / cop)
-        r[f"energy_from_{k}_device"][:, t] = q_dev
         if self.has_storage[k]:
-            f1 = np.where(f0 == np.inf, np.inf, f0 - booked)
+            capacity = p[f"{k}_capacity"]
+            request = action * capacity
+            discharge = action < 0
+            f1 = f0 if f0 is self.inf else np.where(f0 == np.inf, np.inf, f0 - booked)
             charge = np.minimum(np.minimum(f1, nominal - booked) * cop, request)
             ask = np.where(discharge, np.maximum(-demand, request), np.minimum(charge, p[f"{k}_max_in"]))
             ask = np.maximum(ask, -p[f"{k}_max_out"])
-            soc, bal = devices.storage_charge(soc_prev, ask, capacity, p[f"{k}_loss"], p[f"{k}_one_way"])
-            booked = booked + np.maximum(bal, 0.0) / cop
+            soc, bal = devices.storage_charge(r[f"{k}_storage_soc"][:, t - 1], ask, capacity, p[f"{k}_loss"],
+                                              p[f"{k}_one_way"])
+            from_storage = -np.minimum(bal, 0.0)
+            if discharge.any():
+                q_dev = np.minimum(demand - from_storage, q_max)
+                booked = np.maximum(0.0, q_dev / cop)
+            to_storage = np.maximum(bal, 0.0)
+            booked = booked + to_storage / cop
             r[f"{k}_storage_soc"][:, t] = soc
             r[f"{k}_storage_energy_balance"][:, t] = bal
             r[f"{k}_storage_electricity_consumption"][:, t] = bal / cop
-            r[f"energy_from_{k}_storage"][:, t] = -np.minimum(bal, 0.0)
-            r[f"energy_from_{k}_device_to_{k}_storage"][:, t] = np.maximum(bal, 0.0)
+            r[f"energy_from_{k}_storage"][:, t] = from_storage
+            r[f"energy_from_{k}_device_to_{k}_storage"][:, t] = to_storage
+        r[f"energy_from_{k}_device"][:, t] = q_dev
         r[f"{k}_electricity_consumption"][:, t] = booked
         return booked
 

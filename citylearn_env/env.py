@@ -88,6 +88,12 @@ class CityLearnEnv(gym.Env):
                 bound = min(float(d.series[f"{k}_demand"][b].max()) / cap, 1.0) if cap > 0 else 1.0
             lo.append(-bound), hi.append(bound)
         self._act_low, self._act_high = np.array(lo), np.array(hi)
+        names = (*STORAGE_ACTIONS, *DEVICE_ACTIONS)
+        self._action_table_names = names
+        self._action_template = np.zeros((len(names), d.n))
+        self._action_template[len(STORAGE_ACTIONS):] = np.nan
+        self._action_rows = np.array([names.index(n) for n, _ in self.action_pairs], dtype=np.intp)
+        self._action_cols = np.array([b for _, b in self.action_pairs], dtype=np.intp)
         self._action_index = {
             name: (np.array([i for i, (n, _) in enumerate(self.action_pairs) if n == name], dtype=np.intp),
                    np.array([b for n, b in self.action_pairs if n == name], dtype=np.intp))
@@ -185,9 +191,10 @@ class CityLearnEnv(gym.Env):
         override = self._lstm_demands(actions)
         self.district.step(actions, override)
         self.t = t = self.district.t
+        self._view = obs_mod.StepObservations(self.district, t)
         if self.bank is not None:
             self._lstm_temperature(t)
-        value, terms = self.reward_function(obs_mod.StepObservations(self.district, t))
+        value, terms = self.reward_function(self._view)
         reward = float(np.sum(value))
         self.rewards[t] = reward
         terminated = t == self.district.length - 1
@@ -203,13 +210,10 @@ class CityLearnEnv(gym.Env):
         return flat[self.layout.central_index].astype(np.float32)
 
     def _split_actions(self, a: np.ndarray) -> dict[str, np.ndarray]:
-        n = self.district.n
-        out = {}
-        for name, (pos, bidx) in self._action_index.items():
-            v = np.zeros(n) if name in STORAGE_ACTIONS else np.full(n, np.nan)
-            v[bidx] = a[pos]
-            out[name] = v
-        return out
+        """Action vector -> name -> (B,): inactive storage actions 0, inactive device actions NaN."""
+        table = self._action_template.copy()
+        table[self._action_rows, self._action_cols] = a
+        return dict(zip(self._action_table_names, table, strict=True))
 
     def _lstm_demands(self, actions: dict[str, np.ndarray]) -> dict[str, np.ndarray] | None:
         """Demand from heat-pump actions for warm LSTM buildings: min(a * P, P) * COP in the matching mode."""
@@ -232,12 +236,13 @@ class CityLearnEnv(gym.Env):
 
     def _lstm_temperature(self, t: int) -> None:
         d = self.district
-        view = obs_mod.StepObservations(d, t)
+        view = self._view
         idx = self.dyn_index
         inputs = {name: view[name][idx] for name in self.bank.input_names}
         predicted = self.bank.step(inputs, d.ep["hvac_mode"][idx, t])
         temps = d.rec["indoor_dry_bulb_temperature"]
         temps[idx, t] = np.where(np.isnan(predicted), temps[idx, t], predicted)
+        self._view = obs_mod.StepObservations(d, t)  # temperature changed: drop cached values
 
     def _outage_signal(self, start: int, length: int) -> np.ndarray:
         d = self.district

@@ -66,15 +66,22 @@ class StepObservations(Mapping):
 
     def __init__(self, district: District, t: int):
         self._d, self._t = district, t
+        self._cache: dict[str, np.ndarray] = {}
 
     def __getitem__(self, name: str) -> np.ndarray:
+        value = self._cache.get(name)
+        if value is not None:
+            return value
         d = self._d
         if name in DYNAMIC:
-            return dynamic_value(d, name, self._t)
-        series = d.ep.get(STATIC_ALIASES.get(name, name))
-        if series is None:
-            raise KeyError(name)
-        return series[:, self._t]
+            value = dynamic_value(d, name, self._t)
+        else:
+            series = d.ep.get(STATIC_ALIASES.get(name, name))
+            if series is None:
+                raise KeyError(name)
+            value = series[:, self._t]
+        self._cache[name] = value
+        return value
 
     def __iter__(self) -> Iterator[str]:
         d = self._d
