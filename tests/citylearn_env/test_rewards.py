@@ -117,15 +117,15 @@ def test_solar_penalty_by_hand():
 
 
 def test_comfort_reward_bands_and_modes():
-    temperature = [20.0, 22.0, 24.0, 26.0]
-    cooling = obs(indoor_dry_bulb_temperature=temperature, indoor_dry_bulb_temperature_set_point=[23.0] * 4,
-                  cooling_demand=[1.0] * 4, heating_demand=[0.0] * 4, net_electricity_consumption=[0.0] * 4)
-    np.testing.assert_allclose(call("comfort", False, cooling, n=4), [-27.0, -1.0, 0.0, -9.0])
-    heating = {**cooling, "cooling_demand": np.zeros(4), "heating_demand": np.ones(4)}
-    np.testing.assert_allclose(call("comfort", False, heating, n=4), [-9.0, 0.0, -1.0, -27.0])
+    temperature = [20.0, 21.0, 22.0, 24.0, 25.0, 26.0]  # set point 23, band 2: 21 and 25 are the band edges
+    cooling = obs(indoor_dry_bulb_temperature=temperature, indoor_dry_bulb_temperature_set_point=[23.0] * 6,
+                  cooling_demand=[1.0] * 6, heating_demand=[0.0] * 6, net_electricity_consumption=[0.0] * 6)
+    np.testing.assert_allclose(call("comfort", False, cooling, n=6), [-27.0, -2.0, -1.0, 0.0, 0.0, -9.0])
+    heating = {**cooling, "cooling_demand": np.zeros(6), "heating_demand": np.ones(6)}
+    np.testing.assert_allclose(call("comfort", False, heating, n=6), [-9.0, 0.0, 0.0, -1.0, -2.0, -27.0])
     combined = R.make_reward({"type": "solar_penalty_and_comfort", "attributes": {"coefficients": [0.0, 2.0]}},
-                             ctx(True, n=4))
-    assert combined(cooling)[0] == pytest.approx(2 * -37.0)
+                             ctx(True, n=6))
+    assert combined(cooling)[0] == pytest.approx(2 * -39.0)
 
 
 def test_signal_rewards_by_hand():
