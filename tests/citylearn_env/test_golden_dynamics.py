@@ -69,4 +69,5 @@ def test_all_kpis_match(scenario_env):
 def test_rewards_match_district_csv(scenario_env):
     scenario, env = scenario_env
     district = pd.read_csv(GOLDEN / scenario / "district.csv")
-    np.testing.assert_allclose(env.rewards[1:], district["reward_env"].to_numpy()[1:], atol=1e-3)
+    # comfort rewards reach -7e3 when the random heat-pump actions over-cool: compare relatively there
+    np.testing.assert_allclose(env.rewards[1:], district["reward_env"].to_numpy()[1:], rtol=1e-5, atol=1e-3)
