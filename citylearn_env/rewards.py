@@ -249,7 +249,7 @@ class StorageSignalReward(SignalReward):
         e = _get(obs, "net_electricity_consumption")
         soc = {k: _get(obs, f"{k}_soc", 0.0) for k in self.kinds}
         stored = sum((soc[k] - self.previous_soc[k]) * self.context.storage_capacity(k) for k in self.kinds)
-        self.previous_soc = soc
+        self.previous_soc = {k: v.copy() for k, v in soc.items()}
         magnitude = (np.abs(stored) * self._signal(obs)) ** self.exponent
         direction = np.where(stored > 0.0, 1.0, stored) if self.compat else np.sign(stored)
         values = np.where(e > 0.0, -magnitude * direction, 0.0)
