@@ -1,9 +1,158 @@
-"""CLI sub-commands that write CityLearn input files (weather, tariff, carbon, eulp)."""
+"""CLI sub-commands that write CityLearn input files (weather, tariff, carbon, eulp).
+
+Every command writes one row per hour from ``--start`` 00:00 to ``--end`` 23:00 (local standard time;
+row 0 is CityLearn hour 1) in the chosen layout, and is also a plain Python function (``write_*``).
+"""
 
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
+
+from citylearn_env.layout import (
+    BUILDING_COLUMNS,
+    BUILDING_REQUIRED,
+    CARBON_COLUMNS,
+    LAYOUTS,
+    PRICING_COLUMNS,
+    WEATHER_COLUMNS,
+)
+from pipeline.errors import InputError
+from pipeline.ingest.citylearn_csv import write_citylearn_csv
+from pipeline.ingest.timeindex import period_index, select_period
+
+DEFAULT_CACHE = Path(".cache") / "districtgen"
+
+
+def read_weather_file(path: str | Path, tmy_year: int | None = None):
+    """EPW (``.epw``) or ResStock county CSV (anything else) -> ``(frame, metadata)``."""
+    from pipeline.ingest.weather import read_epw, read_resstock_weather
+
+    path = Path(path)
+    return read_epw(path, tmy_year=tmy_year) if path.suffix.lower() == ".epw" else read_resstock_weather(path)
+
+
+def write_weather(path, start, end, output, *, layout="v2.2", forecast="perfect", seed=0) -> Path:
+    """Write CityLearn ``weather.csv`` for a period from an EPW or ResStock weather file."""
+    from pipeline.ingest.weather import ForecastSpec, citylearn_weather
+
+    index = period_index(start, end)
+    frame, _ = read_weather_file(path, tmy_year=index[0].year)
+    table = citylearn_weather(frame, index, ForecastSpec(mode=forecast, seed=seed), file=path)
+    return write_citylearn_csv(table, WEATHER_COLUMNS, output, layout)
+
+
+def write_pricing(path, start, end, output, *, layout="v2.2") -> Path:
+    """Write CityLearn ``pricing.csv`` for a period from a tariff TOML file."""
+    from pipeline.ingest.tariff import citylearn_pricing, read_tariff
+
+    table = citylearn_pricing(read_tariff(path), period_index(start, end))
+    return write_citylearn_csv(table, PRICING_COLUMNS, output, layout)
+
+
+def write_carbon(path, start, end, output, *, layout="v2.2", clock="prevailing",
+                 timezone="America/Chicago", factors=None) -> Path:
+    """Write CityLearn ``carbon_intensity.csv`` from an ERCOT workbook (.xlsx) or a long CSV."""
+    from pipeline.carbon import carbon_intensity, read_emission_factors
+    from pipeline.ingest.fuel_mix import read_fuel_mix_csv, read_fuel_mix_workbook
+
+    index = period_index(start, end)
+    path = Path(path)
+    if path.suffix.lower() in (".xlsx", ".xlsm"):
+        generation, _ = read_fuel_mix_workbook(path, timezone=timezone)
+    else:
+        generation, _ = read_fuel_mix_csv(path, clock=clock, timezone=timezone)
+    generation = select_period(generation, index, file=path)
+    table = carbon_intensity(generation, read_emission_factors(factors)).to_frame()
+    return write_citylearn_csv(table, CARBON_COLUMNS, output, layout)
+
+
+def write_building(source, building, start, end, output, *, layout="v2.2", upgrade=0, state=None,
+                   cache_dir=DEFAULT_CACHE, timestamp_offset_hours=0.0, weather=None, tilt=None, azimuth=180.0,
+                   timezone=None, holidays=()) -> Path:
+    """Write one CityLearn building CSV from EULP data (local release folder or base URL)."""
+    from pipeline.ingest.eulp import (
+        building_loads,
+        citylearn_building,
+        locate_building,
+        read_eulp_metadata,
+        read_eulp_timeseries,
+    )
+
+    index = period_index(start, end)
+    metadata_path, series_path = locate_building(str(source), int(building), upgrade=upgrade, state=state,
+                                                 cache_dir=cache_dir)
+    metadata = read_eulp_metadata(metadata_path)
+    if int(building) not in metadata.index:
+        raise InputError(f"building {building} not in the metadata", file=metadata_path, column="bldg_id")
+    series, _ = read_eulp_timeseries(series_path, timestamp_offset_hours)
+    loads = building_loads(series, metadata.loc[int(building)], file=series_path)
+    solar = None
+    if weather is not None:
+        from pipeline.pv import PVSite, pv_yield
+
+        frame, meta = read_weather_file(weather, tmy_year=index[0].year)
+        if "latitude" not in meta:
+            raise InputError("PV needs an EPW (site latitude/longitude)", file=weather)
+        site = PVSite(meta["latitude"], meta["longitude"], tilt=tilt, azimuth=azimuth,
+                      altitude=meta.get("elevation_m", 0.0))
+        solar = pv_yield(frame, site, meta["utc_offset_hours"])
+    table = citylearn_building(loads, index, holidays=holidays, timezone=timezone, solar_generation=solar,
+                               file=series_path)
+    return write_citylearn_csv(table, BUILDING_COLUMNS, output, layout, required=BUILDING_REQUIRED)
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the ingest sub-commands to ``districtgen``."""
+    weather = _command(subparsers, "weather", "EPW or ResStock weather CSV -> CityLearn weather.csv")
+    weather.add_argument("--forecast", choices=("perfect", "noisy"), default="perfect",
+                         help="6/12/24 h forecast columns: the future truth, or truth + seeded noise")
+    weather.add_argument("--seed", type=int, default=0, help="noise seed (with --forecast noisy)")
+    weather.set_defaults(func=lambda a: _done(write_weather(a.file, a.start, a.end, a.output, layout=a.layout,
+                                                            forecast=a.forecast, seed=a.seed)))
+
+    tariff = _command(subparsers, "tariff", "TOU tariff TOML -> CityLearn pricing.csv")
+    tariff.set_defaults(func=lambda a: _done(write_pricing(a.file, a.start, a.end, a.output, layout=a.layout)))
+
+    carbon = _command(subparsers, "carbon", "ERCOT fuel mix (.xlsx or long CSV) -> carbon_intensity.csv")
+    carbon.add_argument("--clock", choices=("prevailing", "standard"), default="prevailing",
+                        help="clock of naive timestamps in a long CSV (workbooks are always prevailing)")
+    carbon.add_argument("--timezone", default="America/Chicago")
+    carbon.add_argument("--factors", type=Path, help="emission factor CSV (default: the packaged one)")
+    carbon.set_defaults(func=lambda a: _done(write_carbon(a.file, a.start, a.end, a.output, layout=a.layout,
+                                                          clock=a.clock, timezone=a.timezone,
+                                                          factors=a.factors)))
+
+    eulp = _command(subparsers, "eulp", "EULP building (folder or base URL) -> CityLearn building CSV",
+                    file_help="release folder or http(s) base URL laid out as the OEDI data lake")
+    eulp.add_argument("--building", type=int, required=True, help="bldg_id")
+    eulp.add_argument("--upgrade", type=int, default=0)
+    eulp.add_argument("--state", help="two-letter state (default: in.state of the metadata)")
+    eulp.add_argument("--cache", type=Path, default=DEFAULT_CACHE, help="download cache folder")
+    eulp.add_argument("--timestamp-offset", type=float, default=0.0,
+                      help="hours added to the file's timestamps (e.g. -1 for EST data at a Central site)")
+    eulp.add_argument("--weather", type=Path, help="EPW for the solar_generation column (else 0)")
+    eulp.add_argument("--tilt", type=float, help="PV tilt [deg] (default: latitude)")
+    eulp.add_argument("--azimuth", type=float, default=180.0, help="PV azimuth [deg from north]")
+    eulp.add_argument("--timezone", help="IANA zone for daylight_savings_status (default: all 0)")
+    eulp.add_argument("--holidays", default="", help="comma-separated dates with day_type 8")
+    eulp.set_defaults(func=lambda a: _done(write_building(
+        a.file, a.building, a.start, a.end, a.output, layout=a.layout, upgrade=a.upgrade, state=a.state,
+        cache_dir=a.cache, timestamp_offset_hours=a.timestamp_offset, weather=a.weather, tilt=a.tilt,
+        azimuth=a.azimuth, timezone=a.timezone, holidays=[d for d in a.holidays.split(",") if d.strip()])))
+
+
+def _command(subparsers, name: str, description: str, file_help: str = "input file") -> argparse.ArgumentParser:
+    parser = subparsers.add_parser(name, help=description, description=description)
+    parser.add_argument("file", help=file_help)
+    parser.add_argument("--start", required=True, help="first date YYYY-MM-DD (its 00:00-01:00 is row 0)")
+    parser.add_argument("--end", required=True, help="last date YYYY-MM-DD (inclusive)")
+    parser.add_argument("-o", "--output", type=Path, required=True, help="CSV to write")
+    parser.add_argument("--layout", choices=LAYOUTS, default="v2.2",
+                        help="v2.1 = positional human-readable header; v2.2 = snake_case header")
+    return parser
+
+
+def _done(path: Path) -> int:
+    print(f"wrote {path}")
+    return 0

@@ -25,6 +25,7 @@ import pandas as pd
 
 from pipeline.carbon import read_emission_factors
 from pipeline.errors import InputError
+from pipeline.ingest.messages import one_line
 
 TIMEZONE = "America/Chicago"
 MONTH_SHEETS = ("Jan", "Feb", "Mar", "Apr", "May", "Jun", "Jul", "Aug", "Sep", "Oct", "Nov", "Dec")
@@ -44,7 +45,7 @@ def read_fuel_mix_workbook(path: str | Path, timezone: str = TIMEZONE) -> tuple[
     try:
         book = openpyxl.load_workbook(path, read_only=True, data_only=True)
     except Exception as error:  # openpyxl raises several types for a non-workbook
-        raise InputError(f"not a readable .xlsx workbook ({error})", file=path) from error
+        raise InputError(f"not a readable .xlsx workbook ({one_line(error)})", file=path) from error
     sheets = [name for name in book.sheetnames if name in MONTH_SHEETS]
     if not sheets:
         raise InputError(f"no month sheets ({', '.join(MONTH_SHEETS)}); found {book.sheetnames}", file=path)
@@ -175,7 +176,7 @@ def read_fuel_mix_csv(path: str | Path, clock: str = "prevailing",
     try:
         raw = pd.read_csv(path, dtype=str, keep_default_na=False)
     except (OSError, pd.errors.ParserError, UnicodeDecodeError) as error:
-        raise InputError(f"cannot read CSV ({error})", file=path) from error
+        raise InputError(f"cannot read CSV ({one_line(error)})", file=path) from error
     raw.columns = [c.strip().lower() for c in raw.columns]
     for key in ("timestamp", "fuel", "mwh"):
         if key not in raw.columns:
@@ -229,7 +230,7 @@ def _csv_interval_ends(text: pd.Series, fuels: pd.Series, clock: str, zone: Zone
         try:
             local = pd.DatetimeIndex(part).tz_localize(zone, ambiguous="infer", nonexistent="raise")
         except Exception as error:  # pytz-style errors from pandas for ambiguous/nonexistent clock times
-            raise InputError(f"cannot place prevailing-time labels on the clock ({error})",
+            raise InputError(f"cannot place prevailing-time labels on the clock ({one_line(error)})",
                              file=path, column="timestamp") from None
         out.loc[part.index] = local.tz_convert("UTC").tz_localize(None) + std
     return out

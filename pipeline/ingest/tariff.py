@@ -29,6 +29,7 @@ import pandas as pd
 
 from citylearn_env.layout import PRICING_COLUMNS
 from pipeline.errors import InputError
+from pipeline.ingest.messages import one_line
 
 HORIZONS = (6, 12, 24)
 
@@ -55,7 +56,7 @@ def read_tariff(path: str | Path) -> Tariff:
     except OSError as error:
         raise InputError(f"cannot read ({error.strerror})", file=path) from error
     except tomllib.TOMLDecodeError as error:
-        raise InputError(f"not valid TOML ({error})", file=path) from error
+        raise InputError(f"not valid TOML ({one_line(error)})", file=path) from error
     return parse_tariff(data, file=path)
 
 

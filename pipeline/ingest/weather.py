@@ -19,6 +19,7 @@ import pandas as pd
 
 from citylearn_env.layout import WEATHER_COLUMNS
 from pipeline.errors import InputError
+from pipeline.ingest.messages import one_line
 from pipeline.ingest.timeindex import HOUR, check_regular, select_period
 
 #: EPW 0-based field index -> canonical column (irradiance fields are Wh/m2 over the hour ending at the row)
@@ -93,7 +94,7 @@ def parse_epw(lines: list[str], *, tmy_year: int | None = None, file: object = "
                 "latitude": float(loc[6]), "longitude": float(loc[7]), "utc_offset_hours": float(loc[8]),
                 "elevation_m": float(loc[9])}
     except (IndexError, ValueError) as error:
-        raise InputError(f"malformed LOCATION line ({error})", file=file, row=1) from None
+        raise InputError(f"malformed LOCATION line ({one_line(error)})", file=file, row=1) from None
     rows = [line.split(",") for line in lines[EPW_HEADER_LINES:] if line.strip()]
     dates = np.empty((len(rows), 4), dtype=np.int64)
     values = {name: np.empty(len(rows)) for name in EPW_FIELDS.values()}
@@ -119,7 +120,7 @@ def parse_epw(lines: list[str], *, tmy_year: int | None = None, file: object = "
     try:
         days = pd.to_datetime(pd.DataFrame({"year": dates[:, 0], "month": dates[:, 1], "day": dates[:, 2]}))
     except (ValueError, OverflowError) as error:
-        raise InputError(f"invalid date ({error})", file=file, column="month/day") from None
+        raise InputError(f"invalid date ({one_line(error)})", file=file, column="month/day") from None
     index = pd.DatetimeIndex(days) + pd.to_timedelta(dates[:, 3] - 1, unit="h")
     frame = pd.DataFrame(values, index=index)
     if meta["typical"] and tmy_year is not None:
@@ -137,7 +138,7 @@ def read_resstock_weather(path: str | Path) -> tuple[pd.DataFrame, dict]:
     try:
         raw = pd.read_csv(path, dtype=str, keep_default_na=False)
     except (OSError, pd.errors.ParserError, UnicodeDecodeError) as error:
-        raise InputError(f"cannot read CSV ({error})", file=path) from error
+        raise InputError(f"cannot read CSV ({one_line(error)})", file=path) from error
     for name in ("date_time", *RESSTOCK_COLUMNS):
         if name not in raw.columns:
             raise InputError("missing column", file=path, column=name, row=1)

@@ -59,3 +59,45 @@ def resstock_weather_path() -> Path:
 def workbook_path() -> Path:
     """The real ERCOT 2017 workbook (skips when absent)."""
     return need(WORKBOOK)
+
+
+@pytest.fixture
+def http_server():
+    """Factory: serve a folder on 127.0.0.1; returns (base_url, state) where state['truncate'] is a set of
+    URL paths answered with a full Content-Length but half the body, and state['requests'] lists GET paths."""
+    import functools
+    import http.server
+    import threading
+
+    servers = []
+
+    def start(root: Path):
+        state = {"truncate": set(), "requests": []}
+
+        class Handler(http.server.SimpleHTTPRequestHandler):
+            def log_message(self, *args):  # keep test output quiet
+                pass
+
+            def do_GET(self):  # noqa: N802 (http.server API)
+                state["requests"].append(self.path)
+                if self.path in state["truncate"]:
+                    data = (root / self.path.lstrip("/")).read_bytes()
+                    self.send_response(200)
+                    self.send_header("Content-Length", str(len(data)))
+                    self.end_headers()
+                    self.wfile.write(data[: len(data) // 2])
+                    self.wfile.flush()
+                    self.close_connection = True
+                    return
+                super().do_GET()
+
+        server = http.server.ThreadingHTTPServer(("127.0.0.1", 0), functools.partial(Handler, directory=str(root)))
+        thread = threading.Thread(target=server.serve_forever, daemon=True)
+        thread.start()
+        servers.append(server)
+        return f"http://127.0.0.1:{server.server_address[1]}", state
+
+    yield start
+    for server in servers:
+        server.shutdown()
+        server.server_close()

@@ -1,0 +1,83 @@
+"""The ``districtgen weather|tariff|carbon|eulp`` commands: files written, row 0 = first hour, clean errors."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+from citylearn_env.layout import CARBON_COLUMNS, PRICING_COLUMNS, WEATHER_COLUMNS
+from pipeline.cli import main
+
+AUSTIN_TARIFF = Path(__file__).resolve().parents[3] / "raw" / "tariffs" / "austin_energy_tou_2018.toml"
+
+
+def test_weather_command_both_layouts(tmp_path, epw_path, capsys):
+    out = tmp_path / "weather.csv"
+    assert main(["weather", str(epw_path), "--start", "2018-06-01", "--end", "2018-06-30", "-o", str(out)]) == 0
+    table = pd.read_csv(out)
+    assert list(table.columns) == list(WEATHER_COLUMNS) and len(table) == 720
+    june_first = next(line.split(",") for line in epw_path.read_text().splitlines()[8:]
+                      if line.split(",")[1:4] == ["6", "1", "1"])
+    assert table["outdoor_dry_bulb_temperature"].iloc[0] == float(june_first[6])
+    old = tmp_path / "weather21.csv"
+    assert main(["weather", str(epw_path), "--start", "2018-06-01", "--end", "2018-06-02", "-o", str(old),
+                 "--layout", "v2.1", "--forecast", "noisy", "--seed", "3"]) == 0
+    assert list(pd.read_csv(old).columns) == list(WEATHER_COLUMNS.values())
+    assert "wrote" in capsys.readouterr().out
+
+
+def test_tariff_command(tmp_path):
+    out = tmp_path / "pricing.csv"
+    assert main(["tariff", str(AUSTIN_TARIFF), "--start", "2018-06-01", "--end", "2018-06-30", "-o", str(out),
+                 "--layout", "v2.1"]) == 0
+    table = pd.read_csv(out)
+    assert list(table.columns) == list(PRICING_COLUMNS.values()) and len(table) == 720
+    # row 0 = Friday 2018-06-01 00:00-01:00 (off-peak); row 15 = 15:00-16:00 (on-peak)
+    assert table.iloc[0, 0] == 0.0289 and table.iloc[15, 0] == 0.0587 and table.iloc[22, 0] == 0.0289
+
+
+def test_carbon_command_real_workbook(tmp_path, workbook_path, workbook_hourly):
+    out = tmp_path / "carbon_intensity.csv"
+    assert main(["carbon", str(workbook_path), "--start", "2017-06-01", "--end", "2017-06-30", "-o", str(out),
+                 "--layout", "v2.1"]) == 0
+    table = pd.read_csv(out)
+    assert list(table.columns) == list(CARBON_COLUMNS.values()) and len(table) == 720
+    first = workbook_hourly.loc[pd.Timestamp("2017-06-01 00:00")]
+    factors = {"Biomass": 18, "Coal": 1001, "Gas": 469, "Gas-CC": 469, "Hydro": 4, "Nuclear": 16, "Other": 469,
+               "Solar": 46, "Wind": 12}
+    by_hand = sum(max(first[f], 0) * g for f, g in factors.items()) / sum(max(first[f], 0) for f in factors)
+    assert table.iloc[0, 0] == pytest.approx(by_hand / 1000, rel=1e-12)
+
+
+def test_long_csv_carbon_command(tmp_path):
+    path = tmp_path / "mix.csv"
+    rows = ["timestamp,fuel,mwh"] + [f"2018-06-01 {h:02d}:00,{f},{v}" for h in range(1, 24)
+                                     for f, v in (("Coal", 1), ("Wind", 3))]
+    rows += [f"2018-06-02 00:00,{f},{v}" for f, v in (("Coal", 1), ("Wind", 3))]
+    path.write_text("\n".join(rows) + "\n")
+    out = tmp_path / "ci.csv"
+    assert main(["carbon", str(path), "--clock", "standard", "--start", "2018-06-01", "--end", "2018-06-01",
+                 "-o", str(out)]) == 0
+    assert pd.read_csv(out)["carbon_intensity"].tolist() == pytest.approx([(1001 + 3 * 12) / 4000] * 24)
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["tariff", "{tariff}", "--start", "2018-06-30", "--end", "2018-06-01"], "is before start"),
+        (["tariff", "{tariff}", "--start", "2018-13-01", "--end", "2018-06-01"], "expected a date"),
+        (["weather", "{missing}", "--start", "2018-06-01", "--end", "2018-06-01"], "missing.csv"),
+        (["carbon", "{tariff}", "--start", "2018-06-01", "--end", "2018-06-01"], "cannot read CSV"),
+        (["eulp", "{tmp}", "--building", "5", "--start", "2018-06-01", "--end", "2018-06-01"], "no metadata found"),
+    ],
+    ids=["reversed-period", "bad-date", "missing-file", "not-a-fuel-mix", "no-release"],
+)
+def test_bad_input_exits_2_with_one_line(tmp_path, capsys, argv, message):
+    values = {"tariff": str(AUSTIN_TARIFF), "missing": str(tmp_path / "missing.csv"), "tmp": str(tmp_path)}
+    out = tmp_path / "out.csv"
+    assert main([a.format(**values) for a in argv] + ["-o", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("districtgen: error:") and message in err and len(err.strip().splitlines()) == 1
+    assert not out.exists()
