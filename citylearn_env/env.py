@@ -175,6 +175,19 @@ class CityLearnEnv(gym.Env):
         return self._observation(0), {"time_step": 0}
 
     def step(self, action):
+        t = self.advance(action)
+        value, terms = self.reward_function(self._view)
+        reward = float(np.sum(value))
+        self.rewards[t] = reward
+        terminated = t == self.district.length - 1
+        info = {"time_step": t}
+        if not np.isscalar(value):
+            info["building_rewards"] = np.asarray(value)
+        return self._observation(t), reward, terminated, False, info
+
+    # ------------------------------------------------------------------ helpers
+    def advance(self, action) -> int:
+        """Validate ``action``, advance the district one step and run the temperature model; return t."""
         a = np.asarray(action, dtype=np.float64).reshape(-1)
         if a.shape != self._act_low.shape:
             raise SchemaError(f"action has {a.size} values, the action space has {self._act_low.size} "
@@ -194,20 +207,15 @@ class CityLearnEnv(gym.Env):
         self._view = obs_mod.StepObservations(self.district, t)
         if self.bank is not None:
             self._lstm_temperature(t)
-        value, terms = self.reward_function(self._view)
-        reward = float(np.sum(value))
-        self.rewards[t] = reward
-        terminated = t == self.district.length - 1
-        info = {"time_step": t}
-        if not np.isscalar(value):
-            info["building_rewards"] = np.asarray(value)
-        return self._observation(t), reward, terminated, False, info
+        return t
 
-    # ------------------------------------------------------------------ helpers
     def _observation(self, t: int) -> np.ndarray:
-        flat = self.layout.vector(self._static[t], t)
-        self._last_flat = flat
-        return flat[self.layout.central_index].astype(np.float32)
+        return self._last_flat_at(t)[self.layout.central_index].astype(np.float32)
+
+    def _last_flat_at(self, t: int) -> np.ndarray:
+        """Every building's active observations at ``t`` (the flat vector the central one is cut from)."""
+        self._last_flat = self.layout.vector(self._static[t], t)
+        return self._last_flat
 
     def _split_actions(self, a: np.ndarray) -> dict[str, np.ndarray]:
         """Action vector -> name -> (B,): inactive storage actions 0, inactive device actions NaN."""
