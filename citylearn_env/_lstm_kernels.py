@@ -27,6 +27,38 @@ import numpy as np
 _KERNEL = None
 
 
+_LN2_HI = 6.93147180369123816490e-01
+_LN2_LO = 1.90821492927058770002e-10
+_INV_LN2 = 1.44269504088896338700e00
+
+
+def _vexp(x, n, out, bits):  # pragma: no cover - compiled by numba
+    """out[:n] = exp(x[:n]) in a loop LLVM can vectorise (range reduction + degree-13 Taylor, ~1 ulp)."""
+    for i in range(n):
+        v = min(max(x[i], -708.0), 709.0)
+        k = math.floor(v * _INV_LN2 + 0.5)
+        r = (v - k * _LN2_HI) - k * _LN2_LO
+        p = 1.0 / 6227020800.0
+        p = p * r + 1.0 / 479001600.0
+        p = p * r + 1.0 / 39916800.0
+        p = p * r + 1.0 / 3628800.0
+        p = p * r + 1.0 / 362880.0
+        p = p * r + 1.0 / 40320.0
+        p = p * r + 1.0 / 5040.0
+        p = p * r + 1.0 / 720.0
+        p = p * r + 1.0 / 120.0
+        p = p * r + 1.0 / 24.0
+        p = p * r + 1.0 / 6.0
+        p = p * r + 0.5
+        p = p * r + 1.0
+        p = p * r + 1.0
+        out[i] = p
+        bits[i] = (np.int64(k) + 1023) << 52
+    scale = bits.view(np.float64)
+    for i in range(n):
+        out[i] *= scale[i]
+
+
 def _lstm_group_step(raw, bidx, slots, src, kind, period, lo, span, tcol, out_lo, out_span,
                      buf, count, wih0t, wihrt, whht, bias, wlin, blin, h, c, f32, out):  # pragma: no cover
     lookback = buf.shape[1] - 1
@@ -36,6 +68,8 @@ def _lstm_group_step(raw, bidx, slots, src, kind, period, lo, span, tcol, out_lo
     g4 = 4 * n_hidden
     x = np.empty(max(n_in, n_hidden))
     z = np.empty(g4)
+    e = np.empty(g4)
+    bits = np.empty(g4, dtype=np.int64)
     for a in range(slots.shape[0]):
         m = slots[a]
         b = bidx[a]
@@ -59,33 +93,40 @@ def _lstm_group_step(raw, bidx, slots, src, kind, period, lo, span, tcol, out_lo
             for i in range(n_in):
                 v = buf[m, s, i] if i == t_col else buf[m, s + 1, i]
                 x[i] = np.float32(v) if f32 else v
-            width = n_in
             for layer in range(n_layers):
                 for g in range(g4):
                     z[g] = bias[m, layer, g]
-                for i in range(width):
-                    xi = x[i]
-                    if layer == 0:
+                if layer == 0:
+                    for i in range(n_in):
+                        xi = x[i]
                         for g in range(g4):
                             z[g] += wih0t[m, i, g] * xi
-                    else:
+                else:
+                    for i in range(n_hidden):
+                        xi = x[i]
                         for g in range(g4):
                             z[g] += wihrt[m, layer - 1, i, g] * xi
                 for j in range(n_hidden):
                     hj = h[m, layer, j]
                     for g in range(g4):
                         z[g] += whht[m, layer, j, g] * hj
+                # gates (i, f, g, o): sigmoid(u) = 1 / (1 + exp(-u)), tanh(u) = 1 - 2 / (exp(2u) + 1)
+                for g in range(g4):
+                    z[g] = 2.0 * z[g] if 2 * n_hidden <= g < 3 * n_hidden else -z[g]
+                _vexp(z, g4, e, bits)
                 for j in range(n_hidden):
-                    gi = 1.0 / (1.0 + math.exp(-z[j]))
-                    gf = 1.0 / (1.0 + math.exp(-z[n_hidden + j]))
-                    gg = math.tanh(z[2 * n_hidden + j])
-                    go = 1.0 / (1.0 + math.exp(-z[3 * n_hidden + j]))
+                    gi = 1.0 / (1.0 + e[j])
+                    gf = 1.0 / (1.0 + e[n_hidden + j])
+                    gg = 1.0 - 2.0 / (e[2 * n_hidden + j] + 1.0)
                     cj = gf * c[m, layer, j] + gi * gg
                     c[m, layer, j] = cj
-                    hj = go * math.tanh(cj)
+                    z[j] = 2.0 * cj
+                _vexp(z, n_hidden, e, bits)
+                for j in range(n_hidden):
+                    go = 1.0 / (1.0 + e[3 * n_hidden + j])
+                    hj = go * (1.0 - 2.0 / (e[j] + 1.0))
                     h[m, layer, j] = hj
                     x[j] = hj
-                width = n_hidden
         y = blin[m]
         for j in range(n_hidden):
             y += wlin[m, j] * h[m, n_layers - 1, j]
@@ -99,19 +140,17 @@ def _lstm_group_step(raw, bidx, slots, src, kind, period, lo, span, tcol, out_lo
 
 def get_numba_kernel():
     """The numba-compiled version of the group step, or None when numba is not installed."""
-    global _KERNEL
+    global _KERNEL, _vexp
     if _KERNEL is None:
         try:
             from numba import njit
         except ImportError:  # pragma: no cover - numba is optional
             _KERNEL = False
         else:
+            # the group step resolves ``_vexp`` as a module global at compile time: swap in the jitted helper
+            _vexp = njit(cache=True, nogil=True, inline="always")(_vexp)
             _KERNEL = njit(cache=True, nogil=True)(_lstm_group_step)
     return _KERNEL or None
-
-
-def _sigmoid(z: np.ndarray) -> np.ndarray:
-    return 1.0 / (1.0 + np.exp(-z))
 
 
 def numpy_group_step(raw, bidx, slots, src, kind, period, lo, span, tcol, out_lo, out_span,
@@ -145,15 +184,15 @@ def numpy_group_step(raw, bidx, slots, src, kind, period, lo, span, tcol, out_lo
         hl, cl = hh[:, layer], cc[:, layer]
         hs = np.empty((len(slots), lookback, n_hidden))
         for s in range(lookback):
-            zz = proj[:, s] + np.einsum("aj,ajg->ag", hl, w_hh)
-            gi, gf, gg, go = np.split(zz, 4, axis=1)
-            cl = _sigmoid(gf) * cl + _sigmoid(gi) * np.tanh(gg)
-            hl = _sigmoid(go) * np.tanh(cl)
+            zz = proj[:, s] + (hl[:, None, :] @ w_hh)[:, 0]
+            sig = 1.0 / (1.0 + np.exp(-zz))
+            cl = sig[:, n_hidden:2 * n_hidden] * cl + sig[:, :n_hidden] * np.tanh(zz[:, 2 * n_hidden:3 * n_hidden])
+            hl = sig[:, 3 * n_hidden:] * np.tanh(cl)
             hs[:, s] = hl
         hh[:, layer], cc[:, layer] = hl, cl
         seq = hs
     h[slots], c[slots] = hh, cc
-    y = blin[slots] + np.einsum("aj,aj->a", wlin[slots], hh[:, -1])
+    y = blin[slots] + (wlin[slots] * hh[:, -1]).sum(axis=1)
     if f32:
         y = y.astype(np.float32)
         temp = y * out_span[slots].astype(np.float32) + out_lo[slots].astype(np.float32)

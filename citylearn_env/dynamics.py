@@ -334,8 +334,8 @@ class LSTMBank:
         self._members: list[tuple[np.ndarray, np.ndarray]] = []
 
     def _instances(self, hvac_mode) -> np.ndarray:
-        heating = np.asarray(hvac_mode, dtype=np.float64).reshape(self.n_buildings) > 1
-        return self._table[self._rows, heating.astype(np.int64)]
+        heating = np.asarray(hvac_mode).reshape(self.n_buildings) > 1
+        return np.where(heating, self._table[:, 1], self._table[:, 0])
 
     def _warm(self, inst: np.ndarray) -> np.ndarray:
         warm = np.zeros(self.n_buildings, dtype=bool)
@@ -374,7 +374,7 @@ class LSTMBank:
             raise SchemaError(f"LSTM input {exc.args[0]!r} missing from the step inputs",
                               column=exc.args[0]) from None
         inst = self._instances(hvac_mode)
-        if not self._members or not np.array_equal(inst, self._current):
+        if not self._members or (inst != self._current).any():
             changed = inst != self._current
             for b in np.flatnonzero(changed):
                 self._groups[self._inst_group[inst[b]]].clear(self._inst_slot[inst[b]])

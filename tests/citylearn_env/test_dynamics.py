@@ -267,3 +267,13 @@ def test_bank_rejects_inconsistent_specs():
     bank = LSTMBank([LSTMSpec(**good)])
     with pytest.raises(SchemaError, match="'a' missing"):
         bank.step({}, np.array([1.0]))
+
+
+def test_modules_import_without_torch_numba_or_pandas():
+    import subprocess
+    import sys
+
+    code = ("import sys, citylearn_env.dynamics, citylearn_env.outages; "
+            "print(sorted(m for m in ('torch', 'numba', 'pandas', 'prefect') if m in sys.modules))")
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert result.stdout.strip() == "[]"

@@ -1,0 +1,79 @@
+"""LSTM inference cost per environment step: numpy vs numba backends of citylearn_env.dynamics.LSTMBank.
+
+Run single-threaded:  NUMBA_NUM_THREADS=1 OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 \
+    .venv/bin/python benchmarks/lstm_speed.py
+Uses the 2023 challenge Building_*.pth weights from ../shared (13 inputs, 2 layers, 16 units, lookback 12);
+B buildings cycle through the six files. Reports the median over repeats of the mean us per bank.step call
+(warm buffers, i.e. every call runs the full 12-step window for every building).
+"""
+
+from __future__ import annotations
+
+import os
+
+for _var in ("NUMBA_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
+import statistics  # noqa: E402
+import sys  # noqa: E402
+import time  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+from citylearn_env.dynamics import LSTMBank, LSTMSpec, read_pth_state_dict  # noqa: E402
+
+DATA = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "citylearn" / \
+    "citylearn_challenge_2023_phase_3_1-v2.1"
+NAMES = ("direct_solar_irradiance", "diffuse_solar_irradiance", "outdoor_dry_bulb_temperature",
+         "indoor_dry_bulb_temperature_set_point", "occupant_count", "cooling_demand", "month_sin", "month_cos",
+         "hour_sin", "hour_cos", "day_type_sin", "day_type_cos", "indoor_dry_bulb_temperature")
+LOW = (0.0, 0.0, 21.7, 18.9, 0.0, 0.0, -0.87, -1.0, -1.0, -1.0, -0.97, -0.9, 12.8)
+HIGH = (931.0, 486.5, 42.8, 24.4, 3.0, 12.7, 0.0, -0.5, 1.0, 1.0, 0.97, 1.0, 43.5)
+
+
+def make_bank(n: int, backend: str) -> LSTMBank:
+    states = [read_pth_state_dict(DATA / f"Building_{i}.pth") for i in range(1, 7)]
+    specs = [LSTMSpec(states[b % 6], NAMES, LOW, HIGH, 16, 2, 12) for b in range(n)]
+    return LSTMBank(specs, compat=True, backend=backend)
+
+
+def inputs(n: int, steps: int, seed: int = 0) -> list[dict[str, np.ndarray]]:
+    rng = np.random.default_rng(seed)
+    rows = []
+    for t in range(steps):
+        rows.append({"direct_solar_irradiance": rng.uniform(0, 900, n), "diffuse_solar_irradiance": rng.uniform(0, 400, n),
+                     "outdoor_dry_bulb_temperature": rng.uniform(22, 40, n),
+                     "indoor_dry_bulb_temperature_set_point": np.full(n, 23.0), "occupant_count": np.ones(n),
+                     "cooling_demand": rng.uniform(0, 5, n), "month": np.full(n, 6.0),
+                     "hour": np.full(n, float(t % 24 + 1)), "day_type": np.full(n, float(t // 24 % 7 + 1)),
+                     "indoor_dry_bulb_temperature": rng.uniform(22, 27, n)})
+    return rows
+
+
+def us_per_step(n: int, backend: str, steps: int, repeats: int) -> float:
+    bank = make_bank(n, backend)
+    rows = inputs(n, steps)
+    hvac = np.ones(n)
+    for row in rows[:20]:  # fill the buffers (and compile numba on the first call)
+        bank.step(row, hvac)
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        for row in rows:
+            bank.step(row, hvac)
+        times.append((time.perf_counter() - start) / steps * 1e6)
+    return statistics.median(times)
+
+
+def main(argv: list[str]) -> None:
+    sizes = [int(x) for x in argv] or [1, 3, 6, 17]
+    print(f"{'B':>3} {'numpy us/step':>14} {'numba us/step':>14} {'numba us/bldg':>14}")
+    for n in sizes:
+        np_us = us_per_step(n, "numpy", 200, 7)
+        nb_us = us_per_step(n, "numba", 1000, 9)
+        print(f"{n:>3} {np_us:>14.1f} {nb_us:>14.1f} {nb_us / n:>14.1f}")
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
