@@ -77,9 +77,7 @@ def parse_fuel_mix_sheet(rows: list[tuple], *, file: str, known_fuels: pd.DataFr
             raise InputError("missing column", file=file, column=key, row=1)
     col = {key: head.index(key) for key in (*KEY_COLUMNS, "Settlement Type") if key in head}
     regular, extra = _interval_columns(head, file)
-    zone = ZoneInfo(timezone)
-    records: list[tuple] = []
-    seen: dict[tuple, tuple[str, int]] = {}
+    chunks: dict[tuple, tuple] = {}
     for number, row in enumerate(rows[1:], start=2):
         if row is None or all(cell is None or str(cell).strip() == "" for cell in row):
             continue
@@ -90,28 +88,32 @@ def parse_fuel_mix_sheet(rows: list[tuple], *, file: str, known_fuels: pd.DataFr
                              file=file, column="Fuel", row=number)
         settlement = str(row[col["Settlement Type"]]).strip() if "Settlement Type" in col else "FINAL"
         total = _number(row[col["Total"]], file, "Total", number)
-        begins, values = _day_values(row, day, regular, extra, zone, head, file, number)
+        begins, columns = _day_columns(day, timezone, regular, extra, file, number)
+        values = _row_values(row, columns, head, file, number, day)
         if not known_fuels.at[fuel, "negative_allowed"] and (values < 0).any():
             k = int(np.argmax(values < 0))
-            raise InputError(f"negative energy {values[k]} MWh", file=file, column=head[_col_of(k, day, zone,
-                             regular, extra)], row=number)
+            raise InputError(f"negative energy {values[k]} MWh", file=file, column=head[columns[k]], row=number)
         if abs(values.sum() - total) > 1e-3 + 1e-6 * abs(total):
             raise InputError(f"Total {total} differs from the sum of the intervals {values.sum():.6f}",
                              file=file, column="Total", row=number)
         key = (day, fuel)
-        if key in seen:
-            before, before_row = seen[key]
-            if before != "FINAL" and settlement == "FINAL":
-                records = [r for r in records if (r[3], r[1]) != key]
-            elif before == "FINAL" and settlement != "FINAL":
+        if key in chunks:
+            before, before_row = chunks[key][0], chunks[key][1]
+            if before == "FINAL" and settlement != "FINAL":
                 continue
-            else:
+            if not (before != "FINAL" and settlement == "FINAL"):
                 raise InputError(f"duplicate row for {day} {fuel} (also row {before_row})",
                                  file=file, column="Date", row=number)
-        seen[key] = (settlement, number)
-        records.extend((b, fuel, v, day, f"{file}, row {number}") for b, v in zip(begins, values, strict=True))
-    frame = pd.DataFrame(records, columns=["begin", "fuel", "mwh", "day", "where"])
-    return frame.drop(columns="day")
+        chunks[key] = (settlement, number, begins, values)
+    if not chunks:
+        return pd.DataFrame({"begin": pd.DatetimeIndex([]), "fuel": [], "mwh": [], "where": []})
+    parts = list(chunks.items())
+    return pd.DataFrame({
+        "begin": np.concatenate([c[2] for _, c in parts]),
+        "fuel": np.concatenate([np.full(len(c[3]), key[1], dtype=object) for key, c in parts]),
+        "mwh": np.concatenate([c[3] for _, c in parts]),
+        "where": np.concatenate([np.full(len(c[3]), f"{file}, row {c[1]}", dtype=object) for _, c in parts]),
+    })
 
 
 def hourly_generation(long: pd.DataFrame, *, file: object) -> pd.DataFrame:
@@ -206,23 +208,19 @@ def read_fuel_mix_csv(path: str | Path, clock: str = "prevailing",
 
 def _csv_interval_ends(text: pd.Series, fuels: pd.Series, clock: str, zone: ZoneInfo, path: Path) -> pd.Series:
     """Interval-end timestamps in local standard time (naive) from the CSV ``timestamp`` strings."""
-    stamps = []
-    for i, value in enumerate(text.str.strip()):
-        try:
-            stamps.append(pd.Timestamp(value))
-        except (ValueError, TypeError):
-            raise InputError(f"not a timestamp: {value!r}", file=path, column="timestamp", row=i + 2) from None
-        if stamps[-1] is pd.NaT:
-            raise InputError(f"not a timestamp: {value!r}", file=path, column="timestamp", row=i + 2)
-    aware = [s.tzinfo is not None for s in stamps]
-    if any(aware) and not all(aware):
-        i = aware.index(not aware[0])
+    text = text.str.strip()
+    aware = text.str.contains(r"(?:Z|[+-]\d{2}:?\d{2})$", regex=True).to_numpy()
+    if aware.any() and not aware.all():
+        i = int(np.argmin(aware) if aware[0] else np.argmax(aware))
         raise InputError("mixes timestamps with and without UTC offset", file=path, column="timestamp", row=i + 2)
-    std = _standard_offset(zone, stamps[0].year)
-    if all(aware):
-        utc = pd.DatetimeIndex([s.tz_convert("UTC") for s in stamps]).tz_localize(None)
-        return pd.Series(utc + std, index=text.index)
-    naive = pd.Series(pd.DatetimeIndex(stamps), index=text.index)
+    parsed = pd.to_datetime(text, errors="coerce", utc=bool(aware.all()), format="ISO8601")
+    if parsed.isna().any():
+        i = int(np.argmax(parsed.isna().to_numpy()))
+        raise InputError(f"not a timestamp: {text.iloc[i]!r}", file=path, column="timestamp", row=i + 2)
+    std = _standard_offset(zone, int(parsed.iloc[0].year))
+    if aware.all():
+        return pd.Series(pd.DatetimeIndex(parsed).tz_localize(None) + std, index=text.index)
+    naive = pd.Series(pd.DatetimeIndex(parsed), index=text.index)
     if clock == "standard":
         return naive
     out = pd.Series(pd.NaT, index=text.index, dtype="datetime64[ns]")
@@ -272,32 +270,43 @@ def _interval_columns(head: list[str], file: str) -> tuple[dict[int, int], dict[
     return regular, extra
 
 
-def _day_values(row, day, regular, extra, zone, head, file, number) -> tuple[list[pd.Timestamp], np.ndarray]:
-    layout = _day_layout(day, zone.key)
-    used: set[int] = set()
-    begins, values = [], []
-    for begin, minutes, fold in layout:
-        columns = extra if fold else regular
-        if minutes not in columns:
+def _day_columns(day: dt.date, timezone: str, regular: dict[int, int], extra: dict[int, int], file: str,
+                 number: int) -> tuple[np.ndarray, list[int]]:
+    """Interval beginnings (standard time) of a local day and the sheet column holding each interval."""
+    layout = _day_layout(day, timezone)
+    columns = []
+    for _, minutes, fold in layout:
+        table = extra if fold else regular
+        if minutes not in table:
             raise InputError(f"{day} has {len(layout)} intervals (DST change) but the sheet lacks a "
                              f"'(DST)' column for the repeated hour", file=file, row=number)
-        index = columns[minutes]
-        used.add(index)
-        cell = row[index] if index < len(row) else None
+        columns.append(table[minutes])
+    begins = np.array([b for b, _, _ in layout], dtype="datetime64[ns]")
+    return begins, columns
+
+
+def _row_values(row: tuple, columns: list[int], head: list[str], file: str, number: int, day: dt.date) -> np.ndarray:
+    """The row's interval values in time order; InputError on empty, non-numeric or misplaced cells."""
+    cells = [row[i] if i < len(row) else None for i in columns]
+    try:
+        values = np.array(cells, dtype=float)
+    except (TypeError, ValueError):
+        values = np.array([_number(c, file, head[i], number) if c is not None else np.nan
+                           for c, i in zip(cells, columns, strict=True)])
+    if np.isnan(values).any() or np.isinf(values).any():
+        k = int(np.argmax(~np.isfinite(values)))
+        cell = cells[k]
         if cell is None or (isinstance(cell, str) and not cell.strip()):
-            raise InputError(f"empty cell: gap in the data of {day}", file=file, column=head[index], row=number)
-        begins.append(begin)
-        values.append(_number(cell, file, head[index], number))
-    for index in (*regular.values(), *extra.values()):
-        if index not in used and index < len(row) and row[index] not in (None, "", 0):
-            raise InputError(f"value in an interval that does not exist on {day} (DST change)",
-                             file=file, column=head[index], row=number)
-    return begins, np.asarray(values, dtype=float)
-
-
-def _col_of(k: int, day, zone, regular, extra) -> int:
-    _, minutes, fold = _day_layout(day, zone.key)[k]
-    return (extra if fold else regular)[minutes]
+            raise InputError(f"empty cell: gap in the data of {day}", file=file, column=head[columns[k]],
+                             row=number)
+        raise InputError(f"non-numeric cell {cell!r}", file=file, column=head[columns[k]], row=number)
+    if len(columns) != 96 or len(row) > 100:
+        used = set(columns)
+        for index, name in enumerate(head):
+            if index not in used and _LABEL.match(name) and index < len(row) and row[index] not in (None, "", 0):
+                raise InputError(f"value in an interval that does not exist on {day} (DST change)",
+                                 file=file, column=name, row=number)
+    return values
 
 
 def _number(cell, file, column, row) -> float:

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import datetime as dt
 from pathlib import Path
 
+import openpyxl
 import pandas as pd
 import pytest
 
@@ -38,17 +40,29 @@ def test_tariff_command(tmp_path):
     assert table.iloc[0, 0] == 0.0289 and table.iloc[15, 0] == 0.0587 and table.iloc[22, 0] == 0.0289
 
 
-def test_carbon_command_real_workbook(tmp_path, workbook_path, workbook_hourly):
+def test_carbon_command_workbook(tmp_path):
+    """A one-sheet workbook in the ERCOT layout (June, daylight time): row 0 = 00:00-01:00 CST = 01:00-02:00 CDT."""
+    book = openpyxl.Workbook()
+    sheet = book.active
+    sheet.title = "Jun"
+    labels = [f"{(m // 60) % 24}:{m % 60:02d}" for m in range(15, 1441, 15)]
+    sheet.append(["Date", "Fuel", "Settlement Type", "Total", *labels])
+    for day in (1, 2):
+        coal = [1.0] * 96
+        coal[4:8] = [3.0] * 4  # 01:00-02:00 CDT
+        sheet.append([dt.datetime(2018, 6, day), "Coal", "FINAL", sum(coal), *coal])
+        sheet.append([dt.datetime(2018, 6, day), "Wind", "FINAL", 96.0, *([1.0] * 96)])
+    path = tmp_path / "IntGenbyFuel2018.xlsx"
+    book.save(path)
     out = tmp_path / "carbon_intensity.csv"
-    assert main(["carbon", str(workbook_path), "--start", "2017-06-01", "--end", "2017-06-30", "-o", str(out),
+    assert main(["carbon", str(path), "--start", "2018-06-01", "--end", "2018-06-01", "-o", str(out),
                  "--layout", "v2.1"]) == 0
     table = pd.read_csv(out)
-    assert list(table.columns) == list(CARBON_COLUMNS.values()) and len(table) == 720
-    first = workbook_hourly.loc[pd.Timestamp("2017-06-01 00:00")]
-    factors = {"Biomass": 18, "Coal": 1001, "Gas": 469, "Gas-CC": 469, "Hydro": 4, "Nuclear": 16, "Other": 469,
-               "Solar": 46, "Wind": 12}
-    by_hand = sum(max(first[f], 0) * g for f, g in factors.items()) / sum(max(first[f], 0) for f in factors)
-    assert table.iloc[0, 0] == pytest.approx(by_hand / 1000, rel=1e-12)
+    assert list(table.columns) == list(CARBON_COLUMNS.values()) and len(table) == 24
+    assert table.iloc[0, 0] == pytest.approx((3 * 1001 + 12) / 4 / 1000)
+    assert table.iloc[1, 0] == pytest.approx((1001 + 12) / 2 / 1000)
+    with pytest.raises(SystemExit):  # --start is required
+        main(["carbon", str(path), "--end", "2018-06-01", "-o", str(out)])
 
 
 def test_long_csv_carbon_command(tmp_path):
