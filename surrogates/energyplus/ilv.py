@@ -1,0 +1,210 @@
+"""Ideal-load-variation (ILV) data from EnergyPlus runs of the parametric house.
+
+Passes per building (all on the same model, weather and schedules):
+
+1. ideal loads: dual-set-point thermostat + ideal air system; zone sensible cooling/heating rates are read
+   per timestep;
+2. replays without HVAC, injecting ``m(t) x ideal load`` per zone as convective ``OtherEquipment``
+   (cooling object design level -1 W, heating +1 W, schedules in W >= 0):
+
+   ========= ================ ==========================================================
+   reference name             multiplier per hour (shared by all zones)
+   ========= ================ ==========================================================
+   0         ideal            1 (replay of the ideal loads; physical check, see below)
+   1         free_float       0 (no HVAC at all)
+   2...      partial_k        U(min, max) with probability p, else 1; seeded per building
+   ========= ================ ==========================================================
+
+Physical check: the multiplier-1 replay must reproduce the ideal run's indoor temperature (which holds
+the set points) within ``max_replay_mad_c`` (mean absolute deviation of hourly values, default 0.2 C);
+otherwise :class:`ILVCheckError` is raised and no table is produced.
+"""
+
+from __future__ import annotations
+
+import tempfile
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from surrogates.energyplus.epw import read_epw_ground_temperatures
+from surrogates.energyplus.house import build_house_model, replay_column_names, zone_names
+from surrogates.energyplus.metadata import HouseParameters
+from surrogates.energyplus.runner import EnergyPlusError, run_energyplus
+from surrogates.energyplus.sqlite import area_weighted, read_report_variables, read_zone_floor_areas
+
+ILV_COLUMNS = ["reference", "timestamp", "month", "hour", "day_type", "direct_solar_irradiance",
+               "diffuse_solar_irradiance", "outdoor_dry_bulb_temperature", "occupant_count",
+               "indoor_dry_bulb_temperature_set_point", "cooling_demand", "heating_demand",
+               "indoor_dry_bulb_temperature"]
+
+
+class ILVCheckError(EnergyPlusError):
+    """The multiplier-1 replay does not reproduce the ideal-loads run: the ILV data would be wrong."""
+
+
+@dataclass(frozen=True)
+class ILVConfig:
+    """Settings of one building's ILV generation.
+
+    ``run_period``: ((month, day), (month, day)) inside calendar ``year`` (weekdays follow ``year``);
+    set points (C) override the metadata ones when given; ``seed`` combines with the building id and the
+    reference index to seed each partial run's multipliers.
+    """
+
+    partial_runs: int = 4
+    multiplier_min: float = 0.3
+    multiplier_max: float = 1.7
+    multiplier_probability: float = 0.6
+    seed: int = 0
+    timesteps_per_hour: int = 1
+    year: int = 2018
+    run_period: tuple[tuple[int, int], tuple[int, int]] = ((1, 1), (12, 31))
+    cooling_setpoint_c: float | None = None
+    heating_setpoint_c: float | None = None
+    max_replay_mad_c: float = 0.2
+
+
+@dataclass
+class ILVResult:
+    """The ILV table plus what the physical check and the timing measured."""
+
+    table: pd.DataFrame
+    replay_mad_c: float
+    ideal: pd.DataFrame = field(repr=False)
+    zone_areas: dict[str, float] = field(repr=False)
+    timings_s: dict[str, float] = field(default_factory=dict)
+
+
+def hourly_multipliers(reference: int, hours: int, bldg_id: int, config: ILVConfig) -> np.ndarray:
+    """Multiplier per hour for ``reference`` (0 -> ones, 1 -> zeros, >= 2 -> seeded random partial)."""
+    if reference == 0:
+        return np.ones(hours)
+    if reference == 1:
+        return np.zeros(hours)
+    rng = np.random.default_rng([config.seed, bldg_id, reference])
+    draw = rng.uniform(config.multiplier_min, config.multiplier_max, hours)
+    vary = rng.random(hours) < config.multiplier_probability
+    return np.where(vary, draw, 1.0)
+
+
+def _ideal_zone_loads(ideal: pd.DataFrame, house: HouseParameters) -> pd.DataFrame:
+    """Timestep ideal loads (W >= 0) in the replay column order."""
+    columns = {}
+    for zone in zone_names(house):
+        key = f"{zone} IDEAL LOADS AIR SYSTEM".upper()
+        columns[f"{zone} ILV cool"] = ideal[("Zone Ideal Loads Zone Sensible Cooling Rate", key)]
+        columns[f"{zone} ILV heat"] = ideal[("Zone Ideal Loads Zone Sensible Heating Rate", key)]
+    return pd.DataFrame(columns)[replay_column_names(house)].clip(lower=0.0)
+
+
+def write_replay_schedule(loads_w: pd.DataFrame, multiplier_per_hour: np.ndarray, path: Path, *,
+                          year: int, timesteps_per_hour: int) -> None:
+    """Whole-year ``Schedule:File`` CSV (8760 x timesteps rows, zeros outside the run period) of
+    ``loads_w`` (timestep rows, interval-end index) times the hourly multipliers."""
+    step = pd.Timedelta(minutes=60 // timesteps_per_hour)
+    begin = loads_w.index - step
+    rows = ((begin - pd.Timestamp(year, 1, 1)) // step).to_numpy()
+    hour_of_row = np.arange(len(loads_w)) // timesteps_per_hour
+    values = np.zeros((8760 * timesteps_per_hour, loads_w.shape[1]))
+    values[rows] = loads_w.to_numpy() * multiplier_per_hour[hour_of_row][:, None]
+    header = ",".join(loads_w.columns)
+    np.savetxt(path, values, fmt="%.3f", delimiter=",", header=header, comments="")
+
+
+def _hourly_frame(frame: pd.DataFrame, reference: int, areas: dict[str, float], house: HouseParameters,
+                  set_point: float | None) -> pd.DataFrame:
+    end = frame.index
+    begin = end - pd.Timedelta(hours=1)
+    site = "ENVIRONMENT"
+    cool = heat = np.zeros(len(frame))
+    if "Other Equipment Convective Heating Rate" in frame.columns.get_level_values(0):
+        other = frame["Other Equipment Convective Heating Rate"].abs()
+        cool = sum(other[f"{zone} ILV cool".upper()].to_numpy() for zone in zone_names(house)) / 1000.0
+        heat = sum(other[f"{zone} ILV heat".upper()].to_numpy() for zone in zone_names(house)) / 1000.0
+    net = np.asarray(cool) - np.asarray(heat)
+    out = pd.DataFrame({
+        "reference": reference,
+        "timestamp": begin,
+        "month": begin.month.astype("int64"),
+        "hour": begin.hour.astype("int64") + 1,
+        "day_type": frame[("day_type", "")].to_numpy(),
+        "direct_solar_irradiance": frame[("Site Direct Solar Radiation Rate per Area", site)].to_numpy(),
+        "diffuse_solar_irradiance": frame[("Site Diffuse Solar Radiation Rate per Area", site)].to_numpy(),
+        "outdoor_dry_bulb_temperature": frame[("Site Outdoor Air Drybulb Temperature", site)].to_numpy(),
+        "occupant_count": frame["Zone People Occupant Count"].sum(axis=1).to_numpy(),
+        "indoor_dry_bulb_temperature_set_point": np.nan if set_point is None else set_point,
+        "cooling_demand": np.clip(net, 0.0, None),
+        "heating_demand": np.clip(-net, 0.0, None),
+        "indoor_dry_bulb_temperature": area_weighted(frame, "Zone Mean Air Temperature", areas).to_numpy(),
+    })[ILV_COLUMNS]
+    return out if set_point is not None else out.drop(columns="indoor_dry_bulb_temperature_set_point")
+
+
+def _check_coverage(frame: pd.DataFrame, expected_rows: int, sql: Path) -> None:
+    if len(frame) != expected_rows:
+        raise EnergyPlusError(f"EnergyPlus reported {len(frame)} rows, expected {expected_rows} for the run "
+                              "period (does the weather file cover it?)", file=sql)
+
+
+def generate_ilv(house: HouseParameters, epw: Path, *, config: ILVConfig = ILVConfig(),
+                 workdir: Path | None = None, dhw: bool = True) -> ILVResult:
+    """Run the ideal pass and ``2 + config.partial_runs`` replays of ``house`` on weather ``epw``.
+
+    Returns the ILV table (one row per reference and hour; loads in kWh of heat removed/added in the hour,
+    cooling and heating netted so at most one is non-zero; temperatures in C; irradiance W/m2; timestamps
+    interval-beginning local standard time). ``indoor_dry_bulb_temperature_set_point`` is filled only when
+    cooling and heating set points coincide. Raises :class:`ILVCheckError` when the multiplier-1 replay
+    deviates from the ideal run by more than ``config.max_replay_mad_c``.
+    """
+    if config.cooling_setpoint_c is not None or config.heating_setpoint_c is not None:
+        from dataclasses import replace
+        house = replace(house, cooling_setpoint_c=config.cooling_setpoint_c or house.cooling_setpoint_c,
+                        heating_setpoint_c=config.heating_setpoint_c or house.heating_setpoint_c)
+    ground = read_epw_ground_temperatures(epw)
+    (m0, d0), (m1, d1) = config.run_period
+    expected_hours = int((pd.Timestamp(config.year, m1, d1) - pd.Timestamp(config.year, m0, d0)).days + 1) * 24
+    tph = config.timesteps_per_hour
+    common = dict(ground_temperatures_c=ground, run_period=config.run_period, year=config.year,
+                  timesteps_per_hour=tph, dhw=dhw)
+    timings: dict[str, float] = {}
+    with tempfile.TemporaryDirectory(prefix="ilv_", dir=workdir) as tmp:
+        tmp = Path(tmp)
+        start = time.perf_counter()
+        sql = run_energyplus(build_house_model(house, mode="ideal", reporting_frequency="Timestep", **common),
+                             epw, tmp, "ideal")
+        timings["ideal_run"] = time.perf_counter() - start
+        ideal = read_report_variables(sql, year=config.year, frequency="Zone Timestep")
+        _check_coverage(ideal, expected_hours * tph, sql)
+        areas = read_zone_floor_areas(sql)
+        loads = _ideal_zone_loads(ideal, house)
+        hours = len(loads) // tph
+        single = house.cooling_setpoint_c == house.heating_setpoint_c
+        set_point = house.cooling_setpoint_c if single else None
+        frames = []
+        for reference in range(2 + config.partial_runs):
+            start = time.perf_counter()
+            schedule = tmp / f"loads_{reference}.csv"
+            write_replay_schedule(loads, hourly_multipliers(reference, hours, house.bldg_id, config), schedule,
+                                  year=config.year, timesteps_per_hour=tph)
+            model = build_house_model(house, mode="replay", reporting_frequency="Hourly", load_file=schedule,
+                                      **common)
+            sql = run_energyplus(model, epw, tmp, f"replay_{reference}")
+            timings[f"replay_{reference}_run"] = time.perf_counter() - start
+            hourly = read_report_variables(sql, year=config.year)
+            _check_coverage(hourly, expected_hours, sql)
+            frames.append(_hourly_frame(hourly, reference, areas, house, set_point))
+    table = pd.concat(frames, ignore_index=True)
+    ideal_hourly = area_weighted(ideal, "Zone Mean Air Temperature", areas).resample(
+        "1h", closed="right", label="right").mean()
+    replay = table.loc[table["reference"] == 0, "indoor_dry_bulb_temperature"].to_numpy()
+    mad = float(np.mean(np.abs(replay - ideal_hourly.to_numpy())))
+    if not mad <= config.max_replay_mad_c:
+        raise ILVCheckError(
+            f"multiplier-1 replay deviates from the ideal-loads run by {mad:.3f} C on average (limit "
+            f"{config.max_replay_mad_c} C): the injected loads do not reproduce the set-point trajectory",
+            file=epw, row=f"bldg_id={house.bldg_id}")
+    return ILVResult(table=table, replay_mad_c=mad, ideal=ideal, zone_areas=areas, timings_s=timings)

@@ -1,0 +1,244 @@
+"""EULP (ResStock) metadata fields -> the parameters of the project's parametric house model.
+
+Every ``parse_*`` function is pure and maps one ResStock string encoding to a number in SI units. Fields
+that are absent (or ``None``/NaN) fall back to the documented defaults in :data:`VINTAGE_DEFAULTS` and
+:class:`HouseParameters`; fields that are present but unreadable raise :class:`InputError` naming the column
+and the building.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+from pipeline.errors import InputError
+
+FT2_TO_M2 = 0.09290304
+#: 1 h*ft2*F/Btu (an "R-1" in US units) in m2*K/W.
+R_IP_TO_SI = 0.1761102
+
+ORIENTATIONS = {
+    "north": 0.0, "northeast": 45.0, "east": 90.0, "southeast": 135.0,
+    "south": 180.0, "southwest": 225.0, "west": 270.0, "northwest": 315.0,
+}
+
+#: Envelope defaults by construction decade when a metadata field is missing (engineering assumptions
+#: loosely following US code history): wall cavity R, ceiling R, ACH50, glazing key of GLAZING.
+VINTAGE_DEFAULTS: dict[int, tuple[float, float, float, str]] = {
+    1930: (0.0, 7.0, 20.0, "single"),
+    1940: (0.0, 7.0, 20.0, "single"),
+    1950: (7.0, 13.0, 15.0, "single"),
+    1960: (7.0, 13.0, 15.0, "single"),
+    1970: (11.0, 19.0, 12.0, "single"),
+    1980: (11.0, 30.0, 10.0, "double_clear"),
+    1990: (13.0, 30.0, 8.0, "double_clear"),
+    2000: (13.0, 38.0, 7.0, "double_low_e"),
+    2010: (19.0, 38.0, 5.0, "double_low_e"),
+}
+
+#: Simple-glazing (U-factor W/m2K, SHGC) per glazing key.
+GLAZING: dict[str, tuple[float, float]] = {
+    "single": (5.8, 0.76),
+    "double_clear": (3.0, 0.65),
+    "double_low_e": (1.9, 0.40),
+    "triple": (1.4, 0.33),
+}
+
+#: ACH50 -> natural air changes per hour (the common "divide by 20" rule of thumb).
+ACH50_TO_ACH_NATURAL = 1.0 / 20.0
+
+
+@dataclass(frozen=True)
+class HouseParameters:
+    """Everything the house model needs, in SI units.
+
+    ``floor_area_m2`` is conditioned floor area over all stories; ``front_azimuth_deg`` is the compass
+    direction the front (long) facade faces (180 = south); R values are the nominal insulation
+    resistances (m2*K/W) added to the bare assembly.
+    """
+
+    bldg_id: int
+    floor_area_m2: float
+    stories: int = 1
+    vintage: int = 1990
+    front_azimuth_deg: float = 180.0
+    aspect_ratio: float = 1.5
+    story_height_m: float = 2.44
+    window_to_wall: float = 0.15
+    window_u: float = 3.0
+    window_shgc: float = 0.65
+    wall_r_si: float = 13 * R_IP_TO_SI
+    ceiling_r_si: float = 30 * R_IP_TO_SI
+    slab_r_si: float = 0.0
+    ach50: float = 8.0
+    occupants: float = 3.0
+    cooling_setpoint_c: float = 24.0
+    heating_setpoint_c: float = 20.0
+    lighting_w_per_m2: float = 2.0
+    equipment_w_per_m2: float = 3.5
+    dhw_litres_per_person_day: float = 45.0
+    dhw_base_litres_day: float = 30.0
+
+    @property
+    def ach_natural(self) -> float:
+        """Natural infiltration in air changes per hour."""
+        return self.ach50 * ACH50_TO_ACH_NATURAL
+
+
+def _missing(value: object) -> bool:
+    return value is None or (isinstance(value, float) and math.isnan(value)) or str(value).strip() == ""
+
+
+def parse_r_value(text: str) -> float:
+    """Nominal insulation R value in US units (h*ft2*F/Btu) from strings like ``R-30``,
+    ``Wood Stud, R-11``, ``2ft R10 Under, Horizontal``; ``None``/``Uninsulated`` -> 0."""
+    s = str(text).strip()
+    match = re.search(r"R-?(\d+(?:\.\d+)?)", s)
+    if match:
+        return float(match.group(1))
+    if re.search(r"\b(none|uninsulated)\b", s, re.IGNORECASE):
+        return 0.0
+    raise ValueError(f"no R value in {text!r} (expected e.g. 'R-30' or 'Uninsulated')")
+
+
+def parse_ach50(text: str) -> float:
+    """Air changes per hour at 50 Pa from ``'7 ACH50'`` (or a bare number)."""
+    match = re.fullmatch(r"\s*(\d+(?:\.\d+)?)\s*(ACH50)?\s*", str(text), re.IGNORECASE)
+    if not match:
+        raise ValueError(f"expected e.g. '7 ACH50', got {text!r}")
+    return float(match.group(1))
+
+
+def parse_vintage(text: str) -> int:
+    """Construction decade from ``'1980s'`` or ``'<1940'`` (-> 1930)."""
+    s = str(text).strip()
+    if match := re.fullmatch(r"<\s*(\d{4})", s):
+        return int(match.group(1)) - 10
+    if match := re.fullmatch(r"(\d{4})s?", s):
+        return int(match.group(1)) // 10 * 10
+    raise ValueError(f"expected e.g. '1980s' or '<1940', got {text!r}")
+
+
+def parse_orientation(text: str) -> float:
+    """Compass azimuth (degrees clockwise from north) of ``'North'`` ... ``'Northwest'``."""
+    key = str(text).strip().lower().replace(" ", "").replace("-", "")
+    if key not in ORIENTATIONS:
+        raise ValueError(f"expected one of {sorted(ORIENTATIONS)}, got {text!r}")
+    return ORIENTATIONS[key]
+
+
+def parse_setpoint(text: object) -> float:
+    """Set point in degC from ``'76F'``, ``'24C'`` or a bare number (> 40 is read as Fahrenheit)."""
+    match = re.fullmatch(r"\s*(-?\d+(?:\.\d+)?)\s*([FC]?)\s*", str(text), re.IGNORECASE)
+    if not match:
+        raise ValueError(f"expected e.g. '76F', got {text!r}")
+    value, unit = float(match.group(1)), match.group(2).upper()
+    if unit == "F" or (unit == "" and value > 40):
+        return (value - 32.0) * 5.0 / 9.0
+    return value
+
+
+def parse_leading_number(text: object) -> float:
+    """First number in ``'3'``, ``'10+'``, ``'1500-1999'`` style strings."""
+    match = re.search(r"\d+(?:\.\d+)?", str(text))
+    if not match:
+        raise ValueError(f"no number in {text!r}")
+    return float(match.group(0))
+
+
+def parse_floor_area_bin(text: str) -> float:
+    """Mid-point (ft2) of a ``in.geometry_floor_area`` bin like ``'1500-1999'``; ``'4000+'`` -> 4500."""
+    s = str(text).strip()
+    if match := re.fullmatch(r"(\d+)\s*-\s*(\d+)", s):
+        return (float(match.group(1)) + float(match.group(2)) + 1.0) / 2.0
+    if match := re.fullmatch(r"(\d+)\+", s):
+        return float(match.group(1)) + 500.0
+    if match := re.fullmatch(r"0\s*-\s*(\d+)|<\s*(\d+)", s):
+        return float(match.group(1) or match.group(2)) / 2.0
+    raise ValueError(f"expected a bin like '1500-1999', got {text!r}")
+
+
+def parse_glazing(text: str) -> str:
+    """Glazing key of :data:`GLAZING` from ``in.windows`` strings like ``'Double, Low-E, Non-metal, Air'``."""
+    s = str(text).lower()
+    if "triple" in s:
+        return "triple"
+    if "double" in s:
+        return "double_low_e" if "low-e" in s else "double_clear"
+    if "single" in s:
+        return "single"
+    raise ValueError(f"expected 'Single'/'Double'/'Triple' glazing, got {text!r}")
+
+
+def parse_window_to_wall(text: str) -> float:
+    """Mean facade window-to-wall ratio from ``in.window_areas`` like ``'F15 B15 L15 R15'`` (percent)."""
+    values = re.findall(r"[FBLR](\d+(?:\.\d+)?)", str(text))
+    if len(values) != 4:
+        raise ValueError(f"expected e.g. 'F15 B15 L15 R15', got {text!r}")
+    return sum(float(v) for v in values) / 400.0
+
+
+def house_parameters_from_metadata(row: Mapping[str, object], *, source: object = "metadata") -> HouseParameters:
+    """Map one EULP metadata row (``bldg_id``, ``in.*``) to :class:`HouseParameters`.
+
+    Required: ``bldg_id`` and either ``in.sqft`` (ft2) or ``in.geometry_floor_area`` (bin). Everything else
+    is optional and falls back to the vintage defaults. Raises :class:`InputError` naming ``source``, the
+    column and the building id for an unreadable field.
+    """
+    if _missing(row.get("bldg_id")):
+        raise InputError("missing building id", file=source, column="bldg_id")
+    bldg_id = int(row["bldg_id"])
+
+    def field(column: str, parse):
+        value = row.get(column)
+        if _missing(value):
+            return None
+        try:
+            return parse(value)
+        except (TypeError, ValueError) as error:
+            raise InputError(str(error), file=source, column=column, row=f"bldg_id={bldg_id}") from None
+
+    sqft = field("in.sqft", float)
+    if sqft is None:
+        sqft = field("in.geometry_floor_area", parse_floor_area_bin)
+    if sqft is None or not sqft > 100:
+        raise InputError(f"conditioned floor area missing or < 100 ft2 ({sqft})", file=source,
+                         column="in.sqft", row=f"bldg_id={bldg_id}")
+    vintage = field("in.vintage", parse_vintage) or 1990
+    decade = min(max(vintage, 1930), 2010)
+    wall_r, ceiling_r, ach50, glazing = VINTAGE_DEFAULTS[decade]
+    glazing = field("in.windows", parse_glazing) or glazing
+    window_u, window_shgc = GLAZING[glazing]
+    stories = int(field("in.geometry_stories", parse_leading_number) or 1)
+    if not 1 <= stories <= 4:
+        raise InputError(f"expected 1 to 4 stories, got {stories}", file=source, column="in.geometry_stories",
+                         row=f"bldg_id={bldg_id}")
+    wwr = field("in.window_areas", parse_window_to_wall)
+    if wwr is None:
+        window = field("in.window_area_ft_2", float)
+        wall = field("in.wall_area_above_grade_exterior_ft_2", float)
+        wwr = window / (window + wall) if window and wall else 0.15
+    wall_r = field("in.insulation_wall", parse_r_value)
+    ceiling_r = field("in.insulation_ceiling", parse_r_value)
+    slab_r = field("in.insulation_slab", parse_r_value)
+    defaults = VINTAGE_DEFAULTS[decade]
+    return HouseParameters(
+        bldg_id=bldg_id,
+        floor_area_m2=sqft * FT2_TO_M2,
+        stories=stories,
+        vintage=vintage,
+        front_azimuth_deg=field("in.orientation", parse_orientation) if "in.orientation" in row
+        and not _missing(row["in.orientation"]) else 180.0,
+        window_to_wall=min(max(wwr, 0.0), 0.6),
+        window_u=window_u,
+        window_shgc=window_shgc,
+        wall_r_si=(defaults[0] if wall_r is None else wall_r) * R_IP_TO_SI,
+        ceiling_r_si=(defaults[1] if ceiling_r is None else ceiling_r) * R_IP_TO_SI,
+        slab_r_si=(slab_r or 0.0) * R_IP_TO_SI,
+        ach50=field("in.infiltration", parse_ach50) or ach50,
+        occupants=field("in.occupants", parse_leading_number) or 3.0,
+        cooling_setpoint_c=field("in.cooling_setpoint", parse_setpoint) or 24.0,
+        heating_setpoint_c=field("in.heating_setpoint", parse_setpoint) or 20.0,
+    )

@@ -1,0 +1,145 @@
+"""EULP metadata parsing, the epJSON house geometry and the synthetic fuel-mix workbook (no engine runs)."""
+
+from __future__ import annotations
+
+import datetime as dt
+import math
+
+import openpyxl
+import pytest
+
+from pipeline.errors import InputError
+from surrogates.energyplus.house import build_house_model, footprint
+from surrogates.energyplus.metadata import (
+    house_parameters_from_metadata,
+    parse_ach50,
+    parse_floor_area_bin,
+    parse_orientation,
+    parse_r_value,
+    parse_setpoint,
+    parse_vintage,
+    parse_window_to_wall,
+)
+from surrogates.energyplus.synthetic_fuel_mix import day_intervals, write_synthetic_fuel_mix
+
+GROUND = [20.0] * 12
+
+
+def test_parsers_read_resstock_encodings():
+    assert parse_r_value("R-30") == 30.0
+    assert parse_r_value("Wood Stud, R-11") == 11.0
+    assert parse_r_value("2ft R10 Under, Horizontal") == 10.0
+    assert parse_r_value("Wood Stud, Uninsulated") == 0.0
+    assert parse_ach50("7 ACH50") == 7.0
+    assert parse_vintage("1980s") == 1980 and parse_vintage("<1940") == 1930
+    assert parse_orientation("Northwest") == 315.0 and parse_orientation("South") == 180.0
+    assert parse_setpoint("76F") == pytest.approx((76 - 32) / 1.8)
+    assert parse_setpoint("24C") == 24.0
+    assert parse_floor_area_bin("1500-1999") == 1750.0
+    assert parse_window_to_wall("F18 B12 L12 R12") == pytest.approx(0.135)
+
+
+def test_metadata_row_to_si_parameters():
+    row = {"bldg_id": 7, "in.sqft": 2000, "in.geometry_stories": "2", "in.vintage": "2000s",
+           "in.insulation_wall": "Wood Stud, R-13", "in.insulation_ceiling": "R-38", "in.infiltration": "10 ACH50",
+           "in.orientation": "East", "in.occupants": "4", "in.cooling_setpoint": "77F", "in.heating_setpoint": "68F"}
+    house = house_parameters_from_metadata(row)
+    assert house.floor_area_m2 == pytest.approx(2000 * 0.09290304)
+    assert house.wall_r_si == pytest.approx(13 * 0.1761102)
+    assert house.ceiling_r_si == pytest.approx(38 * 0.1761102)
+    assert house.ach_natural == pytest.approx(0.5)  # 10 ACH50 / 20
+    assert house.cooling_setpoint_c == pytest.approx(25.0) and house.heating_setpoint_c == pytest.approx(20.0)
+    assert (house.stories, house.occupants, house.front_azimuth_deg) == (2, 4.0, 90.0)
+
+
+def test_bad_metadata_names_column_and_building():
+    with pytest.raises(InputError, match=r"in\.infiltration.*bldg_id=5"):
+        house_parameters_from_metadata({"bldg_id": 5, "in.sqft": 1500, "in.infiltration": "leaky"}, source="m.csv")
+    with pytest.raises(InputError, match=r"in\.sqft"):
+        house_parameters_from_metadata({"bldg_id": 5})
+
+
+def _polygon_area(vertices):
+    # Newell's method: |sum of cross products| / 2 for a planar polygon
+    nx = ny = nz = 0.0
+    points = [(v["vertex_x_coordinate"], v["vertex_y_coordinate"], v["vertex_z_coordinate"]) for v in vertices]
+    for (x1, y1, z1), (x2, y2, z2) in zip(points, points[1:] + points[:1], strict=True):
+        nx += (y1 - y2) * (z1 + z2)
+        ny += (z1 - z2) * (x1 + x2)
+        nz += (x1 - x2) * (y1 + y2)
+    return 0.5 * math.sqrt(nx * nx + ny * ny + nz * nz)
+
+
+def test_geometry_matches_floor_area_and_window_ratio():
+    house = house_parameters_from_metadata({"bldg_id": 1, "in.sqft": 2400, "in.geometry_stories": "2",
+                                            "in.window_areas": "F20 B20 L20 R20"})
+    model = build_house_model(house, mode="ideal", ground_temperatures_c=GROUND)
+    surfaces = model["BuildingSurface:Detailed"]
+    floors = sum(_polygon_area(s["vertices"]) for s in surfaces.values() if s["surface_type"] == "Floor")
+    assert floors == pytest.approx(2400 * 0.09290304, rel=1e-4)
+    walls = sum(_polygon_area(s["vertices"]) for s in surfaces.values() if s["surface_type"] == "Wall")
+    windows = 0.0
+    for w in model["FenestrationSurface:Detailed"].values():
+        a = [w[f"vertex_{i}_{c}_coordinate"] for i in (1, 3) for c in "xyz"]
+        windows += math.hypot(a[3] - a[0], a[4] - a[1]) * abs(a[5] - a[2])
+    assert windows / walls == pytest.approx(0.20, rel=1e-3)
+    width, depth = footprint(house)
+    assert width / depth == pytest.approx(1.5)
+    # interzone surfaces point at each other
+    assert surfaces["story_2_floor"]["outside_boundary_condition_object"] == "story_1_ceiling"
+    assert surfaces["story_1_ceiling"]["outside_boundary_condition_object"] == "story_2_floor"
+
+
+def test_replay_model_puts_sign_in_design_level():
+    house = house_parameters_from_metadata({"bldg_id": 1, "in.sqft": 1500})
+    model = build_house_model(house, mode="replay", ground_temperatures_c=GROUND, load_file="/tmp/x.csv")
+    equipment = model["OtherEquipment"]
+    assert equipment["story_1 ILV cool"]["design_level"] == -1.0
+    assert equipment["story_1 ILV heat"]["design_level"] == 1.0
+    assert "ZoneHVAC:IdealLoadsAirSystem" not in model and "ZoneControl:Thermostat" not in model
+
+
+def test_dst_day_layouts_follow_ercot():
+    spring, autumn, normal = (day_intervals(dt.date(2018, 3, 11)), day_intervals(dt.date(2018, 11, 4)),
+                              day_intervals(dt.date(2018, 6, 1)))
+    assert (len(spring), len(autumn), len(normal)) == (92, 100, 96)
+    assert [label for _, label in spring][7:9] == ["2:00", "3:15"]
+    assert [label for _, label in autumn][8:13] == ["01:15 (DST)", "01:30 (DST)", "01:45 (DST)", "02:00 (DST)",
+                                                    "2:15"]
+    # labels are Central prevailing time; the ends in standard time are one hour earlier in summer
+    assert normal[0] == (dt.datetime(2018, 5, 31, 23, 15), "0:15")
+
+
+def test_synthetic_workbook_layout_and_determinism(tmp_path):
+    a = write_synthetic_fuel_mix(tmp_path / "a.xlsx", months=(3, 11))
+    b = write_synthetic_fuel_mix(tmp_path / "b.xlsx", months=(3, 11))
+    assert a.read_bytes() == b.read_bytes()
+    book = openpyxl.load_workbook(a)
+    assert book.sheetnames == ["Disclaimer", "Mar", "Nov"]
+    assert "SYNTHETIC" in book["Disclaimer"]["A1"].value
+    nov = list(book["Nov"].iter_rows(values_only=True))
+    assert nov[0][:5] == ("Date", "Fuel", "Settlement Type", "Total", "0:15")
+    assert nov[0][-5:] == ("0:00", "01:15 (DST)", "01:30 (DST)", "01:45 (DST)", "02:00 (DST)")
+    fuels = {row[1] for row in nov[1:]}
+    assert fuels == {"Biomass", "Coal", "Gas", "Gas-CC", "Hydro", "Nuclear", "Other", "Solar", "Wind"}
+    for sheet, day, count in (("Nov", dt.datetime(2018, 11, 4), 100), ("Mar", dt.datetime(2018, 3, 11), 92),
+                              ("Mar", dt.datetime(2018, 3, 12), 96)):
+        rows = [r for r in book[sheet].iter_rows(min_row=2, values_only=True) if r[0] == day]
+        assert len(rows) == 9
+        for row in rows:
+            values = [v for v in row[4:] if v is not None]
+            assert len(values) == count
+            assert row[3] == pytest.approx(sum(values), abs=0.01)
+    mar = list(book["Mar"].iter_rows(values_only=True))
+    head = mar[0]
+    spring = next(r for r in mar[1:] if r[0] == dt.datetime(2018, 3, 11))
+    assert [head[i] for i, v in enumerate(spring) if v is None] == ["2:15", "2:30", "2:45", "3:00"]
+
+
+def test_synthetic_workbook_reads_with_the_ingest_reader(tmp_path):
+    fuel_mix = pytest.importorskip("pipeline.ingest.fuel_mix")
+    path = write_synthetic_fuel_mix(tmp_path / "IntGenbyFuel2018.xlsx", months=(11,))
+    hourly, _ = fuel_mix.read_fuel_mix_workbook(path)
+    # November in prevailing time: 30 days x 24 h + the repeated hour = 721 standard-time hours
+    assert len(hourly) == 721
+    assert hourly.index.to_series().diff().dropna().eq("1h").all()
