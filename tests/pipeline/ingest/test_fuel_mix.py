@@ -200,3 +200,15 @@ def test_long_csv_gap_and_duplicate(tmp_path, kind):
         read_fuel_mix_csv(path, clock="standard")
     row = 4 if kind == "gap" else 5  # the first row after the gap / the second copy (header = row 1)
     assert f"row {row}" in str(caught.value) and "'Coal'" in str(caught.value)
+
+
+def test_period_outside_the_workbook(tmp_path):
+    from pipeline.ingest.commands import write_carbon
+
+    path = _write_workbook(tmp_path / "f.xlsx", _good_rows())
+    out = tmp_path / "ci.csv"
+    write_carbon(path, "2018-06-01", "2018-06-02", out)  # the data cover 2018-05-31 23:00 .. 06-03 22:00 CST
+    with pytest.raises(InputError, match="outside the file") as caught:
+        write_carbon(path, "2018-06-01", "2018-06-03", tmp_path / "ci3.csv")
+    assert str(path) in str(caught.value) and "2018-06-03 23:00:00" in str(caught.value)
+    assert not (tmp_path / "ci3.csv").exists()

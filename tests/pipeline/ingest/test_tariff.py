@@ -93,3 +93,18 @@ def test_bad_tariff_files(tmp_path, old, new, message, key):
         read_tariff(path)
     text = str(caught.value)
     assert message in text and str(path) in text and repr(key) in text
+
+
+def test_prevailing_clock_around_the_dst_changes():
+    tariff = dataclasses.replace(read_tariff(AUSTIN), clock="prevailing")
+
+    def on_peak_hours(day):
+        prices = hourly_prices(tariff, period_index(day, day))
+        return list(prices[prices == 0.0587].index.hour)
+
+    assert on_peak_hours("2018-03-09") == [15, 16, 17]  # Friday before spring-forward (CST)
+    assert on_peak_hours("2018-03-12") == [14, 15, 16]  # Monday after (CDT = standard + 1 h)
+    assert on_peak_hours("2018-11-02") == [14, 15, 16]  # Friday before fall-back (CDT)
+    assert on_peak_hours("2018-11-05") == [15, 16, 17]  # Monday after (CST)
+    late = hourly_prices(tariff, pd.DatetimeIndex(["2018-06-08 23:00"]))  # Friday 23:00 CST = Sat 00:00 CDT
+    assert late.iloc[0] == 0.0289
