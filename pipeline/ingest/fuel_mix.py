@@ -235,21 +235,24 @@ def _csv_interval_ends(text: pd.Series, fuels: pd.Series, clock: str, zone: Zone
 
 
 @functools.lru_cache(maxsize=512)
-def _day_layout(day: dt.date, timezone: str) -> tuple[tuple[pd.Timestamp, int, int], ...]:
-    """For each real 15-min interval of a local day: (begin in standard time, label minutes, fold)."""
+def _day_layout(day: dt.date, timezone: str) -> tuple[np.ndarray, tuple[tuple[int, int], ...]]:
+    """The real 15-min intervals of a local day: begins in standard time (read-only datetime64 array) and,
+    for each, (label minutes, fold)."""
     zone = ZoneInfo(timezone)
     start = dt.datetime(day.year, day.month, day.day, tzinfo=zone).astimezone(dt.UTC)
     nxt = day + dt.timedelta(days=1)
     stop = dt.datetime(nxt.year, nxt.month, nxt.day, tzinfo=zone).astimezone(dt.UTC)
     std = _standard_offset(zone, day.year)
-    out = []
+    begins, keys = [], []
     begin = start
     while begin < stop:
         local = begin.astimezone(zone)  # ERCOT labels = the begin's wall-clock time + 15 min
-        minutes = local.hour * 60 + local.minute + 15
-        out.append((pd.Timestamp(begin.replace(tzinfo=None) + std), minutes, local.fold))
+        keys.append((local.hour * 60 + local.minute + 15, local.fold))
+        begins.append(np.datetime64(begin.replace(tzinfo=None) + std, "ns"))
         begin += STEP
-    return tuple(out)
+    array = np.array(begins, dtype="datetime64[ns]")
+    array.flags.writeable = False
+    return array, tuple(keys)
 
 
 def _interval_columns(head: list[str], file: str) -> tuple[dict[int, int], dict[int, int]]:
@@ -273,15 +276,14 @@ def _interval_columns(head: list[str], file: str) -> tuple[dict[int, int], dict[
 def _day_columns(day: dt.date, timezone: str, regular: dict[int, int], extra: dict[int, int], file: str,
                  number: int) -> tuple[np.ndarray, list[int]]:
     """Interval beginnings (standard time) of a local day and the sheet column holding each interval."""
-    layout = _day_layout(day, timezone)
+    begins, keys = _day_layout(day, timezone)
     columns = []
-    for _, minutes, fold in layout:
+    for minutes, fold in keys:
         table = extra if fold else regular
         if minutes not in table:
-            raise InputError(f"{day} has {len(layout)} intervals (DST change) but the sheet lacks a "
+            raise InputError(f"{day} has {len(keys)} intervals (DST change) but the sheet lacks a "
                              f"'(DST)' column for the repeated hour", file=file, row=number)
         columns.append(table[minutes])
-    begins = np.array([b for b, _, _ in layout], dtype="datetime64[ns]")
     return begins, columns
 
 
