@@ -1,7 +1,8 @@
-"""``districtgen run``: the main job. Runs a district through the environment and prints its KPI table.
+"""Environment and build commands: ``districtgen run``, ``build`` and ``verify``.
 
-Until the district build flow exists, the default district is the synthetic example the project writes
-itself (``citylearn_env.example``) into ``artifacts/example/``. ``--schema`` runs any CityLearn schema.
+``build`` runs the district build flow on a TOML configuration (default ``raw/district.toml``, the embedded
+inputs); ``verify`` re-checks a build; ``run`` runs any schema (default: the synthetic example district the
+package writes itself) through the environment and prints its KPI table.
 """
 
 from __future__ import annotations
@@ -22,6 +23,16 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--compat", action="store_true", help="reproduce CityLearn 2.1 exactly (bugs included)")
     parser.set_defaults(func=run_command)
+
+    build = subparsers.add_parser("build", help="build a district from a TOML configuration (Prefect flow)")
+    build.add_argument("config", type=Path, nargs="?", default=Path("raw/district.toml"))
+    build.add_argument("-o", "--output-root", type=Path, default=ARTIFACTS)
+    build.add_argument("--no-prefect", action="store_true", help="run the steps in-process, without Prefect")
+    build.set_defaults(func=build_command)
+
+    verify = subparsers.add_parser("verify", help="re-check a built district's manifest hashes and validate it")
+    verify.add_argument("folder", type=Path)
+    verify.set_defaults(func=verify_command)
 
 
 def run_episode(schema: Path, *, policy: str = "random", seed: int = 0, compat: bool = False):
@@ -55,4 +66,37 @@ def run_command(args: argparse.Namespace) -> int:
         for name, value in env.objectives().items():
             if np.isscalar(value):
                 print(f"  {name:24s} {value:12.4f}")
+    return 0
+
+
+def build_command(args: argparse.Namespace) -> int:
+    from pipeline.config import read_build_config
+
+    config = read_build_config(args.config)
+    if args.no_prefect:
+        from pipeline.build import build_district_local
+
+        folder = build_district_local(config, args.output_root)
+    else:
+        from pipeline.flows import build_district
+
+        folder = build_district(config, str(args.output_root))
+    print(f"built {folder}")
+    print((folder / "report" / "summary.md").read_text())
+    return 0
+
+
+def verify_command(args: argparse.Namespace) -> int:
+    from pipeline.build import validate_district, verify_district
+
+    problems = verify_district(args.folder)
+    for problem in problems:
+        print(f"districtgen: {args.folder}: {problem}")
+    if problems:
+        return 1
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as scratch:
+        validate_district(args.folder / "schema.json", Path(scratch))
+    print(f"{args.folder}: {len(problems)} problems; hashes match the manifest and the environment runs it")
     return 0

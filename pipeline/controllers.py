@@ -1,0 +1,88 @@
+"""The paper's rule-based controllers, written from their description (reference/paper_application.md).
+
+Hour convention: CityLearn's ``hour`` h is the hour *ending* at h:00 (h = 1 is 00:00-01:00). A rule acts on
+the time step it controls: the action passed to ``step`` at time t is applied at t + 1, so the rules read
+the hour and day type of t + 1 (the published code read those of t, one hour early). Values are fractions
+of storage capacity per hour, the same for every storage of a building.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+OFF_PEAK = {23, 24, 1, 2, 3, 4, 5, 6, 7}        # 10 PM - 7 AM
+ON_PEAK = {16, 17, 18}                           # 3 PM - 6 PM
+
+
+def cost_rbc(hour: int, day_type: int) -> float:
+    """TOU cost rule: weekdays charge fully off-peak, discharge half on-peak and the rest at other hours;
+    weekends and holidays (flat cheap rate) charge at a constant 1/24 of capacity per hour."""
+    if day_type >= 6:
+        return 1.0 / 24.0
+    if hour in OFF_PEAK:
+        return 1.0 / len(OFF_PEAK)
+    if hour in ON_PEAK:
+        return -0.5 / len(ON_PEAK)
+    return -0.5 / (24 - len(OFF_PEAK) - len(ON_PEAK))
+
+
+def emission_rbc(hour: int, day_type: int) -> float:
+    """Charge fully before 8 AM (hours ending 1-8); discharge at a constant rate 12 PM - 11 PM (13-23)."""
+    if hour <= 8:
+        return 1.0 / 8.0
+    if 13 <= hour <= 23:
+        return -1.0 / 11.0
+    return 0.0
+
+
+def peak_rbc(hour: int, day_type: int) -> float:
+    """Charge fully before 6 AM (hours ending 1-6); discharge steadily 6 AM - 11 PM (hours ending 7-23)."""
+    if hour <= 6:
+        return 1.0 / 6.0
+    if 7 <= hour <= 23:
+        return -1.0 / 17.0
+    return 0.0
+
+
+RULES = {"cost_rbc": cost_rbc, "emission_rbc": emission_rbc, "peak_rbc": peak_rbc}
+
+
+def rule_actions(env, rule) -> np.ndarray:
+    """The action vector of ``rule`` for the step that controls t + 1 (storage actions; devices left at 0)."""
+    t = env.t + 1
+    hour = int(env.district.ep["hour"][0, t])
+    day_type = int(env.district.ep["day_type"][0, t])
+    value = rule(hour, day_type)
+    return np.array([value if name.endswith("_storage") else 0.0 for name in env.action_names])
+
+
+def run_policy(schema: str | Path | dict, policy: str, *, seed: int = 0, ideal_cooling: bool = True):
+    """Run one episode with ``policy`` (no_control, cost_rbc, emission_rbc, peak_rbc); return the env.
+
+    ``ideal_cooling`` deactivates heat-pump actions so the heat pump serves the ideal load (the paper's
+    storage benchmarks); storage actions are 0 under no_control.
+    """
+    from citylearn_env import CityLearnEnv
+
+    if isinstance(schema, (str, Path)):
+        path = Path(schema)
+        raw = json.loads(path.read_text())
+        raw["root_directory"] = raw.get("root_directory") or str(path.resolve().parent)
+    else:
+        raw = json.loads(json.dumps(schema))
+    if ideal_cooling:
+        raw["actions"]["cooling_device"] = {"active": False}
+        raw["actions"]["heating_device"] = {"active": False}
+    env = CityLearnEnv(raw)
+    env.reset(seed=seed)
+    rule = RULES.get(policy)
+    if rule is None and policy != "no_control":
+        raise ValueError(f"unknown policy {policy!r}; known: no_control, {', '.join(RULES)}")
+    terminated = False
+    while not terminated:
+        action = rule_actions(env, rule) if rule else np.zeros(env.action_space.shape)
+        _, _, terminated, _, _ = env.step(action)
+    return env
