@@ -28,11 +28,14 @@ OCCUPANCY = (
 )
 LIGHTING = (
     [.05, .05, .05, .05, .05, .05, .3, .3, .1, .1, .1, .1, .1, .1, .1, .1, .1, .4, .7, .7, .7, .7, .4, .1],
-    [.05, .05, .05, .05, .05, .05, .1, .3, .3, .15, .15, .15, .15, .15, .15, .15, .2, .4, .7, .7, .7, .7, .4, .1],
+    [.05, .05, .05, .05, .05, .05, .1, .3, .3, .15, .15, .15,
+     .15, .15, .15, .15, .2, .4, .7, .7, .7, .7, .4, .1],
 )
 EQUIPMENT = (
-    [.45, .45, .45, .45, .45, .45, .6, .6, .6, .5, .5, .5, .5, .5, .5, .5, .6, .85, .85, .85, .85, .85, .6, .6],
-    [.45, .45, .45, .45, .45, .45, .5, .6, .7, .7, .7, .7, .7, .7, .7, .7, .7, .85, .85, .85, .85, .85, .6, .6],
+    [.45, .45, .45, .45, .45, .45, .6, .6, .6, .5, .5, .5,
+     .5, .5, .5, .5, .6, .85, .85, .85, .85, .85, .6, .6],
+    [.45, .45, .45, .45, .45, .45, .5, .6, .7, .7, .7, .7,
+     .7, .7, .7, .7, .7, .85, .85, .85, .85, .85, .6, .6],
 )
 HOT_WATER = (
     [.02, .02, .02, .02, .02, .02, .5, 1, .6, .1, .1, .1, .1, .1, .1, .1, .1, .3, .6, .6, .6, .4, .2, .05],
@@ -50,7 +53,8 @@ ZONE_OUTPUTS = ["Zone Mean Air Temperature", "Zone People Occupant Count", "Zone
 SITE_OUTPUTS = ["Site Outdoor Air Drybulb Temperature", "Site Direct Solar Radiation Rate per Area",
                 "Site Diffuse Solar Radiation Rate per Area"]
 IDEAL_OUTPUTS = ["Zone Ideal Loads Zone Sensible Cooling Rate", "Zone Ideal Loads Zone Sensible Heating Rate",
-                 "Zone Thermostat Cooling Setpoint Temperature", "Zone Thermostat Heating Setpoint Temperature"]
+                 "Zone Thermostat Cooling Setpoint Temperature",
+                 "Zone Thermostat Heating Setpoint Temperature"]
 REPLAY_OUTPUTS = ["Other Equipment Convective Heating Rate"]
 DHW_OUTPUTS = ["Water Use Equipment Heating Rate"]
 
@@ -182,8 +186,9 @@ def _geometry(house: HouseParameters) -> dict[str, dict[str, dict[str, object]]]
                                          "sun_exposure": "NoSun", "wind_exposure": "NoWind",
                                          "vertices": _vertices(down)}
         if i == len(names) - 1:
-            surfaces[f"{zone}_roof"] = {"surface_type": "Roof", "construction_name": "roof", "zone_name": zone,
-                                        "outside_boundary_condition": "Outdoors", "sun_exposure": "SunExposed",
+            surfaces[f"{zone}_roof"] = {"surface_type": "Roof", "construction_name": "roof",
+                                        "zone_name": zone, "outside_boundary_condition": "Outdoors",
+                                        "sun_exposure": "SunExposed",
                                         "wind_exposure": "WindExposed", "vertices": _vertices(up)}
         else:
             surfaces[f"{zone}_ceiling"] = {"surface_type": "Ceiling", "construction_name": "interior_floor",
@@ -203,7 +208,8 @@ def _gains(house: HouseParameters) -> dict[str, dict[str, dict[str, object]]]:
     people, lights, equipment, infiltration = {}, {}, {}, {}
     for zone in names:
         people[f"{zone}_people"] = {
-            "zone_or_zonelist_or_space_or_spacelist_name": zone, "number_of_people_schedule_name": "occupancy",
+            "zone_or_zonelist_or_space_or_spacelist_name": zone,
+            "number_of_people_schedule_name": "occupancy",
             "number_of_people_calculation_method": "People",
             "number_of_people": round(house.occupants / len(names), 4),
             "fraction_radiant": 0.3, "activity_level_schedule_name": "activity"}
@@ -230,7 +236,8 @@ def _gains(house: HouseParameters) -> dict[str, dict[str, dict[str, object]]]:
         "ZoneInfiltration:DesignFlowRate": infiltration,
         "WaterUse:Equipment": {"hot_water": {
             "end_use_subcategory": "DHW", "peak_flow_rate": peak_m3_s,
-            "flow_rate_fraction_schedule_name": "hot_water", "target_temperature_schedule_name": "hot_water_target",
+            "flow_rate_fraction_schedule_name": "hot_water",
+            "target_temperature_schedule_name": "hot_water_target",
             "hot_water_supply_temperature_schedule_name": "hot_water_supply"}},
         "Site:WaterMainsTemperature": {"Site:WaterMainsTemperature 1": {
             "calculation_method": "CorrelationFromWeatherFile"}},
@@ -335,8 +342,8 @@ def build_house_model(house: HouseParameters, *, mode: str, ground_temperatures_
             "do_plant_sizing_calculation": "No", "run_simulation_for_sizing_periods": "No",
             "run_simulation_for_weather_file_run_periods": "Yes"}},
         "Timestep": {"Timestep 1": {"number_of_timesteps_per_hour": timesteps_per_hour}},
-        "RunPeriod": {"run": {"begin_month": m0, "begin_day_of_month": d0, "begin_year": year, "end_month": m1,
-                              "end_day_of_month": d1, "end_year": year,
+        "RunPeriod": {"run": {"begin_month": m0, "begin_day_of_month": d0, "begin_year": year,
+                              "end_month": m1, "end_day_of_month": d1, "end_year": year,
                               "use_weather_file_holidays_and_special_days": "No",
                               "use_weather_file_daylight_saving_period": "No"}},
         "GlobalGeometryRules": {"GlobalGeometryRules 1": {"starting_vertex_position": "UpperLeftCorner",

@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import tempfile
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -161,12 +161,12 @@ def generate_ilv(house: HouseParameters, epw: Path, *, config: ILVConfig = ILVCo
     deviates from the ideal run by more than ``config.max_replay_mad_c``.
     """
     if config.cooling_setpoint_c is not None or config.heating_setpoint_c is not None:
-        from dataclasses import replace
         house = replace(house, cooling_setpoint_c=config.cooling_setpoint_c or house.cooling_setpoint_c,
                         heating_setpoint_c=config.heating_setpoint_c or house.heating_setpoint_c)
     ground = read_epw_ground_temperatures(epw)
     (m0, d0), (m1, d1) = config.run_period
-    expected_hours = int((pd.Timestamp(config.year, m1, d1) - pd.Timestamp(config.year, m0, d0)).days + 1) * 24
+    days = (pd.Timestamp(config.year, m1, d1) - pd.Timestamp(config.year, m0, d0)).days + 1
+    expected_hours = int(days) * 24
     tph = config.timesteps_per_hour
     common = dict(ground_temperatures_c=ground, run_period=config.run_period, year=config.year,
                   timesteps_per_hour=tph, dhw=dhw)
@@ -188,8 +188,8 @@ def generate_ilv(house: HouseParameters, epw: Path, *, config: ILVConfig = ILVCo
         for reference in range(2 + config.partial_runs):
             start = time.perf_counter()
             schedule = tmp / f"loads_{reference}.csv"
-            write_replay_schedule(loads, hourly_multipliers(reference, hours, house.bldg_id, config), schedule,
-                                  year=config.year, timesteps_per_hour=tph)
+            multipliers = hourly_multipliers(reference, hours, house.bldg_id, config)
+            write_replay_schedule(loads, multipliers, schedule, year=config.year, timesteps_per_hour=tph)
             model = build_house_model(house, mode="replay", reporting_frequency="Hourly", load_file=schedule,
                                       **common)
             sql = run_energyplus(model, epw, tmp, f"replay_{reference}")

@@ -61,8 +61,9 @@ HOUSES: tuple[dict[str, object], ...] = (
      "in.windows": "Single, Clear, Metal", "in.window_areas": "F12 B12 L12 R12", "in.occupants": "2",
      "in.cooling_setpoint": "78F", "in.heating_setpoint": "68F"},
 )
-ILV_DECIMALS = {"direct_solar_irradiance": 2, "diffuse_solar_irradiance": 2, "outdoor_dry_bulb_temperature": 2,
-                "occupant_count": 3, "cooling_demand": 3, "heating_demand": 3, "indoor_dry_bulb_temperature": 2}
+ILV_DECIMALS = {"direct_solar_irradiance": 2, "diffuse_solar_irradiance": 2,
+                "outdoor_dry_bulb_temperature": 2, "occupant_count": 3, "cooling_demand": 3,
+                "heating_demand": 3, "indoor_dry_bulb_temperature": 2}
 
 
 def default_epw() -> Path:
@@ -130,7 +131,8 @@ def make_raw(raw_dir: Path, *, epw: Path | None = None, log=print) -> dict[str, 
     metadata = pd.DataFrame(rows)
     metadata["bldg_id"] = metadata["bldg_id"].astype(np.int64)
     _atomic_parquet(metadata, release / "metadata" / "metadata.parquet")
-    write_synthetic_fuel_mix(raw_dir / "fuel_mix" / "IntGenbyFuel2018_synthetic.xlsx", year=YEAR, months=(6, 7))
+    fuel_mix = raw_dir / "fuel_mix" / "IntGenbyFuel2018_synthetic.xlsx"
+    write_synthetic_fuel_mix(fuel_mix, year=YEAR, months=(6, 7))
     log(f"raw inputs written under {raw_dir}")
     return report
 

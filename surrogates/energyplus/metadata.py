@@ -180,7 +180,8 @@ def parse_window_to_wall(text: str) -> float:
     return sum(float(v) for v in values) / 400.0
 
 
-def house_parameters_from_metadata(row: Mapping[str, object], *, source: object = "metadata") -> HouseParameters:
+def house_parameters_from_metadata(row: Mapping[str, object], *,
+                                   source: object = "metadata") -> HouseParameters:
     """Map one EULP metadata row (``bldg_id``, ``in.*``) to :class:`HouseParameters`.
 
     Required: ``bldg_id`` and either ``in.sqft`` (ft2) or ``in.geometry_floor_area`` (bin). Everything else

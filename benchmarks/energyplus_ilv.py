@@ -1,0 +1,95 @@
+"""Wall time of EnergyPlus ILV generation for one house-year, and the speed-up with 2 worker processes.
+
+    .venv/bin/python benchmarks/energyplus_ilv.py [--repeats 3] [--timesteps 1 4]
+    .venv/bin/python benchmarks/energyplus_ilv.py --train     # surrogate accuracy on raw/ilv/*.parquet
+
+One house-year = metadata -> epJSON model -> ideal-loads run -> multiplier-1 replay, free float and 4
+partial replays (7 EnergyPlus runs, hourly reporting for the replays) -> SQLite reads -> ILV table in memory.
+Target (issue 6): <= 15 s per house; near-linear speed-up with 2 workers.
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import time
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+from surrogates.energyplus.ilv import ILVConfig
+from surrogates.energyplus.runner import find_energyplus
+from surrogates.sources.energyplus import energyplus_ilv_table
+
+ROW = {"bldg_id": 1, "in.sqft": 1900, "in.geometry_stories": "2", "in.vintage": "1990s",
+       "in.orientation": "South", "in.infiltration": "8 ACH50", "in.occupants": "3",
+       "in.cooling_setpoint": "75F", "in.heating_setpoint": "68F"}
+
+
+def epw() -> Path:
+    return find_energyplus().parent / "WeatherData" / "USA_FL_Tampa.Intl.AP.722110_TMY3.epw"
+
+
+def one_house(bldg_id: int, timesteps: int) -> float:
+    start = time.perf_counter()
+    result = energyplus_ilv_table({**ROW, "bldg_id": bldg_id}, epw(),
+                                  config=ILVConfig(timesteps_per_hour=timesteps, seed=bldg_id))
+    assert len(result.table) == 6 * 8760 and result.replay_mad_c <= 0.2
+    return time.perf_counter() - start
+
+
+def train_on_raw(epochs: int | None) -> None:
+    """Train one surrogate per committed raw/ ILV table (surrogates.train defaults) and print the closed-loop
+    monthly RMSE (degC) on the held-out test segments."""
+    import json
+
+    import numpy as np
+
+    from surrogates.evaluate import evaluate_segments
+    from surrogates.ilv import read_ilv
+    from surrogates.train import TrainConfig, train_surrogate
+
+    medians = []
+    for path in sorted((Path(__file__).resolve().parents[1] / "raw" / "ilv").glob("*.parquet")):
+        table = read_ilv(path)
+        config = TrainConfig(progress=False) if epochs is None else TrainConfig(epochs=epochs, progress=False)
+        trained = train_surrogate(table, config, source=path)
+        metrics, _ = evaluate_segments(trained.model, trained.normalization, trained.inputs, config.lookback,
+                                       table, trained.splits["test"])
+        medians.append(metrics["monthly_rmse_c"]["median"])
+        print(path.name, json.dumps({"train_s": round(trained.seconds, 1), "best_epoch": trained.best_epoch,
+                                     "monthly_rmse_c": metrics["monthly_rmse_c"],
+                                     "closed_loop_rmse_c": metrics["closed_loop_rmse_c"]}), flush=True)
+    print(f"median over houses of the monthly closed-loop RMSE median: {float(np.median(medians)):.3f} C")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--train", action="store_true", help="only the surrogate accuracy on raw/ilv")
+    parser.add_argument("--epochs", type=int, default=None)
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--timesteps", type=int, nargs="+", default=[1, 4])
+    parser.add_argument("--houses", type=int, default=4, help="houses for the 1-vs-2-worker comparison")
+    args = parser.parse_args()
+    if args.train:
+        train_on_raw(args.epochs)
+        return
+    for tph in args.timesteps:
+        times = [one_house(k + 1, tph) for k in range(args.repeats)]
+        print(f"one house-year, {tph} timestep(s)/h: median {statistics.median(times):.2f} s "
+              f"(runs: {', '.join(f'{t:.2f}' for t in times)})")
+    tph = args.timesteps[0]
+    ids = list(range(101, 101 + args.houses))
+    start = time.perf_counter()
+    for i in ids:
+        one_house(i, tph)
+    serial = time.perf_counter() - start
+    start = time.perf_counter()
+    with ProcessPoolExecutor(2) as pool:
+        list(pool.map(one_house, ids, [tph] * len(ids)))
+    parallel = time.perf_counter() - start
+    print(f"{args.houses} houses, {tph} timestep(s)/h: 1 worker {serial:.1f} s, 2 workers {parallel:.1f} s, "
+          f"speed-up {serial / parallel:.2f}x")
+
+
+if __name__ == "__main__":
+    main()
