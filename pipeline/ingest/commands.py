@@ -97,9 +97,26 @@ def write_building(source, building, start, end, output, *, layout="v2.2", upgra
         site = PVSite(meta["latitude"], meta["longitude"], tilt=tilt, azimuth=azimuth,
                       altitude=meta.get("elevation_m", 0.0))
         solar = pv_yield(frame, site, meta["utc_offset_hours"])
+        _warn_if_shifted(series, meta["longitude"], meta["utc_offset_hours"])
     table = citylearn_building(loads, index, holidays=holidays, timezone=timezone, solar_generation=solar,
                                file=series_path)
     return write_citylearn_csv(table, BUILDING_COLUMNS, output, layout, required=BUILDING_REQUIRED)
+
+
+def _warn_if_shifted(series, longitude: float, utc_offset_hours: float) -> None:
+    """Print a note when the building's own PV output peaks an hour or more away from solar noon."""
+    import sys
+
+    from pipeline.ingest.eulp import solar_noon_lag_hours
+
+    pv = [c for c in series.columns if c.startswith("out.electricity.pv.energy_consumption")]
+    if not pv or not series[pv[0]].abs().gt(0).any():
+        return
+    hourly = series[pv[0]].groupby(series.index.floor("h")).sum()
+    lag = solar_noon_lag_hours(hourly, longitude, utc_offset_hours)
+    if abs(lag) >= 0.75:
+        print(f"districtgen: note: the building's PV output is centred {lag:+.1f} h from solar noon; its "
+              f"timestamps may use another time zone (try --timestamp-offset {-round(lag):+d})", file=sys.stderr)
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

@@ -190,6 +190,34 @@ def citylearn_building(loads: pd.DataFrame, index: pd.DatetimeIndex, *, holidays
     return out[list(BUILDING_COLUMNS)]
 
 
+def solar_noon_lag_hours(generation: pd.Series, longitude: float, utc_offset_hours: float) -> float:
+    """How many hours the centroid of a sun-driven daily profile lags local solar noon.
+
+    Parameters
+    ----------
+    generation
+        Hourly PV generation (any positive unit; sign ignored), index = interval-beginning.
+    longitude
+        Site longitude [deg east].
+    utc_offset_hours
+        UTC offset of the index's standard time [h] (e.g. -6 for US Central).
+
+    Returns
+    -------
+    Centroid time of the mean daily profile minus mean solar noon, 12 h + (15 x offset - longitude) / 15
+    [h]. The equation of time moves noon by at most +-0.27 h, so a result near +-1 means the timestamps are
+    in a neighbouring zone (e.g. Eastern data at a Central site give about -1): pass minus the rounded
+    value as ``timestamp_offset_hours``.
+    """
+    values = generation.abs()
+    profile = values.groupby(values.index.hour).mean()
+    if profile.sum() <= 0:
+        raise InputError("no generation to locate solar noon", column=str(generation.name))
+    centroid = float(((profile.index.to_numpy() + 0.5) * profile.to_numpy()).sum() / profile.sum())
+    noon = 12.0 + (15.0 * utc_offset_hours - longitude) / 15.0
+    return centroid - noon
+
+
 def locate_building(source: str, bldg_id: int, *, upgrade: int = 0, state: str | None = None,
                     cache_dir: str | Path = ".cache/districtgen") -> tuple[Path, Path]:
     """Paths of the metadata and timeseries files of one building, downloading from a URL ``source``.

@@ -209,3 +209,30 @@ def test_unknown_building_and_bad_setpoint(release, tmp_path):
     meta.to_parquet(release / "metadata" / "metadata.parquet", index=False)
     with pytest.raises(InputError, match="'in.cooling_setpoint', row bldg_id 1001: expected a set point"):
         write_building(release, 1001, "2018-06-01", "2018-06-01", tmp_path / "b.csv", cache_dir=tmp_path / "c")
+
+
+def test_solar_noon_lag_detects_an_eastern_time_series():
+    from pipeline.ingest.eulp import solar_noon_lag_hours
+
+    hours = pd.date_range("2018-06-01", periods=24 * 10, freq="h")
+    # a symmetric day centred on Austin's mean solar noon in CST: 12 h + (-90 + 97.77) / 15 = 12.52 h
+    centre = 12.0 + (-90.0 + 97.77) / 15.0
+    mid = hours.hour + 0.5
+    local = pd.Series(np.clip(np.cos((mid - centre) / 24 * 2 * np.pi), 0, None), index=hours, name="pv")
+    assert solar_noon_lag_hours(local, -97.77, -6.0) == pytest.approx(0.0, abs=0.05)
+    # the same output labelled in Eastern standard time appears one hour later on the clock
+    eastern = pd.Series(local.to_numpy(), index=hours + pd.Timedelta(hours=1), name="pv")
+    assert solar_noon_lag_hours(eastern, -97.77, -6.0) == pytest.approx(1.0, abs=0.05)
+
+
+def test_command_notes_pv_output_off_solar_noon(release, tmp_path, epw_path, capsys):
+    frame = _timeseries()
+    begins = frame["timestamp"] - pd.Timedelta("15min")
+    mid = begins.dt.hour + begins.dt.minute / 60 + 0.125
+    # PV output centred 1 h after Austin's solar noon in CST, as Eastern-time labels would show it
+    shape = np.clip(np.cos((mid - 13.52) / 24 * 2 * np.pi), 0, None)
+    frame["out.electricity.pv.energy_consumption"] = -0.5 * shape
+    frame.to_parquet(release / timeseries_path(1001, 0, "TX"), index=False)
+    table = _convert(release, tmp_path, weather=epw_path)
+    assert "try --timestamp-offset -1" in capsys.readouterr().err
+    assert table["solar_generation"].max() > 300  # W/kW around noon from the EPW
