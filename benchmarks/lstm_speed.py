@@ -51,7 +51,7 @@ def inputs(n: int, steps: int, seed: int = 0) -> list[dict[str, np.ndarray]]:
     return rows
 
 
-def us_per_step(n: int, backend: str, steps: int, repeats: int) -> float:
+def us_per_step(n: int, backend: str, steps: int, repeats: int) -> tuple[float, float]:
     bank = make_bank(n, backend)
     rows = inputs(n, steps)
     hvac = np.ones(n)
@@ -63,16 +63,17 @@ def us_per_step(n: int, backend: str, steps: int, repeats: int) -> float:
         for row in rows:
             bank.step(row, hvac)
         times.append((time.perf_counter() - start) / steps * 1e6)
-    return statistics.median(times)
+    return statistics.median(times), min(times)
 
 
 def main(argv: list[str]) -> None:
     sizes = [int(x) for x in argv] or [1, 3, 6, 17]
-    print(f"{'B':>3} {'numpy us/step':>14} {'numba us/step':>14} {'numba us/bldg':>14}")
+    print("us per bank.step call: median (min) over repeats")
+    print(f"{'B':>3} {'numpy':>16} {'numba':>16} {'numba per bldg':>15}")
     for n in sizes:
-        np_us = us_per_step(n, "numpy", 200, 7)
-        nb_us = us_per_step(n, "numba", 1000, 9)
-        print(f"{n:>3} {np_us:>14.1f} {nb_us:>14.1f} {nb_us / n:>14.1f}")
+        np_med, np_min = us_per_step(n, "numpy", 200, 7)
+        nb_med, nb_min = us_per_step(n, "numba", 1000, 11)
+        print(f"{n:>3} {np_med:>8.1f} ({np_min:>5.1f}) {nb_med:>8.1f} ({nb_min:>5.1f}) {nb_med / n:>15.1f}")
 
 
 if __name__ == "__main__":

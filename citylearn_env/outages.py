@@ -29,12 +29,12 @@ def _steps_per_day(seconds_per_time_step: float) -> int:
 def _start_choices(start_time_steps: Sequence[int] | None, spd: int) -> np.ndarray:
     if start_time_steps is None:
         return np.arange(spd)
-    choices = np.asarray(start_time_steps)
-    if choices.ndim != 1 or choices.size == 0 or not np.issubdtype(choices.dtype, np.integer) \
+    choices = np.asarray(start_time_steps, dtype=np.float64)
+    if choices.ndim != 1 or choices.size == 0 or np.any(choices != np.round(choices)) \
             or choices.min() < 0 or choices.max() >= spd:
         raise SchemaError(f"start_time_steps must be a non-empty list of integer steps of the day in 0..{spd - 1}",
                           column="power_outage.start_time_steps")
-    return choices
+    return choices.astype(np.int64)
 
 
 def reliability_outage_signal(n_steps: int, *, saifi: float = 1.436, caidi: float = 331.2, seed: int,
@@ -64,6 +64,9 @@ def reliability_outage_signal(n_steps: int, *, saifi: float = 1.436, caidi: floa
         raise SchemaError(f"n_steps must be >= 0, not {n_steps}", column="episode_time_steps")
     if not (saifi >= 0 and caidi >= 0):
         raise SchemaError(f"saifi ({saifi}) and caidi ({caidi}) must be >= 0", column="power_outage")
+    if not 0 <= int(seed) < 2**32 or int(seed) != seed:
+        raise SchemaError(f"random seed must be an integer in 0..2**32-1, not {seed!r}",
+                          column="power_outage.random_seed")
     spd = _steps_per_day(seconds_per_time_step)
     choices = _start_choices(start_time_steps, spd)
     steps_per_minute = 60.0 / float(seconds_per_time_step)

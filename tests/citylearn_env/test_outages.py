@@ -97,6 +97,13 @@ def test_bad_settings_are_refused():
         reliability_outage_signal(720, seed=1, seconds_per_time_step=7000.0)
     with pytest.raises(SchemaError, match="start_time_steps"):
         reliability_outage_signal(720, seed=1, start_time_steps=[24])
+    with pytest.raises(SchemaError, match="start_time_steps"):
+        reliability_outage_signal(720, seed=1, start_time_steps=[2.5])
+    with pytest.raises(SchemaError, match="random seed"):
+        reliability_outage_signal(720, seed=-1, compat=True)
+    # integral floats (as read from JSON) are accepted
+    np.testing.assert_array_equal(reliability_outage_signal(720, seed=5, start_time_steps=[3.0]),
+                                  reliability_outage_signal(720, seed=5, start_time_steps=[3]))
 
 
 def test_csv_outage_signal():
