@@ -14,8 +14,12 @@ $(STAMP): pyproject.toml
 	$(PY) -m pip install -q -e ".[dev,rl,dask,energyplus,fmu-dev,fast]"
 	touch $(STAMP)
 
+# Prefect runs with no server (ephemeral); quiet and patient on a 2-core machine
+PREFECT_ENV := PREFECT_SERVER_ANALYTICS_ENABLED=false PREFECT_LOGGING_LEVEL=WARNING \
+	PREFECT_SERVER_EPHEMERAL_STARTUP_TIMEOUT_SECONDS=180
+
 run: $(STAMP)
-	$(PY) -m pipeline.cli run
+	$(PREFECT_ENV) $(PY) -m pipeline.cli build raw/district.toml
 
 test: $(STAMP)
 	$(PY) -m ruff check .

@@ -125,8 +125,9 @@ def test_history_columns_and_district_rows(schema):
 
 
 def test_import_is_light():
-    code = ("import sys, time; t = time.perf_counter(); import citylearn_env; "
-            "print(time.perf_counter() - t, 'torch' in sys.modules, 'prefect' in sys.modules)")
+    # CPU time, not wall time: the suite runs on 2 busy cores; the import costs ~0.25 s of CPU here
+    code = ("import sys, time; t = time.process_time(); import citylearn_env; "
+            "print(time.process_time() - t, 'torch' in sys.modules, 'prefect' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split()
     assert float(out[0]) < 1.0
     assert out[1:] == ["False", "False"]
