@@ -7,7 +7,12 @@ row 0 is CityLearn hour 1) in the chosen layout, and is also a plain Python func
 from __future__ import annotations
 
 import argparse
+import datetime as dt
+import os
+from collections.abc import Iterable
 from pathlib import Path
+
+import pandas as pd
 
 from citylearn_env.layout import (
     BUILDING_COLUMNS,
@@ -22,9 +27,11 @@ from pipeline.ingest.citylearn_csv import write_citylearn_csv
 from pipeline.ingest.timeindex import period_index, select_period
 
 DEFAULT_CACHE = Path(".cache") / "districtgen"
+PathLike = str | os.PathLike
+DateLike = str | dt.date
 
 
-def read_weather_file(path: str | Path, tmy_year: int | None = None):
+def read_weather_file(path: PathLike, tmy_year: int | None = None) -> tuple[pd.DataFrame, dict]:
     """EPW (``.epw``) or ResStock county CSV (anything else) -> ``(frame, metadata)``."""
     from pipeline.ingest.weather import read_epw, read_resstock_weather
 
@@ -32,7 +39,8 @@ def read_weather_file(path: str | Path, tmy_year: int | None = None):
     return read_epw(path, tmy_year=tmy_year) if path.suffix.lower() == ".epw" else read_resstock_weather(path)
 
 
-def write_weather(path, start, end, output, *, layout="v2.2", forecast="perfect", seed=0) -> Path:
+def write_weather(path: PathLike, start: DateLike, end: DateLike, output: PathLike, *, layout: str = "v2.2",
+                  forecast: str = "perfect", seed: int = 0) -> Path:
     """Write CityLearn ``weather.csv`` for a period from an EPW or ResStock weather file."""
     from pipeline.ingest.weather import ForecastSpec, citylearn_weather
 
@@ -42,7 +50,8 @@ def write_weather(path, start, end, output, *, layout="v2.2", forecast="perfect"
     return write_citylearn_csv(table, WEATHER_COLUMNS, output, layout)
 
 
-def write_pricing(path, start, end, output, *, layout="v2.2") -> Path:
+def write_pricing(path: PathLike, start: DateLike, end: DateLike, output: PathLike, *,
+                  layout: str = "v2.2") -> Path:
     """Write CityLearn ``pricing.csv`` for a period from a tariff TOML file."""
     from pipeline.ingest.tariff import citylearn_pricing, read_tariff
 
@@ -50,8 +59,9 @@ def write_pricing(path, start, end, output, *, layout="v2.2") -> Path:
     return write_citylearn_csv(table, PRICING_COLUMNS, output, layout)
 
 
-def write_carbon(path, start, end, output, *, layout="v2.2", clock="prevailing",
-                 timezone="America/Chicago", factors=None) -> Path:
+def write_carbon(path: PathLike, start: DateLike, end: DateLike, output: PathLike, *, layout: str = "v2.2",
+                 clock: str = "prevailing", timezone: str = "America/Chicago",
+                 factors: PathLike | None = None) -> Path:
     """Write CityLearn ``carbon_intensity.csv`` from an ERCOT workbook (.xlsx) or a long CSV."""
     from pipeline.carbon import carbon_intensity, read_emission_factors
     from pipeline.ingest.fuel_mix import read_fuel_mix_csv, read_fuel_mix_workbook
@@ -67,9 +77,11 @@ def write_carbon(path, start, end, output, *, layout="v2.2", clock="prevailing",
     return write_citylearn_csv(table, CARBON_COLUMNS, output, layout)
 
 
-def write_building(source, building, start, end, output, *, layout="v2.2", upgrade=0, state=None,
-                   cache_dir=DEFAULT_CACHE, timestamp_offset_hours=0.0, weather=None, tilt=None, azimuth=180.0,
-                   timezone=None, holidays=()) -> Path:
+def write_building(source: PathLike, building: int, start: DateLike, end: DateLike, output: PathLike, *,
+                   layout: str = "v2.2", upgrade: int = 0, state: str | None = None,
+                   cache_dir: PathLike = DEFAULT_CACHE, timestamp_offset_hours: float = 0.0,
+                   weather: PathLike | None = None, tilt: float | None = None, azimuth: float = 180.0,
+                   timezone: str | None = None, holidays: Iterable[DateLike] = ()) -> Path:
     """Write one CityLearn building CSV from EULP data (local release folder or base URL)."""
     from pipeline.ingest.eulp import (
         building_loads,

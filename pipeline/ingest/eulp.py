@@ -22,6 +22,7 @@ absent); ``cooling_set_point_c`` / ``heating_set_point_c`` (metadata ``in.coolin
 from __future__ import annotations
 
 import re
+from collections.abc import Iterable
 from pathlib import Path
 
 import numpy as np
@@ -161,8 +162,9 @@ def building_loads(timeseries: pd.DataFrame, metadata: pd.Series, *, file: objec
     return out
 
 
-def citylearn_building(loads: pd.DataFrame, index: pd.DatetimeIndex, *, holidays=(), timezone: str | None = None,
-                       solar_generation: pd.Series | None = None, file: object = None) -> pd.DataFrame:
+def citylearn_building(loads: pd.DataFrame, index: pd.DatetimeIndex, *, holidays: Iterable = (),
+                       timezone: str | None = None, solar_generation: pd.Series | None = None,
+                       file: object = None) -> pd.DataFrame:
     """CityLearn building columns (internal names of :data:`BUILDING_COLUMNS`) for the hours of ``index``.
 
     ``solar_generation`` [W/kW] defaults to 0 (filled later by PV sizing); indoor relative humidity is not
