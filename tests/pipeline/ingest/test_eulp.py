@@ -236,3 +236,21 @@ def test_command_notes_pv_output_off_solar_noon(release, tmp_path, epw_path, cap
     table = _convert(release, tmp_path, weather=epw_path)
     assert "try --timestamp-offset -1" in capsys.readouterr().err
     assert table["solar_generation"].max() > 300  # W/kW around noon from the EPW
+
+
+def test_standard_time_series_has_no_gap_on_dst_change_days(tmp_path):
+    """EULP timestamps are standard time: the spring and fall change days keep 24 hours each."""
+    from pipeline.ingest.calendar import calendar_columns
+    from pipeline.ingest.eulp import building_loads
+
+    for day in ("2018-03-11", "2018-11-04"):
+        ends = pd.date_range(pd.Timestamp(day) + pd.Timedelta("15min"), pd.Timestamp(day) + pd.Timedelta("1D"),
+                             freq="15min")
+        frame = _timeseries().iloc[: len(ends)].assign(timestamp=ends)
+        path = tmp_path / f"{day}.parquet"
+        frame.to_parquet(path, index=False)
+        series, meta = read_eulp_timeseries(path)
+        loads = building_loads(series, _metadata().set_index("bldg_id").loc[1001])
+        assert len(loads) == 24 and loads.index[0] == pd.Timestamp(day)
+        status = calendar_columns(loads.index, timezone="America/Chicago")["daylight_savings_status"]
+        assert status.sum() == (22 if day.startswith("2018-03") else 1)

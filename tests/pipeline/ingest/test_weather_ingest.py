@@ -66,6 +66,7 @@ def test_units_and_ranges(austin):
     night = frame.index.hour.isin([0, 1, 2, 3, 22, 23])
     assert (frame.loc[night, "ghi_w_m2"] == 0).all()
     assert 15 < frame.loc["2018-07", "outdoor_dry_bulb_temperature_c"].mean() < 35  # Austin July, degC
+    assert len(frame.loc["2018-03-11"]) == 24 and len(frame.loc["2018-11-04"]) == 24  # standard time: no DST
 
 
 def test_noisy_forecasts_are_seeded_independent_and_bounded(austin):
