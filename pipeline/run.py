@@ -30,6 +30,15 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     build.add_argument("--no-prefect", action="store_true", help="run the steps in-process, without Prefect")
     build.set_defaults(func=build_command)
 
+    paper = subparsers.add_parser("paper", help="run the SimBuild 2024 paper's 17 benchmarks on a district")
+    paper.add_argument("schema", type=Path, help="a district schema.json (e.g. artifacts/default/schema.json)")
+    paper.add_argument("-o", "--output", type=Path, required=True, help="folder for results.csv / results.md")
+    paper.add_argument("--only", nargs="*", help="benchmark ids to run (default: all 17)")
+    paper.add_argument("--sac-episodes", type=int, default=150, help="SAC training episodes (paper: 150)")
+    paper.add_argument("--multiplier", type=float, default=3.0, help="over-cooling multiplier m of d_o")
+    paper.add_argument("--seed", type=int, default=0)
+    paper.set_defaults(func=paper_command)
+
     verify = subparsers.add_parser("verify", help="re-check a built district's manifest hashes and validate it")
     verify.add_argument("folder", type=Path)
     verify.set_defaults(func=verify_command)
@@ -99,4 +108,13 @@ def verify_command(args: argparse.Namespace) -> int:
     with tempfile.TemporaryDirectory() as scratch:
         validate_district(args.folder / "schema.json", Path(scratch))
     print(f"{args.folder}: {len(problems)} problems; hashes match the manifest and the environment runs it")
+    return 0
+
+
+def paper_command(args: argparse.Namespace) -> int:
+    from pipeline.paper import run_all
+
+    run_all(args.schema, args.output, only=args.only, sac_episodes=args.sac_episodes, seed=args.seed,
+            multiplier=args.multiplier)
+    print((args.output / "results.md").read_text())
     return 0
