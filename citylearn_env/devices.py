@@ -92,10 +92,10 @@ def battery_limit(
     e0 = np.maximum(0.0, soc_prev * capacity * (1.0 - battery["loss_coefficient"]))
     soc0 = e0 / np.maximum(capacity, 1e-6)
     p_max = nominal * interpolate_curve(soc0, battery["cp_x"], battery["cp_y"], battery["cp_slope"], compat=compat)
-    charge = np.minimum.reduce([p_max, nominal - booked, state["capacity"] - e0, energy])
+    charge = np.minimum(np.minimum(p_max, nominal - booked), np.minimum(state["capacity"] - e0, energy))
     floor = -np.maximum((soc_prev - (1.0 - battery["depth_of_discharge"])) * capacity
                         * np.sqrt(state["efficiency"]), 0.0)
-    discharge = np.maximum.reduce([-p_max, floor, energy])
+    discharge = np.maximum(np.maximum(-p_max, floor), energy)
     return np.where(energy >= 0, charge, discharge)
 
 
