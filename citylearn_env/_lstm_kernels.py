@@ -3,8 +3,8 @@
 Both implementations do the same work for every *active* model slot ``m`` (one per building):
 
 1. shift the model's input buffer ``buf[m]`` (lookback + 1 rows, oldest first) by one row and write the
-   newest normalised inputs, built from the raw per-building row ``raw[b]``: column ``src[m, i]`` of the raw
-   row, optionally periodic-encoded (``kind`` 1 = sin, 2 = cos of 2*pi*x/period), then min-max normalised
+   newest normalised inputs, built from the raw inputs ``raw`` (n_raw, B): entry ``raw[src[m, i], b]``,
+   optionally periodic-encoded (``kind`` 1 = sin, 2 = cos of 2*pi*x/period), then min-max normalised
    ``(x - lo) / span``;
 2. once the buffer is full, run the ``lookback``-step window (exogenous inputs from rows 1..lookback, the
    indoor-temperature column ``tcol`` from rows 0..lookback-1) through the stacked LSTM, starting from the
@@ -77,7 +77,7 @@ def _lstm_group_step(raw, bidx, slots, src, kind, period, lo, span, tcol, out_lo
             for i in range(n_in):
                 buf[m, k, i] = buf[m, k + 1, i]
         for i in range(n_in):
-            v = raw[b, src[m, i]]
+            v = raw[src[m, i], b]
             if kind[m, i] == 1:
                 v = math.sin(2.0 * math.pi * v / period[m, i])
             elif kind[m, i] == 2:
@@ -158,7 +158,7 @@ def numpy_group_step(raw, bidx, slots, src, kind, period, lo, span, tcol, out_lo
     """Vectorised NumPy version of the group step (same arguments, same results up to round-off)."""
     lookback = buf.shape[1] - 1
     n_layers, n_hidden = h.shape[1], h.shape[2]
-    v = raw[bidx[:, None], src[slots]]
+    v = raw[src[slots], bidx[:, None]]
     k, p = kind[slots], period[slots]
     angle = 2.0 * np.pi * v / p
     v = np.where(k == 1, np.sin(angle), np.where(k == 2, np.cos(angle), v))

@@ -322,7 +322,7 @@ class LSTMBank:
             raise ImportError("backend='numba' needs the numba package")
         self.backend = "numba" if kernel is not None else "numpy"
         self._kernel = kernel or _lstm_kernels.numpy_group_step
-        self._raw = np.zeros((n, len(names)))
+        self._raw = np.zeros((len(names), n))
         self._rows = np.arange(n)
         self.reset()
 
@@ -332,6 +332,7 @@ class LSTMBank:
             group.clear(slice(None))
         self._current = np.full(self.n_buildings, -1, dtype=np.int64)
         self._members: list[tuple[np.ndarray, np.ndarray]] = []
+        self._modes_key = b""
 
     def _instances(self, hvac_mode) -> np.ndarray:
         heating = np.asarray(hvac_mode).reshape(self.n_buildings) > 1
@@ -366,24 +367,26 @@ class LSTMBank:
         temperature is the value the building holds at t before prediction. ``hvac_mode`` (B,) at t.
         Returns the predicted indoor dry-bulb temperature (B,) in degC, NaN where the buffer is not yet full.
         """
-        raw = self._raw
+        raw = self._raw  # (n_raw, B): one row per raw input name
         try:
             for j, name in enumerate(self.input_names):
-                raw[:, j] = obs[name]
+                raw[j] = obs[name]
         except KeyError as exc:
             raise SchemaError(f"LSTM input {exc.args[0]!r} missing from the step inputs",
                               column=exc.args[0]) from None
-        inst = self._instances(hvac_mode)
-        if not self._members or (inst != self._current).any():
-            changed = inst != self._current
-            for b in np.flatnonzero(changed):
+        modes = np.asarray(hvac_mode, dtype=np.float64).reshape(self.n_buildings)
+        key = modes.tobytes()
+        if key != self._modes_key:  # model selection changes only when hvac_mode does
+            inst = self._instances(modes)
+            for b in np.flatnonzero(inst != self._current):
                 self._groups[self._inst_group[inst[b]]].clear(self._inst_slot[inst[b]])
             self._current = inst
             self._members = []
             for g in range(len(self._groups)):
                 bidx = np.flatnonzero(self._inst_group[inst] == g)
                 self._members.append((bidx, self._inst_slot[inst[bidx]]))
-        out = np.full(self.n_buildings, np.nan)
+            self._modes_key = key
+        out = np.empty(self.n_buildings)  # every building is in exactly one group and gets written
         for group, (bidx, slots) in zip(self._groups, self._members, strict=True):
             if len(bidx):
                 self._kernel(raw, bidx, slots, group.src, group.kind, group.period, group.lo, group.span,
