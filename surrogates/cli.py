@@ -1,9 +1,80 @@
-"""CLI sub-commands ``districtgen surrogate train|evaluate``."""
+"""CLI sub-commands ``districtgen surrogate train|evaluate`` (each also a plain Python function)."""
 
 from __future__ import annotations
 
 import argparse
+import json
+import os
+from pathlib import Path
+
+from surrogates.train import TrainConfig
+
+
+def train(table_path: str | os.PathLike, out_dir: str | os.PathLike, name: str | None = None,
+          config: TrainConfig | None = None) -> dict:
+    """Read an ILV table (CSV/parquet), train, evaluate and export; returns the metrics report."""
+    from surrogates.export import train_and_export
+    from surrogates.sources.csv import read_ilv_table
+
+    table = read_ilv_table(table_path)
+    name = name or Path(table_path).stem
+    return train_and_export(table, out_dir, name, config, source=table_path)
+
+
+def evaluate(pth: str | os.PathLike, table_path: str | os.PathLike, all_runs: bool = False,
+             plot: str | os.PathLike | None = None) -> dict:
+    """Metrics of an exported model on an ILV table: its held-out test segments (or every run)."""
+    from surrogates.evaluate import evaluate_segments, plot_predictions
+    from surrogates.export import load_surrogate
+    from surrogates.sources.csv import read_ilv_table
+    from surrogates.train import run_segments, split_segments
+
+    model, norm, names, lookback = load_surrogate(pth)
+    table = read_ilv_table(table_path)
+    segments = list(run_segments(table).values()) if all_runs else split_segments(table)["test"]
+    metrics, hours = evaluate_segments(model, norm, names, lookback, table, segments)
+    if plot:
+        plot_predictions(hours, plot, title=f"{Path(pth).stem} on {Path(table_path).name}")
+    return metrics
+
+
+def _train_command(args: argparse.Namespace) -> int:
+    config = TrainConfig(hidden_size=args.hidden, num_layers=args.layers, lookback=args.lookback,
+                         epochs=args.epochs, seed=args.seed, progress=not args.quiet)
+    report = train(args.table, args.out_dir, args.name, config)
+    print(json.dumps({"building": report["building"], "files": report["files"],
+                      "train_seconds": report["training"]["train_seconds"],
+                      "one_step_rmse_c": report["test"]["one_step_rmse_c"],
+                      "closed_loop_rmse_c": report["test"]["closed_loop_rmse_c"],
+                      "monthly_rmse_c": report["test"]["monthly_rmse_c"]}, indent=2))
+    return 0
+
+
+def _evaluate_command(args: argparse.Namespace) -> int:
+    print(json.dumps(evaluate(args.model, args.table, all_runs=args.all, plot=args.plot), indent=2))
+    return 0
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the surrogate sub-commands to ``districtgen``."""
+    parser = subparsers.add_parser("surrogate", help="train or evaluate an LSTM indoor-temperature surrogate")
+    sub = parser.add_subparsers(dest="surrogate_command", required=True)
+    defaults = TrainConfig()
+    train_parser = sub.add_parser("train", help="train one building's LSTM on an ILV table and export it")
+    train_parser.add_argument("table", help="ILV table (.csv or .parquet), see docs/surrogates.md")
+    train_parser.add_argument("-o", "--out-dir", required=True, help="folder for <name>.pth, .dynamics.json, "
+                              ".metrics.json, .png")
+    train_parser.add_argument("--name", help="building name (default: the table's file stem)")
+    train_parser.add_argument("--hidden", type=int, default=defaults.hidden_size, help="LSTM hidden size")
+    train_parser.add_argument("--layers", type=int, default=defaults.num_layers, help="stacked LSTM layers")
+    train_parser.add_argument("--lookback", type=int, default=defaults.lookback, help="window length (h)")
+    train_parser.add_argument("--epochs", type=int, default=defaults.epochs, help="closed-loop epochs (max)")
+    train_parser.add_argument("--seed", type=int, default=defaults.seed)
+    train_parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    train_parser.set_defaults(func=_train_command)
+    eval_parser = sub.add_parser("evaluate", help="print one-step and closed-loop metrics (JSON)")
+    eval_parser.add_argument("model", help="<name>.pth written by 'surrogate train' (dynamics JSON beside it)")
+    eval_parser.add_argument("table", help="ILV table (.csv or .parquet)")
+    eval_parser.add_argument("--all", action="store_true", help="evaluate every run, not only the test split")
+    eval_parser.add_argument("--plot", help="also write a PNG of prediction vs simulation")
+    eval_parser.set_defaults(func=_evaluate_command)

@@ -1,0 +1,117 @@
+"""Evaluation of a surrogate on held-out ILV runs: one-step and closed-loop RMSE, monthly RMSE and MAPE.
+
+Each evaluated segment is rolled out from its first hour like an environment episode: ``lookback`` warm-up
+hours with the simulated temperature, then the stateful sliding window of :func:`surrogates.model.rollout`
+from zero state, closed-loop (the environment's mode) or one-step (simulated temperature history).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import torch
+
+from surrogates.model import LSTMModel, Normalization, feature_matrix, rollout, torch_threads
+from surrogates.train import Segment
+
+
+def predict_segment(model: LSTMModel, normalization: Normalization, inputs: Sequence[str], lookback: int,
+                    table: pd.DataFrame, segment: Segment, closed_loop: bool = True) -> np.ndarray:
+    """Predicted indoor temperature (degC) of hours ``lookback ..`` of ``segment``."""
+    raw = feature_matrix(table.iloc[segment.start:segment.stop], inputs)
+    x = torch.from_numpy(normalization.apply(raw).astype(np.float32)).unsqueeze(0)
+    model.eval()
+    with torch.no_grad(), torch_threads(1):
+        y = rollout(model, x, lookback, closed_loop=closed_loop)[0].numpy().astype(float)
+    return normalization.target_to_celsius(y)
+
+
+def _rmse(error: np.ndarray) -> float:
+    return float(np.sqrt(np.mean(error ** 2)))
+
+
+def evaluate_segments(model: LSTMModel, normalization: Normalization, inputs: Sequence[str], lookback: int,
+                      table: pd.DataFrame, segments: Sequence[Segment]) -> tuple[dict, pd.DataFrame]:
+    """Metrics JSON (dict) and the per-hour frame (reference, timestamp, month, simulated, closed_loop,
+    one_step) of all ``segments`` of a validated, sorted ILV table.
+
+    Monthly metrics group the hours by (reference, calendar month); MAPE is in % of the simulated degC.
+    """
+    frames = []
+    for seg in segments:
+        if seg.stop - seg.start <= lookback:
+            continue
+        rows = table.iloc[seg.start + lookback:seg.stop]
+        frames.append(pd.DataFrame({
+            "reference": rows["reference"].to_numpy(), "timestamp": rows["timestamp"].to_numpy(),
+            "month": rows["month"].to_numpy(), "simulated": rows["indoor_dry_bulb_temperature"].to_numpy(),
+            "closed_loop": predict_segment(model, normalization, inputs, lookback, table, seg, True),
+            "one_step": predict_segment(model, normalization, inputs, lookback, table, seg, False),
+        }))
+    hours = pd.concat(frames, ignore_index=True)
+    error_cl = (hours["closed_loop"] - hours["simulated"]).to_numpy()
+    error_os = (hours["one_step"] - hours["simulated"]).to_numpy()
+    monthly = []
+    for (ref, month), group in hours.groupby(["reference", "month"], sort=True):
+        err = (group["closed_loop"] - group["simulated"]).to_numpy()
+        monthly.append({"reference": int(ref), "month": int(month), "hours": len(group),
+                        "rmse_c": round(_rmse(err), 4),
+                        "mape_pct": round(float(np.mean(np.abs(err) / np.abs(group["simulated"]))) * 100, 3),
+                        "one_step_rmse_c": round(_rmse((group["one_step"] - group["simulated"]).to_numpy()), 4)})
+    monthly_rmse = np.array([m["rmse_c"] for m in monthly])
+    metrics = {
+        "hours": len(hours),
+        "references": sorted(int(r) for r in hours["reference"].unique()),
+        "one_step_rmse_c": round(_rmse(error_os), 4),
+        "closed_loop_rmse_c": round(_rmse(error_cl), 4),
+        "closed_loop_mae_c": round(float(np.mean(np.abs(error_cl))), 4),
+        "closed_loop_bias_c": round(float(np.mean(error_cl)), 4),
+        "monthly_rmse_c": {"median": round(float(np.median(monthly_rmse)), 4),
+                           "mean": round(float(np.mean(monthly_rmse)), 4),
+                           "max": round(float(np.max(monthly_rmse)), 4)},
+        "monthly_mape_pct": {"median": round(float(np.median([m["mape_pct"] for m in monthly])), 3),
+                             "max": round(float(np.max([m["mape_pct"] for m in monthly])), 3)},
+        "monthly": monthly,
+    }
+    return metrics, hours
+
+
+def write_json(data: dict, path: str | os.PathLike) -> Path:
+    """Write JSON atomically (temp file in the same folder, then rename)."""
+    path = Path(path)
+    temp = path.with_name(f".{path.name}.tmp")
+    temp.write_text(json.dumps(data, indent=2) + "\n")
+    os.replace(temp, path)
+    return path
+
+
+def plot_predictions(hours: pd.DataFrame, path: str | os.PathLike, title: str = "") -> Path:
+    """PNG: simulated vs closed-loop and one-step predicted indoor temperature of the first evaluated run,
+    whole period on top and its first two weeks below."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    path = Path(path)
+    ref = hours["reference"].iloc[0]
+    run = hours[hours["reference"] == ref]
+    fig, axes = plt.subplots(2, 1, figsize=(11, 6.5))
+    for ax, part in zip(axes, (run, run.iloc[:336]), strict=True):
+        ax.plot(part["timestamp"], part["simulated"], color="black", lw=1.0, label="simulated")
+        ax.plot(part["timestamp"], part["closed_loop"], color="tab:red", lw=0.9, label="LSTM closed loop")
+        ax.plot(part["timestamp"], part["one_step"], color="tab:blue", lw=0.6, alpha=0.7, label="LSTM one step")
+        ax.set_ylabel("indoor temperature (°C)")
+    axes[0].set_title(title or f"reference run {ref}")
+    axes[0].legend(loc="upper right", fontsize=8)
+    fig.tight_layout()
+    temp = path.with_name(f".{path.stem}.tmp.png")
+    fig.savefig(temp, dpi=90)
+    plt.close(fig)
+    os.replace(temp, path)
+    return path

@@ -1,0 +1,133 @@
+"""Export of a trained surrogate: ``<name>.pth`` (CityLearn checkpoint format), the schema ``dynamics`` block
+and reading both back.
+
+The .pth is ``torch.save({"model_state_dict": state_dict, "epoch": int, "train_loss": float,
+"val_loss": float})`` with float32 tensors under the upstream keys ``l_lstm.weight_ih_l0`` ...
+``l_linear.bias``: upstream CityLearn (``checkpoint["model_state_dict"]``), ``torch.load(weights_only=True)``
+and citylearn_env's restricted reader all load it. Everything else (input names, min-max bounds, sizes,
+lookback) lives in the dynamics block, in schema v2.2 layout::
+
+    {"type": "citylearn.dynamics.LSTMDynamics",
+     "attributes": {"input_size": 14, "hidden_size": 16, "num_layers": 2, "lookback": 12,
+                    "filename": "Building_1.pth", "input_observation_names": [...],
+                    "input_normalization_minimum": [...], "input_normalization_maximum": [...]}}
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from pipeline.errors import InputError
+from surrogates.evaluate import write_json
+from surrogates.model import LSTMModel, Normalization
+from surrogates.train import Trained
+
+DYNAMICS_TYPE = "citylearn.dynamics.LSTMDynamics"
+
+
+def dynamics_block(trained: Trained, filename: str) -> dict:
+    """The schema ``dynamics`` object of a trained surrogate (plain JSON types)."""
+    model = trained.model
+    return {"type": DYNAMICS_TYPE, "attributes": {
+        "input_size": model.input_size, "hidden_size": model.hidden_size, "num_layers": model.num_layers,
+        "lookback": trained.config.lookback, "filename": filename,
+        "input_observation_names": list(trained.inputs),
+        "input_normalization_minimum": [float(v) for v in trained.normalization.minimum],
+        "input_normalization_maximum": [float(v) for v in trained.normalization.maximum]}}
+
+
+def save_checkpoint(trained: Trained, path: str | os.PathLike) -> Path:
+    """Write the CityLearn-format checkpoint atomically."""
+    path = Path(path)
+    best = trained.history[trained.best_epoch] if trained.history else {}
+    scale = float(trained.normalization.maximum[-1] - trained.normalization.minimum[-1])
+    state = {k: v.detach().to(torch.float32).clone() for k, v in trained.model.state_dict().items()}
+    checkpoint = {"model_state_dict": state, "epoch": int(trained.best_epoch),
+                  "train_loss": float((best.get("train_rmse_c", 0.0) / scale) ** 2),
+                  "val_loss": float((best.get("val_closed_loop_rmse_c", 0.0) / scale) ** 2)}
+    temp = path.with_name(f".{path.name}.tmp")
+    torch.save(checkpoint, temp)
+    os.replace(temp, path)
+    return path
+
+
+def export_surrogate(trained: Trained, out_dir: str | os.PathLike, name: str) -> dict[str, Path]:
+    """Write ``<name>.pth`` and ``<name>.dynamics.json`` into ``out_dir``; returns their paths."""
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    pth = save_checkpoint(trained, out_dir / f"{name}.pth")
+    block = write_json(dynamics_block(trained, pth.name), out_dir / f"{name}.dynamics.json")
+    return {"pth": pth, "dynamics": block}
+
+
+def load_surrogate(pth: str | os.PathLike, dynamics: dict | str | os.PathLike | None = None):
+    """Load an exported model: ``(model, normalization, input names, lookback)``.
+
+    ``dynamics`` is the block (dict) or its JSON file; default ``<pth stem>.dynamics.json`` next to the .pth.
+    """
+    pth = Path(pth)
+    if not pth.is_file():
+        raise InputError("model file not found", file=pth)
+    if not isinstance(dynamics, dict):
+        block_path = Path(dynamics) if dynamics is not None else pth.with_name(f"{pth.stem}.dynamics.json")
+        if not block_path.is_file():
+            raise InputError("dynamics block not found (written next to the .pth by 'surrogate train')",
+                             file=block_path)
+        try:
+            dynamics = json.loads(block_path.read_text())
+        except json.JSONDecodeError as error:
+            raise InputError(f"not valid JSON: {error}", file=block_path) from None
+    attributes = dynamics.get("attributes", dynamics)
+    for key in ("input_observation_names", "input_normalization_minimum", "input_normalization_maximum",
+                "hidden_size", "num_layers", "lookback"):
+        if key not in attributes:
+            raise InputError("missing key in the dynamics block", file=pth, column=key)
+    names = list(attributes["input_observation_names"])
+    lows, highs = attributes["input_normalization_minimum"], attributes["input_normalization_maximum"]
+    if not len(names) == len(lows) == len(highs):
+        raise InputError("input names and min/max lists differ in length", file=pth,
+                         column="input_normalization_minimum")
+    try:
+        checkpoint = torch.load(pth, map_location="cpu", weights_only=True)
+    except Exception as error:  # torch raises many types for a corrupt archive
+        raise InputError(f"cannot read the model: {error}", file=pth) from None
+    state = checkpoint.get("model_state_dict", checkpoint)
+    model = LSTMModel(len(names), int(attributes["hidden_size"]), int(attributes["num_layers"]))
+    try:
+        model.load_state_dict(state)
+    except RuntimeError as error:
+        raise InputError(f"weights do not match the dynamics block: {error}", file=pth) from None
+    model.eval()
+    norm = Normalization(np.asarray(lows, dtype=float), np.asarray(highs, dtype=float))
+    return model, norm, names, int(attributes["lookback"])
+
+
+def train_and_export(table, out_dir: str | os.PathLike, name: str, config=None,
+                     source: object = "<ILV table>") -> dict:
+    """Train on an ILV table, evaluate on its held-out test segments, and write ``<name>.pth``,
+    ``<name>.dynamics.json``, ``<name>.metrics.json`` and ``<name>.png`` into ``out_dir``.
+
+    Returns the metrics dict (also in the JSON). Bad input fails before any training or writing.
+    """
+    from surrogates.evaluate import evaluate_segments, plot_predictions
+    from surrogates.train import TrainConfig, train_surrogate
+
+    trained = train_surrogate(table, config or TrainConfig(), source=source)
+    from surrogates.ilv import validate_ilv
+
+    clean = validate_ilv(table, source=source)
+    metrics, hours = evaluate_segments(trained.model, trained.normalization, trained.inputs,
+                                       trained.config.lookback, clean, trained.splits["test"])
+    paths = export_surrogate(trained, out_dir, name)
+    report = {"building": name, "source": str(source), "test": metrics, "training": trained.summary(),
+              "files": {k: p.name for k, p in paths.items()}}
+    write_json(report, Path(out_dir) / f"{name}.metrics.json")
+    plot_predictions(hours, Path(out_dir) / f"{name}.png",
+                     title=f"{name}: held-out run, closed-loop monthly RMSE median "
+                           f"{metrics['monthly_rmse_c']['median']:.2f} °C")
+    return report

@@ -1,0 +1,145 @@
+"""The LSTM surrogate: input features, min-max normalisation, the network and its stateful closed-loop rollout.
+
+Network (CityLearn-compatible): ``l_lstm = nn.LSTM(input_size, hidden_size, num_layers, batch_first=True)``,
+the top layer's output at the last window row goes through ``l_linear = nn.Linear(hidden_size, 1)``; the
+output is the normalised indoor temperature. State-dict keys ``l_lstm.weight_ih_l0`` ... ``l_linear.bias``.
+
+Inference mode (what citylearn_env runs; :func:`rollout` is its torch reference, used for training and
+evaluation alike). For a run with normalised inputs ``x[t]`` (indoor temperature last) and lookback ``L``:
+
+* the first ``L`` hours are warm-up: their indoor temperatures are the data values;
+* for ``t >= L`` the window is ``L`` rows: exogenous inputs of hours ``t-L+1 .. t`` and the indoor
+  temperature of hours ``t-L .. t-1`` (the ``L+1``-slot buffer of CityLearn);
+* the hidden and cell states start at zeros at the first prediction and are carried from one window to the
+  next although consecutive windows overlap by ``L-1`` rows (stateful sliding window);
+* the prediction for ``t`` replaces the indoor temperature of ``t`` in the history (closed loop).
+
+Periodic inputs: ``x_sin = sin(2 pi x / P)``, ``x_cos = cos(2 pi x / P)`` with P = 12 for ``month``, 24 for
+``hour`` (1..24) and 7 for ``day_type`` (1..7; the holiday code 8 wraps onto 1). The period 7 is the one the
+published CityLearn models were trained with (their stored bounds contain sin(4 pi / 7)); CityLearn 2.1's
+runtime used 8, which is an upstream bug.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+import torch
+from torch import nn
+
+TARGET = "indoor_dry_bulb_temperature"
+PERIODS = {"month": 12, "hour": 24, "day_type": 7}
+#: default inputs, upstream order with both loads (a mixed-climate house needs heating and cooling)
+DEFAULT_INPUTS: tuple[str, ...] = (
+    "direct_solar_irradiance", "diffuse_solar_irradiance", "outdoor_dry_bulb_temperature",
+    "indoor_dry_bulb_temperature_set_point", "occupant_count", "cooling_demand", "heating_demand",
+    "month_sin", "month_cos", "hour_sin", "hour_cos", "day_type_sin", "day_type_cos", TARGET,
+)
+
+
+@contextmanager
+def torch_threads(n: int = 1) -> Iterator[None]:
+    """Run torch with ``n`` intra-op threads, then restore. The window ops are tiny: one thread is fastest,
+    and on a busy 2-core machine two threads can be ~50x slower (spin-waiting)."""
+    before = torch.get_num_threads()
+    torch.set_num_threads(n)
+    try:
+        yield
+    finally:
+        torch.set_num_threads(before)
+
+
+def periodic(values: np.ndarray, period: float) -> tuple[np.ndarray, np.ndarray]:
+    """(sin, cos) of ``2 pi values / period``."""
+    angle = 2.0 * np.pi * np.asarray(values, dtype=float) / period
+    return np.sin(angle), np.cos(angle)
+
+
+def feature_matrix(table: pd.DataFrame, names: Sequence[str]) -> np.ndarray:
+    """Raw (un-normalised) inputs, shape (rows, len(names)), in the order of ``names``."""
+    columns = []
+    for name in names:
+        base, _, kind = name.rpartition("_")
+        if kind in ("sin", "cos") and base in PERIODS:
+            sin, cos = periodic(table[base].to_numpy(dtype=float), PERIODS[base])
+            columns.append(sin if kind == "sin" else cos)
+        else:
+            columns.append(table[name].to_numpy(dtype=float))
+    return np.column_stack(columns)
+
+
+def available_inputs(table: pd.DataFrame, names: Sequence[str] = DEFAULT_INPUTS) -> list[str]:
+    """``names`` without the columns the table lacks (e.g. the optional set point)."""
+    def present(name: str) -> bool:
+        base, _, kind = name.rpartition("_")
+        return name in table.columns or (kind in ("sin", "cos") and base in table.columns and base in PERIODS)
+
+    return [n for n in names if present(n)]
+
+
+@dataclass(frozen=True)
+class Normalization:
+    """Min-max bounds per input (same order as the input names)."""
+
+    minimum: np.ndarray
+    maximum: np.ndarray
+
+    @classmethod
+    def fit(cls, features: np.ndarray) -> Normalization:
+        """Bounds of the (training) feature rows; a constant input gets max = min + 1."""
+        low, high = features.min(axis=0), features.max(axis=0)
+        high = np.where(high - low > 1e-9, high, low + 1.0)
+        return cls(low.astype(float), high.astype(float))
+
+    def apply(self, features: np.ndarray) -> np.ndarray:
+        return (features - self.minimum) / (self.maximum - self.minimum)
+
+    def target_to_celsius(self, y: np.ndarray) -> np.ndarray:
+        return y * (self.maximum[-1] - self.minimum[-1]) + self.minimum[-1]
+
+
+class LSTMModel(nn.Module):
+    """Stacked LSTM + linear head with CityLearn's parameter names (``l_lstm``, ``l_linear``)."""
+
+    def __init__(self, input_size: int, hidden_size: int = 16, num_layers: int = 2):
+        super().__init__()
+        self.input_size, self.hidden_size, self.num_layers = input_size, hidden_size, num_layers
+        self.l_lstm = nn.LSTM(input_size, hidden_size, num_layers, batch_first=True)
+        self.l_linear = nn.Linear(hidden_size, 1)
+
+    def forward(self, window: torch.Tensor, state=None):
+        """window (batch, lookback, input_size) -> (normalised temperature (batch,), new (h, c) state)."""
+        out, state = self.l_lstm(window, state)
+        return self.l_linear(out[:, -1]).squeeze(-1), state
+
+
+def rollout(model: LSTMModel, x: torch.Tensor, lookback: int, closed_loop: bool = True,
+            state=None) -> torch.Tensor:
+    """Run the stateful sliding-window inference over sequences (see module docstring).
+
+    Parameters
+    ----------
+    x : (batch, hours, inputs) normalised inputs, indoor temperature last (data values; only the first
+        ``lookback`` are used when ``closed_loop``).
+    closed_loop : feed predictions back (True, the environment's mode) or use the data temperatures
+        (one-step-ahead, teacher forcing).
+
+    Returns
+    -------
+    (batch, hours - lookback) normalised predictions for hours ``lookback .. hours-1``.
+    """
+    hours = x.shape[1]
+    exogenous = x[:, :, :-1]
+    history = list(x[:, :lookback, -1].unbind(1))
+    predictions = []
+    for t in range(lookback, hours):
+        temps = torch.stack(history[t - lookback:t], dim=1).unsqueeze(-1)
+        window = torch.cat([exogenous[:, t - lookback + 1:t + 1], temps], dim=2)
+        y, state = model(window, state)
+        predictions.append(y)
+        history.append(y if closed_loop else x[:, t, -1])
+    return torch.stack(predictions, dim=1)

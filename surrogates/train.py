@@ -1,0 +1,288 @@
+"""Training of one building's LSTM surrogate on an ILV table.
+
+Objective: the model is trained the way the environment runs it. After a few cheap one-step epochs on
+independent windows (warm start), each training sample is a chunk of a
+reference run (``lookback`` warm-up hours + ``chunk_hours`` predicted hours) rolled out closed-loop with the
+stateful sliding window of :func:`surrogates.model.rollout` from zero state, and the loss is the mean squared
+error of the whole rollout (normalised indoor temperature), back-propagated through the feedback. Chunk
+offsets are re-drawn every epoch so chunk boundaries move. Early stopping keeps the weights with the lowest
+closed-loop validation RMSE (degC).
+
+Splits, by reference run and time (see :func:`split_segments`); min-max bounds come from the training rows
+only; windows never cross a run boundary because every sample lies inside one run.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+import time
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+import pandas as pd
+import torch
+
+from pipeline.errors import InputError
+from surrogates.ilv import validate_ilv
+from surrogates.model import (
+    DEFAULT_INPUTS,
+    TARGET,
+    LSTMModel,
+    Normalization,
+    available_inputs,
+    feature_matrix,
+    rollout,
+    torch_threads,
+)
+
+ROLES = ("train", "validation", "test")
+
+
+@dataclass(frozen=True)
+class Segment:
+    """Rows ``start:stop`` of the sorted ILV table, all in one reference run."""
+
+    reference: int
+    start: int
+    stop: int
+
+
+@dataclass(frozen=True)
+class TrainConfig:
+    """Hyper-parameters (defaults tuned on the 2R2C benchmark houses; see docs/surrogates.md)."""
+
+    inputs: tuple[str, ...] = DEFAULT_INPUTS
+    hidden_size: int = 16
+    num_layers: int = 2
+    lookback: int = 12
+    epochs: int = 15
+    seed: int = 0
+    pretrain_epochs: int = 6
+    pretrain_batch_size: int = 256
+    chunk_hours: int = 48
+    batch_size: int = 32
+    learning_rate: float = 0.01
+    finetune_learning_rate: float = 0.003
+    patience: int = 6
+    use_free_float: bool = False
+    validation_hours: int = 336
+    max_seconds: float | None = None
+    threads: int = 1
+    progress: bool = True
+
+    def __post_init__(self):
+        if self.inputs and self.inputs[-1] != TARGET:
+            raise InputError(f"the last input must be {TARGET!r}", column="inputs")
+        for key in ("hidden_size", "num_layers", "lookback", "epochs", "chunk_hours", "batch_size"):
+            if getattr(self, key) < 1:
+                raise InputError("must be >= 1", column=key)
+
+
+@dataclass
+class Trained:
+    """A trained surrogate and what is needed to export and evaluate it."""
+
+    model: LSTMModel
+    normalization: Normalization
+    inputs: list[str]
+    config: TrainConfig
+    splits: dict[str, list[Segment]]
+    history: list[dict] = field(default_factory=list)
+    best_epoch: int = 0
+    seconds: float = 0.0
+
+    def summary(self) -> dict:
+        config = asdict(self.config)
+        config["inputs"] = list(self.inputs)
+        return {"config": config, "best_epoch": self.best_epoch, "train_seconds": round(self.seconds, 2),
+                "history": self.history,
+                "splits": {role: [asdict(s) for s in segs] for role, segs in self.splits.items()}}
+
+
+def run_segments(table: pd.DataFrame) -> dict[int, Segment]:
+    """One segment per reference run of a validated (sorted) table."""
+    refs = table["reference"].to_numpy()
+    out = {}
+    for ref in np.unique(refs):
+        rows = np.flatnonzero(refs == ref)
+        out[int(ref)] = Segment(int(ref), int(rows[0]), int(rows[-1]) + 1)
+    return out
+
+
+def _by_month(table: pd.DataFrame, segment: Segment) -> dict[str, list[Segment]]:
+    """Calendar months of a run to train/validation/test in turn (Jan train, Feb val, Mar test, ...);
+    runs shorter than three months are cut in three equal time blocks."""
+    months = table["month"].to_numpy()[segment.start:segment.stop]
+    roles: dict[str, list[Segment]] = {r: [] for r in ROLES}
+    change = np.flatnonzero(np.diff(months) != 0) + 1
+    bounds = [0, *change.tolist(), len(months)]
+    if len(bounds) - 1 >= 3:
+        blocks = list(zip(bounds[:-1], bounds[1:], strict=True))
+        keys = [int(months[a]) - 1 for a, _ in blocks]
+    else:
+        third = len(months) // 3
+        blocks = [(0, third), (third, 2 * third), (2 * third, len(months))]
+        keys = [0, 1, 2]
+    for (a, b), key in zip(blocks, keys, strict=True):
+        roles[ROLES[key % 3]].append(Segment(segment.reference, segment.start + a, segment.start + b))
+    return roles
+
+
+def split_segments(table: pd.DataFrame, use_free_float: bool = False) -> dict[str, list[Segment]]:
+    """Train/validation/test segments.
+
+    * partial-load runs (reference >= 2): with three or more, the last is test, the one before validation,
+      the others train; with two, the first trains and the second tests;
+    * the ideal run (0) and, when partial runs are too few to fill a role, every run are split by calendar
+      month (Jan/Apr/Jul/Oct train, Feb/May/Aug/Nov validation, Mar/Jun/Sep/Dec test);
+    * the free-float run (1) trains when ``use_free_float``; by default it is left out: its temperatures
+      (up to 40 degC in Austin) widen the min-max range and made held-out partial-load runs worse.
+    """
+    runs = run_segments(table)
+    partial = sorted(r for r in runs if r >= 2)
+    roles: dict[str, list[Segment]] = {r: [] for r in ROLES}
+    by_month = [0] if 0 in runs else []
+    if len(partial) >= 3:
+        roles["test"].append(runs[partial[-1]])
+        roles["validation"].append(runs[partial[-2]])
+        roles["train"].extend(runs[r] for r in partial[:-2])
+    elif len(partial) == 2:
+        roles["train"].append(runs[partial[0]])
+        roles["test"].append(runs[partial[1]])
+    else:
+        by_month.extend(partial)
+    for ref in by_month:
+        for role, segments in _by_month(table, runs[ref]).items():
+            roles[role].extend(segments)
+    if 1 in runs and use_free_float:
+        roles["train"].append(runs[1])
+    return roles
+
+
+def _chunks(x: np.ndarray, segments: Sequence[Segment], length: int, offset_rng: np.random.Generator | None,
+            step: int) -> np.ndarray:
+    """Cut windows of ``length`` rows, ``step`` apart, from every segment; random start offset per segment."""
+    pieces = []
+    for seg in segments:
+        n = seg.stop - seg.start
+        if n < length:
+            continue
+        offset = int(offset_rng.integers(0, min(step, n - length + 1))) if offset_rng is not None else 0
+        for start in range(seg.start + offset, seg.stop - length + 1, step):
+            pieces.append(x[start:start + length])
+    return np.stack(pieces).astype(np.float32) if pieces else np.zeros((0, length, x.shape[1]), np.float32)
+
+
+def check_trainable(table: pd.DataFrame, splits: dict[str, list[Segment]], config: TrainConfig) -> None:
+    """Clear errors before any training: enough rows in the training and validation segments."""
+    need = config.lookback + config.chunk_hours
+    for role in ("train", "validation"):
+        longest = max((s.stop - s.start for s in splits[role]), default=0)
+        if longest < need if role == "train" else longest < config.lookback + 24:
+            raise InputError(f"no {role} segment is long enough (longest {longest} h, need "
+                             f"{need if role == 'train' else config.lookback + 24} h); supply longer runs or "
+                             "more reference runs (0 = ideal, >= 2 partial loads)", column="reference")
+
+
+def train_surrogate(table: pd.DataFrame, config: TrainConfig = TrainConfig(),
+                    source: object = "<ILV table>") -> Trained:
+    """Validate ``table``, split it, and train one LSTM; deterministic on CPU for a given ``config.seed``."""
+    table = validate_ilv(table, source=source)
+    inputs = available_inputs(table, config.inputs)
+    missing = [n for n in config.inputs if n not in inputs and n != "indoor_dry_bulb_temperature_set_point"]
+    if missing:
+        raise InputError("input not in the ILV table", file=source, column=missing[0])
+    splits = split_segments(table, config.use_free_float)
+    check_trainable(table, splits, config)
+    started = time.perf_counter()
+    with torch_threads(config.threads):
+        return _fit(table, inputs, splits, config, started)
+
+
+def _fit(table, inputs, splits, config: TrainConfig, started: float) -> Trained:
+    torch.manual_seed(config.seed)
+    rng = np.random.default_rng(config.seed)
+    raw = feature_matrix(table, inputs)
+    train_rows = np.concatenate([np.arange(s.start, s.stop) for s in splits["train"]])
+    norm = Normalization.fit(raw[train_rows])
+    x = norm.apply(raw)
+    scale = float(norm.maximum[-1] - norm.minimum[-1])
+    val = torch.from_numpy(_chunks(x, splits["validation"], config.lookback + config.validation_hours, None,
+                                   config.validation_hours))
+    if len(val) == 0:  # short validation segments: use each whole
+        shortest = min(s.stop - s.start for s in splits["validation"] if s.stop - s.start >= config.lookback + 24)
+        val = torch.from_numpy(_chunks(x, splits["validation"], shortest, None, shortest))
+    model = LSTMModel(len(inputs), config.hidden_size, config.num_layers)
+    optimizer = torch.optim.Adam(model.parameters(), lr=config.learning_rate)
+    _pretrain(model, optimizer, x, splits["train"], config, rng)
+    for group in optimizer.param_groups:
+        group["lr"] = config.finetune_learning_rate
+    best, best_rmse, best_epoch, history, stale = None, math.inf, 0, [], 0
+    bar = _progress(config)
+    for epoch in range(config.epochs):
+        chunks = torch.from_numpy(_chunks(x, splits["train"], config.lookback + config.chunk_hours, rng,
+                                          config.chunk_hours))
+        order = torch.from_numpy(rng.permutation(len(chunks)))
+        model.train()
+        losses = []
+        for k in range(0, len(chunks), config.batch_size):
+            batch = chunks[order[k:k + config.batch_size]]
+            prediction = rollout(model, batch, config.lookback, closed_loop=True)
+            loss = torch.mean((prediction - batch[:, config.lookback:, -1]) ** 2)
+            optimizer.zero_grad()
+            loss.backward()
+            torch.nn.utils.clip_grad_norm_(model.parameters(), 1.0)
+            optimizer.step()
+            losses.append(float(loss.detach()))
+        model.eval()
+        with torch.no_grad():
+            pred = rollout(model, val, config.lookback, closed_loop=True)
+            val_rmse = float(torch.sqrt(torch.mean((pred - val[:, config.lookback:, -1]) ** 2))) * scale
+        train_rmse = math.sqrt(float(np.mean(losses))) * scale
+        history.append({"epoch": epoch, "train_rmse_c": round(train_rmse, 4), "val_closed_loop_rmse_c":
+                        round(val_rmse, 4), "seconds": round(time.perf_counter() - started, 2)})
+        if bar is not None:
+            bar.update(1)
+            bar.set_postfix(train=f"{train_rmse:.3f}C", val=f"{val_rmse:.3f}C")
+        if val_rmse < best_rmse:
+            best, best_rmse, best_epoch, stale = copy.deepcopy(model.state_dict()), val_rmse, epoch, 0
+        else:
+            stale += 1
+        if stale >= config.patience or (config.max_seconds and time.perf_counter() - started > config.max_seconds):
+            break
+    if bar is not None:
+        bar.close()
+    model.load_state_dict(best)
+    model.eval()
+    return Trained(model, norm, inputs, config, splits, history, best_epoch, time.perf_counter() - started)
+
+
+def _pretrain(model: LSTMModel, optimizer, x: np.ndarray, segments: Sequence[Segment], config: TrainConfig,
+              rng: np.random.Generator) -> None:
+    """One-step teacher-forced epochs on independent windows from zero state (fast, batched): brings the
+    weights near a good one-step predictor before the closed-loop stateful fine-tuning."""
+    if config.pretrain_epochs < 1:
+        return
+    windows = torch.from_numpy(_chunks(x, segments, config.lookback + 1, None, 1))
+    exogenous, temps, target = windows[:, 1:, :-1], windows[:, :-1, -1:], windows[:, -1, -1]
+    inputs = torch.cat([exogenous, temps], dim=2)
+    model.train()
+    for _ in range(config.pretrain_epochs):
+        order = torch.from_numpy(rng.permutation(len(inputs)))
+        for k in range(0, len(inputs), config.pretrain_batch_size):
+            rows = order[k:k + config.pretrain_batch_size]
+            prediction, _ = model(inputs[rows])
+            loss = torch.mean((prediction - target[rows]) ** 2)
+            optimizer.zero_grad()
+            loss.backward()
+            optimizer.step()
+
+
+def _progress(config: TrainConfig):
+    if not config.progress:
+        return None
+    from tqdm.auto import tqdm
+
+    return tqdm(total=config.epochs, desc="surrogate", unit="epoch", leave=False)

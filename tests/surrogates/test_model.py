@@ -1,0 +1,96 @@
+"""Features, normalisation, splits and the stateful closed-loop rollout of the LSTM surrogate."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+import torch
+
+from surrogates.model import DEFAULT_INPUTS, LSTMModel, Normalization, feature_matrix, rollout
+from surrogates.train import split_segments
+from tests.surrogates.test_ilv import make_table
+
+
+def test_periodic_encoding_matches_published_bounds():
+    # the 2023 CityLearn models store day_type_sin max sin(4 pi / 7) = 0.97493 and cos min cos(6 pi / 7)
+    table = pd.DataFrame({"day_type": np.arange(1, 8), "hour": np.arange(1, 8), "month": np.arange(1, 8)})
+    x = feature_matrix(table, ["day_type_sin", "day_type_cos", "hour_sin", "month_cos"])
+    assert x[:, 0].max() == pytest.approx(0.97493, abs=1e-5)
+    assert x[:, 1].min() == pytest.approx(-0.90097, abs=1e-5)
+    assert x[5, 2] == pytest.approx(1.0)  # hour 6 of 24 -> sin(pi / 2)
+    assert x[2, 3] == pytest.approx(0.0, abs=1e-12)  # March -> cos(pi / 2)
+
+
+def test_default_inputs_keep_temperature_last_and_normalization():
+    assert DEFAULT_INPUTS[-1] == "indoor_dry_bulb_temperature"
+    norm = Normalization.fit(np.array([[0.0, 5.0, 20.0], [10.0, 5.0, 30.0]]))
+    np.testing.assert_allclose(norm.apply(np.array([[5.0, 5.0, 25.0]])), [[0.5, 0.0, 0.5]])
+    assert norm.target_to_celsius(np.array([0.25]))[0] == pytest.approx(22.5)
+
+
+def citylearn_style(model: LSTMModel, x: np.ndarray, lookback: int) -> list[float]:
+    """Step-by-step re-statement of CityLearn's LSTMDynamicsBuilding loop: a (lookback+1)-slot buffer per
+    input, exogenous slots 1.. and temperature slots ..-1 form the window, the hidden state is carried, the
+    prediction overwrites the newest temperature slot."""
+    buffer: list[list[float]] = []
+    state, out = None, []
+    for t in range(len(x)):
+        buffer.append(list(x[t]))
+        buffer = buffer[-(lookback + 1):]
+        if len(buffer) < lookback + 1:
+            continue
+        rows = [buffer[i + 1][:-1] + [buffer[i][-1]] for i in range(lookback)]
+        window = torch.tensor([rows], dtype=torch.float32)
+        with torch.no_grad():
+            y, state = model(window, state)
+        buffer[-1][-1] = float(y[0])
+        out.append(float(y[0]))
+    return out
+
+
+def test_rollout_is_the_citylearn_loop():
+    torch.manual_seed(0)
+    model = LSTMModel(4, hidden_size=5, num_layers=2)
+    x = np.random.default_rng(1).random((30, 4)).astype(np.float32)
+    lookback = 6
+    with torch.no_grad():
+        ours = rollout(model, torch.from_numpy(x)[None], lookback)[0].numpy()
+    # first prediction once lookback + 1 hours are buffered (hour `lookback`, CityLearn >= 2.4 timing)
+    reference = citylearn_style(model, x, lookback)
+    np.testing.assert_allclose(ours, reference, atol=1e-6)
+    with torch.no_grad():  # one-step mode uses the data temperatures and differs from closed loop
+        one_step = rollout(model, torch.from_numpy(x)[None], lookback, closed_loop=False)[0].numpy()
+    assert np.abs(one_step - ours).max() > 1e-4
+    assert len(ours) == 30 - lookback
+
+
+def test_state_dict_keys_are_upstream():
+    keys = list(LSTMModel(13, 16, 2).state_dict())
+    assert keys == [f"l_lstm.{w}_l{k}" for k in (0, 1) for w in ("weight_ih", "weight_hh", "bias_ih", "bias_hh")] \
+        + ["l_linear.weight", "l_linear.bias"]
+
+
+def test_splits_by_run_and_month():
+    hours = 24 * 120  # January .. April 2026 starting on the 5th: four calendar months
+    table = make_table(hours=hours, references=(0, 1, 2, 3, 4, 5))
+    from surrogates.ilv import validate_ilv
+
+    clean = validate_ilv(table)
+    splits = split_segments(clean)
+    run_of = clean["reference"].to_numpy()
+    for segments in splits.values():
+        for seg in segments:  # never across a run boundary
+            assert run_of[seg.start] == run_of[seg.stop - 1] == seg.reference
+    refs = {role: sorted({s.reference for s in segs}) for role, segs in splits.items()}
+    assert refs == {"train": [0, 2, 3], "validation": [0, 4], "test": [0, 5]}
+    months = {role: sorted({int(clean["month"].iloc[s.start]) for s in segs if s.reference == 0})
+              for role, segs in splits.items()}
+    assert months == {"train": [1, 4], "validation": [2, 5], "test": [3]}  # Jan 5 .. May 4
+    held_out = [s for s in splits["test"] if s.reference == 5]
+    assert len(held_out) == 1 and held_out[0].stop - held_out[0].start == hours  # the held-out run whole
+    with_ff = split_segments(clean, use_free_float=True)
+    assert 1 in {s.reference for s in with_ff["train"]}
+    assert math.isclose(sum(s.stop - s.start for r in splits.values() for s in r), 5 * hours)

@@ -1,0 +1,134 @@
+"""Training, export and the CLI on a small real FMU data set (tiny epochs: behaviour, not accuracy)."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+import torch
+
+from pipeline.cli import main
+from pipeline.errors import InputError
+from surrogates.export import export_surrogate, load_surrogate
+from surrogates.ilv import REQUIRED_COLUMNS, write_ilv
+from surrogates.model import rollout, torch_threads
+from surrogates.sources.fmu import simulate_ilv_fmu
+from surrogates.train import TrainConfig, train_surrogate
+from tests.surrogates.fmu.build import VARIABLE_MAP, synthetic_house
+
+TINY = TrainConfig(epochs=2, pretrain_epochs=1, chunk_hours=24, validation_hours=120, hidden_size=8,
+                   progress=False)
+UPSTREAM_KEYS = ["l_lstm.weight_ih_l0", "l_lstm.weight_hh_l0", "l_lstm.bias_ih_l0", "l_lstm.bias_hh_l0",
+                 "l_lstm.weight_ih_l1", "l_lstm.weight_hh_l1", "l_lstm.bias_ih_l1", "l_lstm.bias_hh_l1",
+                 "l_linear.weight", "l_linear.bias"]
+
+
+@pytest.fixture(scope="module")
+def table(room_fmu):
+    house = synthetic_house(room_fmu, days=21, t_mean=6.0)
+    return simulate_ilv_fmu(room_fmu, house, VARIABLE_MAP, n_partial=4, seed=0, start_values={"T0": 22.0})
+
+
+@pytest.fixture(scope="module")
+def trained(table):
+    return train_surrogate(table, TINY)
+
+
+def test_training_is_deterministic(table, trained):
+    again = train_surrogate(table, TINY)
+    for key, value in trained.model.state_dict().items():
+        assert torch.equal(value, again.model.state_dict()[key]), key
+    assert trained.history == [{**h, "seconds": a["seconds"]} for h, a in zip(again.history, trained.history,
+                                                                             strict=True)]
+
+
+def test_bounds_from_training_rows_only(table, trained):
+    rows = np.concatenate([np.arange(s.start, s.stop) for s in trained.splits["train"]])
+    temperature = table["indoor_dry_bulb_temperature"].to_numpy()
+    assert trained.normalization.maximum[-1] == temperature[rows].max()
+    assert trained.normalization.minimum[-1] == temperature[rows].min()
+    test_rows = np.concatenate([np.arange(s.start, s.stop) for s in trained.splits["test"]])
+    assert not set(test_rows) & set(rows)
+    assert trained.inputs[-1] == "indoor_dry_bulb_temperature" and len(trained.inputs) == 14
+
+
+def test_export_loads_in_upstream_format(trained, tmp_path):
+    paths = export_surrogate(trained, tmp_path, "Building_1")
+    checkpoint = torch.load(paths["pth"], weights_only=True)
+    assert set(checkpoint) == {"model_state_dict", "epoch", "train_loss", "val_loss"}
+    assert list(checkpoint["model_state_dict"]) == UPSTREAM_KEYS
+    assert all(v.dtype == torch.float32 for v in checkpoint["model_state_dict"].values())
+    block = json.loads(paths["dynamics"].read_text())
+    attributes = block["attributes"]
+    assert block["type"] == "citylearn.dynamics.LSTMDynamics" and attributes["filename"] == "Building_1.pth"
+    assert len(attributes["input_observation_names"]) == len(attributes["input_normalization_minimum"]) \
+        == len(attributes["input_normalization_maximum"]) == attributes["input_size"] == 14
+
+    # upstream CityLearn builds the network from the schema attributes and loads checkpoint["model_state_dict"]
+    class UpstreamLSTM(torch.nn.Module):
+        def __init__(self, input_size, hidden_size, num_layers):
+            super().__init__()
+            self.l_lstm = torch.nn.LSTM(input_size, hidden_size, num_layers, batch_first=True)
+            self.l_linear = torch.nn.Linear(hidden_size, 1)
+
+    upstream = UpstreamLSTM(attributes["input_size"], attributes["hidden_size"], attributes["num_layers"])
+    upstream.load_state_dict(checkpoint["model_state_dict"], strict=True)
+    try:
+        from citylearn_env.dynamics import read_pth_state_dict
+    except ImportError:
+        pytest.skip("citylearn_env.dynamics.read_pth_state_dict not available")
+    arrays = read_pth_state_dict(paths["pth"])
+    for key in UPSTREAM_KEYS:
+        np.testing.assert_array_equal(arrays[key], checkpoint["model_state_dict"][key].numpy())
+
+
+def test_reloaded_model_predicts_the_same(trained, table, tmp_path):
+    paths = export_surrogate(trained, tmp_path, "B")
+    model, norm, names, lookback = load_surrogate(paths["pth"])
+    assert names == trained.inputs and lookback == trained.config.lookback
+    from surrogates.model import feature_matrix
+
+    x = torch.from_numpy(norm.apply(feature_matrix(table.iloc[:200], names)).astype(np.float32))[None]
+    with torch.no_grad(), torch_threads(1):
+        np.testing.assert_array_equal(rollout(model, x, lookback), rollout(trained.model, x, lookback))
+
+
+def test_cli_train_and_evaluate(table, tmp_path, capsys):
+    csv = write_ilv(table, tmp_path / "house.csv")
+    out = tmp_path / "out"
+    assert main(["surrogate", "train", str(csv), "-o", str(out), "--name", "B1", "--epochs", "1",
+                 "--hidden", "4", "--quiet"]) == 0
+    assert sorted(p.name for p in out.iterdir()) == ["B1.dynamics.json", "B1.metrics.json", "B1.png", "B1.pth"]
+    report = json.loads((out / "B1.metrics.json").read_text())
+    assert report["test"]["references"] == [0, 5]
+    assert {m["month"] for m in report["test"]["monthly"]} == {1}
+    capsys.readouterr()
+    assert main(["surrogate", "evaluate", str(out / "B1.pth"), str(csv)]) == 0
+    printed = json.loads(capsys.readouterr().out)
+    assert printed["closed_loop_rmse_c"] == report["test"]["closed_loop_rmse_c"]
+    assert printed["monthly_rmse_c"]["max"] >= printed["monthly_rmse_c"]["median"] > 0
+
+
+@pytest.mark.parametrize("damage, column", [
+    (lambda t: t.drop(columns="heating_demand"), "heating_demand"),
+    (lambda t: t.drop(index=[100]), "timestamp"),
+    (lambda t: t.assign(occupant_count=t["occupant_count"].where(t.index != 7)), "occupant_count"),
+    (lambda t: t[t["reference"] == 0], "reference"),
+])
+def test_bad_table_fails_before_training(table, tmp_path, capsys, damage, column):
+    csv = tmp_path / "bad.csv"
+    damage(table).to_csv(csv, index=False)
+    out = tmp_path / "out"
+    assert main(["surrogate", "train", str(csv), "-o", str(out), "--quiet"]) == 2
+    message = capsys.readouterr().err
+    assert message.count("\n") == 1 and "bad.csv" in message and repr(column) in message
+    assert not out.exists()
+    with pytest.raises(InputError):
+        train_surrogate(damage(table), TINY)
+
+
+def test_bad_config():
+    with pytest.raises(InputError, match="last input"):
+        TrainConfig(inputs=("indoor_dry_bulb_temperature", "outdoor_dry_bulb_temperature"))
+    assert set(REQUIRED_COLUMNS) > {"cooling_demand", "heating_demand"}
