@@ -10,7 +10,8 @@ Both implementations do the same work for every *active* model slot ``m`` (one p
    indoor-temperature column ``tcol`` from rows 0..lookback-1) through the stacked LSTM, starting from the
    carried hidden/cell state ``h``, ``c`` and leaving the final state there;
 3. ``y = w_lin . h_top + b_lin`` replaces the temperature entry of the newest row, and
-   ``y * out_span + out_lo`` is written to ``out[b]`` (NaN while the buffer is not full).
+   ``y * out_span + out_lo`` is written to ``out[b]`` (NaN while the buffer is not full); ``warm[b]`` records
+   whether the buffer is full.
 
 Weights are stored transposed (``wih0t`` (M, I, 4H), ``wihrt`` (M, L-1, H, 4H), ``whht`` (M, L, H, 4H)) so the
 innermost loop runs over the 4H gate rows (i, f, g, o) and vectorises without reordering any sum.
@@ -60,7 +61,7 @@ def _vexp(x, n, out, bits):  # pragma: no cover - compiled by numba
 
 
 def _lstm_group_step(raw, bidx, slots, src, kind, period, lo, span, tcol, out_lo, out_span,
-                     buf, count, wih0t, wihrt, whht, bias, wlin, blin, h, c, f32, out):  # pragma: no cover
+                     buf, count, wih0t, wihrt, whht, bias, wlin, blin, h, c, f32, out, warm):  # pragma: no cover
     lookback = buf.shape[1] - 1
     n_in = buf.shape[2]
     n_layers = h.shape[1]
@@ -85,7 +86,8 @@ def _lstm_group_step(raw, bidx, slots, src, kind, period, lo, span, tcol, out_lo
             buf[m, lookback, i] = (v - lo[m, i]) / span[m, i]
         if count[m] <= lookback:
             count[m] += 1
-        if count[m] <= lookback:
+        warm[b] = count[m] > lookback
+        if not warm[b]:
             out[b] = np.nan
             continue
         t_col = tcol[m]
@@ -154,7 +156,7 @@ def get_numba_kernel():
 
 
 def numpy_group_step(raw, bidx, slots, src, kind, period, lo, span, tcol, out_lo, out_span,
-                     buf, count, wih0t, wihrt, whht, bias, wlin, blin, h, c, f32, out) -> None:
+                     buf, count, wih0t, wihrt, whht, bias, wlin, blin, h, c, f32, out, warm) -> None:
     """Vectorised NumPy version of the group step (same arguments, same results up to round-off)."""
     lookback = buf.shape[1] - 1
     n_layers, n_hidden = h.shape[1], h.shape[2]
@@ -165,11 +167,12 @@ def numpy_group_step(raw, bidx, slots, src, kind, period, lo, span, tcol, out_lo
     buf[slots, :-1] = buf[slots, 1:]
     buf[slots, -1] = (v - lo[slots]) / span[slots]
     count[slots] = np.minimum(count[slots] + 1, lookback + 1)
-    warm = count[slots] > lookback
-    out[bidx[~warm]] = np.nan
-    if not warm.any():
+    full = count[slots] > lookback
+    warm[bidx] = full
+    out[bidx[~full]] = np.nan
+    if not full.any():
         return
-    slots, bidx = slots[warm], bidx[warm]
+    slots, bidx = slots[full], bidx[full]
     rows = np.arange(len(slots))
     window = buf[slots, 1:].copy()
     window[rows, :, tcol[slots]] = buf[slots, :-1][rows, :, tcol[slots]]

@@ -333,22 +333,16 @@ class LSTMBank:
         self._current = np.full(self.n_buildings, -1, dtype=np.int64)
         self._members: list[tuple[np.ndarray, np.ndarray]] = []
         self._modes_key = b""
+        self._warm_flags = np.zeros(self.n_buildings, dtype=bool)
 
     def _instances(self, hvac_mode) -> np.ndarray:
         heating = np.asarray(hvac_mode).reshape(self.n_buildings) > 1
         return np.where(heating, self._table[:, 1], self._table[:, 0])
 
-    def _warm(self, inst: np.ndarray) -> np.ndarray:
-        warm = np.zeros(self.n_buildings, dtype=bool)
-        for g, group in enumerate(self._groups):
-            sel = (self._inst_group[inst] == g) & (inst >= 0)
-            warm[sel] = group.count[self._inst_slot[inst[sel]]] > group.lookback
-        return warm
-
     @property
     def is_warm(self) -> np.ndarray:
         """(B,) bool: the model used at the last step has a full buffer (it predicted at that step)."""
-        return self._warm(self._current)
+        return self._warm_flags.copy()
 
     def warm(self, hvac_mode) -> np.ndarray:
         """(B,) bool: the model that ``hvac_mode`` (values at the coming step) selects has a full buffer.
@@ -356,8 +350,10 @@ class LSTMBank:
         False where the coming step switches model (its buffer is cleared). CityLearn applies a device action
         to the demand only where this is True.
         """
-        inst = self._instances(hvac_mode)
-        return self._warm(inst) & (inst == self._current)
+        modes = np.asarray(hvac_mode, dtype=np.float64).reshape(self.n_buildings)
+        if modes.tobytes() == self._modes_key:
+            return self._warm_flags.copy()
+        return self._warm_flags & (self._instances(modes) == self._current)
 
     def step(self, obs: Mapping[str, np.ndarray], hvac_mode) -> np.ndarray:
         """Append the inputs of the current time step and predict its indoor temperature.
@@ -392,7 +388,7 @@ class LSTMBank:
                 self._kernel(raw, bidx, slots, group.src, group.kind, group.period, group.lo, group.span,
                              group.tcol, group.out_lo, group.out_span, group.buf, group.count, group.wih0t,
                              group.wihrt, group.whht, group.bias, group.wlin, group.blin, group.h, group.c,
-                             self.compat, out)
+                             self.compat, out, self._warm_flags)
         return out
 
 
