@@ -323,7 +323,6 @@ class LSTMBank:
         self.backend = "numba" if kernel is not None else "numpy"
         self._kernel = kernel or _lstm_kernels.numpy_group_step
         self._raw = np.zeros((len(names), n))
-        self._rows = np.arange(n)
         self.reset()
 
     def reset(self) -> None:
