@@ -229,8 +229,9 @@ class CityLearnEnv(gym.Env):
             return None
         d, t = self.district, self.district.t + 1
         warm = np.zeros(d.n, dtype=bool)
-        warm[self.dyn_index] = self.bank.is_warm
         hvac = d.ep["hvac_mode"][:, t]
+        # False where t switches between the cooling and heating model (that model starts a new warm-up)
+        warm[self.dyn_index] = self.bank.warm(hvac[self.dyn_index])
         out = {}
         for k, mode, action in (("cooling", 1, "cooling_device"), ("heating", 2, "heating_device")):
             a = actions[action]

@@ -104,17 +104,23 @@ def ilv_table(config: BuildConfig, bldg_id: int, out: Path):
 
 
 def train_building(config: BuildConfig, bldg_id: int, name: str, out: Path) -> dict:
-    """Train and export one building's LSTM; return the schema ``dynamics`` block (v2.2: one object)."""
-    from surrogates.export import export_surrogate
+    """Train, evaluate and export one building's LSTM; return the schema ``dynamics`` block (one object).
 
-    from surrogates.train import TrainConfig, train_surrogate
+    Writes ``<name>.pth`` next to the schema and ``surrogates/<name>.{dynamics,metrics}.json`` + ``.png``.
+    """
+    from surrogates.export import train_and_export
+    from surrogates.train import TrainConfig
 
     s = config.surrogate
     table = ilv_table(config, bldg_id, out)
     train_config = TrainConfig(hidden_size=s.hidden_size, num_layers=s.num_layers, lookback=s.lookback,
-                               epochs=s.epochs, seed=s.seed, max_seconds=s.max_seconds, progress=False)
-    trained = train_surrogate(table, train_config, source=f"ILV table of building {bldg_id}")
-    return export_surrogate(trained, table, out, name)
+                               epochs=s.epochs, seed=s.seed, max_seconds=s.max_seconds, progress=False, threads=1)
+    folder = out / "surrogates"
+    train_and_export(table, folder, name, train_config, source=f"ILV table of building {bldg_id}")
+    os.replace(folder / f"{name}.pth", out / f"{name}.pth")
+    block = json.loads((folder / f"{name}.dynamics.json").read_text())
+    block["attributes"]["filename"] = f"{name}.pth"
+    return block
 
 
 # ---------------------------------------------------------------------------------------------- emit
@@ -199,7 +205,7 @@ def verify_district(folder: str | Path) -> list[str]:
 
 
 # ---------------------------------------------------------------------------------------------- validate
-def validate_district(schema_path: Path, report_dir: Path) -> dict:
+def validate_district(schema_path: Path, report_dir: Path, name: str | None = None) -> dict:
     """Load the schema in the environment, run no control and the cost RBC; write KPIs and summary.md."""
     from pipeline.controllers import run_policy
 
@@ -211,7 +217,7 @@ def validate_district(schema_path: Path, report_dir: Path) -> dict:
         kpis.to_csv(report_dir / f"kpis_{policy}.csv", index=False)
         results[policy] = {"objectives": {k: v for k, v in env.objectives().items() if np.isscalar(v)},
                            "kpis": kpis}
-    lines = [f"# District {schema_path.parent.name}", "", "| objective | no control | cost RBC |", "|---|---|---|"]
+    lines = [f"# District {name or schema_path.parent.name}", "", "| objective | no control | cost RBC |", "|---|---|---|"]
     for name, value in results["no_control"]["objectives"].items():
         lines.append(f"| {name} | {value:.3f} | {results['cost_rbc']['objectives'][name]:.3f} |")
     (report_dir / "summary.md").write_text("\n".join(lines) + "\n")
@@ -245,7 +251,7 @@ def finish(config: BuildConfig, out: Path, names, sizes, dynamics, timings: dict
     schema_path = out / "schema.json"
     schema_path.write_text(json.dumps(schema_dict(config, names, sizes, dynamics), indent=2))
     started = time.perf_counter()
-    validate_district(schema_path, out / "report")
+    validate_district(schema_path, out / "report", config.name)
     timings["validate"] = time.perf_counter() - started
     write_manifest(out, config, timings)
 
