@@ -24,6 +24,8 @@ def _short_config(tmp_path: Path, **surrogate) -> Path:
     """raw/district.toml for three days, written next to raw/ so relative paths still resolve."""
     text = RAW_CONFIG.read_text().replace("end = 2018-06-30", "end = 2018-06-03")
     text = text.replace('source = "csv"', f'source = "{surrogate.get("source", "none")}"')
+    text = text.replace("epochs = 40", f"epochs = {surrogate.get('epochs', 40)}")
+    text = text.replace("max_seconds = 45.0", f"max_seconds = {surrogate.get('max_seconds', 45.0)}")
     path = ROOT / "raw" / f".test_{tmp_path.name}.toml"
     path.write_text(text)
     return path
@@ -110,3 +112,28 @@ def test_prefect_flow_builds_the_same_district(short_config, tmp_path):
     for name in ("schema.json", "Building_1.csv", "weather.csv", "carbon_intensity.csv"):
         assert (folder / name).read_bytes() == (local / name).read_bytes(), name
     shutil.rmtree(tmp_path / "flow")
+
+
+@pytest.mark.slow  # ~1-2 min: closed-loop validation and evaluation over a year of ILV data
+def test_build_with_surrogates_emits_lstm_buildings(tmp_path):
+    """csv ILV tables -> training (tiny budget) -> .pth next to the schema -> the env runs the LSTM."""
+    path = _short_config(tmp_path, source="csv", epochs=1, max_seconds=3.0)
+    try:
+        folder = build.build_district_local(read_build_config(path), tmp_path)
+    finally:
+        path.unlink(missing_ok=True)
+    schema = json.loads((folder / "schema.json").read_text())
+    block = schema["buildings"]["Building_1"]["dynamics"]
+    assert block["type"] == "citylearn.dynamics.LSTMDynamics" and block["attributes"]["filename"] == "Building_1.pth"
+    assert block["attributes"]["input_observation_names"][-1] == "indoor_dry_bulb_temperature"
+    metrics = json.loads((folder / "surrogates" / "Building_1.metrics.json").read_text())
+    assert metrics["test"]["monthly_rmse_c"]["median"] > 0
+    env = CityLearnEnv(folder / "schema.json")
+    env.reset(seed=0)
+    for _ in range(20):
+        env.step(np.full(env.action_space.shape, 0.5))
+    temps = env.series()["indoor_dry_bulb_temperature"]
+    data = env.series()["indoor_dry_bulb_temperature_without_partial_load"]
+    assert not np.allclose(temps[:, 13:21], data[:, 13:21])   # the surrogate, not the data, from t = 13
+    assert np.all((temps > 5) & (temps < 45))
+    assert build.verify_district(folder) == []
