@@ -155,6 +155,10 @@ class ObservationLayout:
         lo, hi = np.zeros(len(self.pairs)), np.zeros(len(self.pairs))
         for i, (name, b) in enumerate(self.pairs):
             lo[i], hi[i] = _bound(self.district, name, b)
+        # an observation that never varies over the range (e.g. month in a one-month run) gets a unit-wide
+        # box centred on its value, so spaces are never degenerate and normalise it to 0.5
+        flat = hi <= lo
+        lo[flat], hi[flat] = lo[flat] - 0.5, hi[flat] + 0.5
         return lo, hi
 
 
