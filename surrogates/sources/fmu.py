@@ -6,7 +6,8 @@ over each hour, zero-order hold) for
   * reference 1: free float (multiplier 0 in every hour: a true free float, unlike upstream CityLearn's
     "free_float" run that only zeroes ~60 % of the hours),
   * references 2 .. N+1: partial-load runs, multiplier ~ U(m_min, m_max) with probability p, else 1, drawn
-    per hour from ``numpy.random.default_rng([seed, reference])``.
+    from ``numpy.random.default_rng([seed, reference])`` per hour or, with ``hold_hours`` > 1, held over
+    random blocks of 1..hold_hours hours.
 The recorded loads are the multiplied ones (what the FMU received); the indoor temperature is the FMU output
 at the end of each hour. FMU variable names come from configuration: a mapping from our names
 (:data:`MAPPABLE`) to the FMU's variable names.
@@ -106,15 +107,24 @@ def _check_loads(loads: pd.DataFrame) -> pd.DatetimeIndex:
 
 
 def load_multipliers(n_hours: int, reference: int, seed: int = 0, multiplier_range: tuple[float, float] = (0.3, 1.7),
-                     probability: float = 0.6) -> np.ndarray:
-    """Per-hour load multipliers of one reference run: 1 (ideal), 0 (free float) or random partial loads."""
+                     probability: float = 0.6, hold_hours: int = 6) -> np.ndarray:
+    """Per-hour load multipliers of one reference run: 1 (ideal), 0 (free float) or random partial loads.
+
+    With ``hold_hours`` > 1 each draw is held for a block of 1..hold_hours hours (length uniform), so the
+    runs also contain sustained over/under-supply that charges or discharges the building mass; with 1 every
+    hour is drawn independently (upstream CityLearn's design)."""
     if reference == 0:
         return np.ones(n_hours)
     if reference == 1:
         return np.zeros(n_hours)
     rng = np.random.default_rng([seed, reference])
+    if hold_hours <= 1:
+        draws = rng.uniform(multiplier_range[0], multiplier_range[1], n_hours)
+        return np.where(rng.random(n_hours) < probability, draws, 1.0)
+    lengths = rng.integers(1, hold_hours + 1, n_hours)
+    blocks = np.repeat(np.arange(n_hours), lengths)[:n_hours]
     draws = rng.uniform(multiplier_range[0], multiplier_range[1], n_hours)
-    return np.where(rng.random(n_hours) < probability, draws, 1.0)
+    return np.where(rng.random(n_hours) < probability, draws, 1.0)[blocks]
 
 
 def simulate_ilv_fmu(
@@ -126,6 +136,7 @@ def simulate_ilv_fmu(
     seed: int = 0,
     multiplier_range: tuple[float, float] = (0.3, 1.7),
     probability: float = 0.6,
+    hold_hours: int = 6,
     start_values: Mapping[str, float] | None = None,
     holidays: set | None = None,
 ) -> pd.DataFrame:
@@ -156,7 +167,7 @@ def simulate_ilv_fmu(
     try:
         runs = [
             _one_run(description, unzipped, refs, by_name, start_values, loads, reference,
-                     load_multipliers(len(loads), reference, seed, multiplier_range, probability))
+                     load_multipliers(len(loads), reference, seed, multiplier_range, probability, hold_hours))
             for reference in range(n_partial + 2)
         ]
     finally:

@@ -85,12 +85,13 @@ def test_splits_by_run_and_month():
         for seg in segments:  # never across a run boundary
             assert run_of[seg.start] == run_of[seg.stop - 1] == seg.reference
     refs = {role: sorted({s.reference for s in segs}) for role, segs in splits.items()}
-    assert refs == {"train": [0, 2, 3], "validation": [0, 4], "test": [0, 5]}
+    assert refs == {"train": [2, 3], "validation": [0, 4], "test": [0, 5]}  # ideal months only with use_ideal
+    splits_ideal = split_segments(clean, use_ideal=True)
     months = {role: sorted({int(clean["month"].iloc[s.start]) for s in segs if s.reference == 0})
-              for role, segs in splits.items()}
+              for role, segs in splits_ideal.items()}
     assert months == {"train": [1, 4], "validation": [2, 5], "test": [3]}  # Jan 5 .. May 4
     held_out = [s for s in splits["test"] if s.reference == 5]
     assert len(held_out) == 1 and held_out[0].stop - held_out[0].start == hours  # the held-out run whole
     with_ff = split_segments(clean, use_free_float=True)
     assert 1 in {s.reference for s in with_ff["train"]}
-    assert math.isclose(sum(s.stop - s.start for r in splits.values() for s in r), 5 * hours)
+    assert math.isclose(sum(s.stop - s.start for r in splits_ideal.values() for s in r), 5 * hours)

@@ -17,7 +17,7 @@ from surrogates.sources.fmu import simulate_ilv_fmu
 from surrogates.train import TrainConfig, train_surrogate
 from tests.surrogates.fmu.build import VARIABLE_MAP, synthetic_house
 
-TINY = TrainConfig(epochs=2, pretrain_epochs=1, chunk_hours=24, validation_hours=120, hidden_size=8,
+TINY = TrainConfig(epochs=2, pretrain_steps=20, chunk_hours=24, validation_hours=120, hidden_size=8,
                    progress=False)
 UPSTREAM_KEYS = ["l_lstm.weight_ih_l0", "l_lstm.weight_hh_l0", "l_lstm.bias_ih_l0", "l_lstm.bias_hh_l0",
                  "l_lstm.weight_ih_l1", "l_lstm.weight_hh_l1", "l_lstm.bias_ih_l1", "l_lstm.bias_hh_l1",

@@ -10,6 +10,7 @@ import zipfile
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 
 HERE = Path(__file__).resolve().parent
 #: (name, value reference, causality, start)
@@ -133,8 +134,6 @@ def synthetic_house(fmu: Path, days: int, t_mean: float = 8.0, seed: int = 0, st
     """Hourly loads-and-weather frame for ``days`` days: a daily outdoor temperature cycle of +-6 K around
     ``t_mean`` with day-to-day weather noise, clear-sky-like solar, 3 occupants away 8-17 h on weekdays, and
     the FMU's ideal loads for a [20, 24] degC band."""
-    import pandas as pd
-
     rng = np.random.default_rng(seed)
     index = pd.date_range(start, periods=24 * days, freq="h")
     hour = index.hour.to_numpy()
@@ -149,3 +148,32 @@ def synthetic_house(fmu: Path, days: int, t_mean: float = 8.0, seed: int = 0, st
     frame["heating_demand"], frame["cooling_demand"] = ideal_loads(fmu, weather, 20.0, 24.0, {"T0": 22.0})
     frame["indoor_dry_bulb_temperature_set_point"] = 22.0
     return frame
+
+
+def read_epw_year(path: Path, year: int = 2026) -> pd.DataFrame:
+    """Hourly T_out (degC), direct normal and diffuse horizontal irradiance (W/m2) of a TMY3 EPW, re-stamped
+    on ``year`` interval-beginning (EPW hour h ends at h:00 local standard time)."""
+    rows = pd.read_csv(path, skiprows=8, header=None)
+    index = pd.date_range(f"{year}-01-01", periods=8760, freq="h")
+    return pd.DataFrame({"outdoor_dry_bulb_temperature": rows[6].to_numpy(float)[:8760],
+                         "direct_solar_irradiance": rows[14].to_numpy(float)[:8760],
+                         "diffuse_solar_irradiance": rows[15].to_numpy(float)[:8760]}, index=index)
+
+
+def occupants(index: pd.DatetimeIndex) -> np.ndarray:
+    """A household of 3: away 8-17 h on weekdays, home otherwise."""
+    weekday, hour = index.dayofweek < 5, index.hour
+    return np.where(weekday & (hour >= 8) & (hour < 17), 0.0, 3.0)
+
+
+def house_loads(fmu: Path, epw: Path) -> pd.DataFrame:
+    """Weather, occupants and the FMU zone's ideal loads for one year."""
+    loads = read_epw_year(epw)
+    loads["occupant_count"] = occupants(loads.index)
+    weather = {"T_out": loads["outdoor_dry_bulb_temperature"].to_numpy(), "I_dir": loads["direct_solar_irradiance"]
+               .to_numpy(), "I_dif": loads["diffuse_solar_irradiance"].to_numpy(), "n_occ": loads["occupant_count"]
+               .to_numpy()}
+    heating, cooling = ideal_loads(fmu, weather, 20.0, 24.0, {"T0": 22.0})
+    loads["heating_demand"], loads["cooling_demand"] = heating, cooling
+    loads["indoor_dry_bulb_temperature_set_point"] = 22.0
+    return loads
