@@ -41,6 +41,9 @@ def main() -> None:
         rng = np.random.default_rng(0)
         low, high = vec.single_action_space.low, vec.single_action_space.high
         table = rng.uniform(low, high, size=(719, n, low.size))
+        vec.reset(seed=0)
+        for actions in table[:50]:  # warm-up (numba kernel load)
+            vec.step(actions)
         rates = []
         for _ in range(args.repeats):
             vec.reset(seed=0)
