@@ -40,7 +40,8 @@ def evaluate(pth: str | os.PathLike, table_path: str | os.PathLike, all_runs: bo
 
 def _train_command(args: argparse.Namespace) -> int:
     config = TrainConfig(hidden_size=args.hidden, num_layers=args.layers, lookback=args.lookback,
-                         epochs=args.epochs, seed=args.seed, progress=not args.quiet)
+                         epochs=args.epochs, pretrain_steps=args.pretrain_steps, seed=args.seed,
+                         progress=not args.quiet)
     report = train(args.table, args.out_dir, args.name, config)
     print(json.dumps({"building": report["building"], "files": report["files"],
                       "train_seconds": report["training"]["train_seconds"],
@@ -69,6 +70,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     train_parser.add_argument("--layers", type=int, default=defaults.num_layers, help="stacked LSTM layers")
     train_parser.add_argument("--lookback", type=int, default=defaults.lookback, help="window length (h)")
     train_parser.add_argument("--epochs", type=int, default=defaults.epochs, help="closed-loop epochs (max)")
+    train_parser.add_argument("--pretrain-steps", type=int, default=defaults.pretrain_steps,
+                              help="one-step warm-start updates before the closed-loop epochs")
     train_parser.add_argument("--seed", type=int, default=defaults.seed)
     train_parser.add_argument("--quiet", action="store_true", help="no progress bar")
     train_parser.set_defaults(func=_train_command)

@@ -18,11 +18,8 @@ import pytest
 
 from surrogates.evaluate import predict_segment
 from surrogates.sources.fmu import simulate_ilv_fmu
-from surrogates.train import TrainConfig, run_segments, train_surrogate
-from tests.conftest import SHARED, need_shared
-from tests.surrogates.fmu.build import VARIABLE_MAP, house_loads
-
-AUSTIN = SHARED / "data" / "weather" / "USA_TX_Austin-Camp.Mabry.722544_TMY3.epw"
+from surrogates.train import run_segments
+from tests.surrogates.fmu.build import VARIABLE_MAP
 
 
 def step_change(fmu: Path, loads, trained, start: int, column: str) -> tuple[np.ndarray, np.ndarray]:
@@ -38,25 +35,17 @@ def step_change(fmu: Path, loads, trained, start: int, column: str) -> tuple[np.
         segment = run_segments(table)[0]
         predicted.append(predict_segment(trained.model, trained.normalization, trained.inputs, lookback, table,
                                          segment))
-        simulated.append(table["indoor_dry_bulb_temperature"].to_numpy()[segment.start + lookback:])
+        simulated.append(table["indoor_dry_bulb_temperature"].to_numpy()[segment.start + lookback:segment.stop])
     k = start - first - lookback
     return (simulated[1] - simulated[0])[k:k + 12], (predicted[1] - predicted[0])[k:k + 12]
-
-
-@pytest.fixture(scope="module")
-def austin(room_fmu):
-    need_shared(AUSTIN)
-    loads = house_loads(room_fmu, AUSTIN)
-    table = simulate_ilv_fmu(room_fmu, loads, VARIABLE_MAP, n_partial=4, seed=0, start_values={"T0": 22.0})
-    return loads, train_surrogate(table, TrainConfig(progress=False))
 
 
 @pytest.mark.parametrize("start, column, sign", [
     (24 * 20 + 2, "heating_demand", 1.0),   # 21 January, 02:00
     (24 * 200 + 12, "cooling_demand", -1.0),  # 20 July, 12:00
 ])
-def test_surrogate_reproduces_the_fmu_step(room_fmu, austin, start, column, sign):
-    loads, trained = austin
+def test_surrogate_reproduces_the_fmu_step(room_fmu, austin_surrogate, start, column, sign):
+    loads, _, trained = austin_surrogate
     assert loads[column].iloc[start:start + 6].min() > 0.2  # the step is on top of a running load
     d_sim, d_pred = step_change(room_fmu, loads, trained, start, column)
     # the FMU itself: air-node jump in the first hour, more while the mass charges, decay afterwards

@@ -98,7 +98,7 @@ def test_cli_train_and_evaluate(table, tmp_path, capsys):
     csv = write_ilv(table, tmp_path / "house.csv")
     out = tmp_path / "out"
     assert main(["surrogate", "train", str(csv), "-o", str(out), "--name", "B1", "--epochs", "1",
-                 "--hidden", "4", "--quiet"]) == 0
+                 "--pretrain-steps", "20", "--hidden", "4", "--quiet"]) == 0
     assert sorted(p.name for p in out.iterdir()) == ["B1.dynamics.json", "B1.metrics.json", "B1.png", "B1.pth"]
     report = json.loads((out / "B1.metrics.json").read_text())
     assert report["test"]["references"] == [0, 5]
