@@ -16,7 +16,15 @@ import numpy as np
 import pandas as pd
 import torch
 
-from surrogates.model import LSTMModel, Normalization, feature_matrix, rollout, torch_threads
+from pipeline.errors import InputError
+from surrogates.model import (
+    LSTMModel,
+    Normalization,
+    available_inputs,
+    feature_matrix,
+    rollout,
+    torch_threads,
+)
 from surrogates.train import Segment
 
 
@@ -42,6 +50,9 @@ def evaluate_segments(model: LSTMModel, normalization: Normalization, inputs: Se
 
     Monthly metrics group the hours by (reference, calendar month); MAPE is in % of the simulated degC.
     """
+    missing = [n for n in inputs if n not in available_inputs(table, inputs)]
+    if missing:
+        raise InputError("the model needs this input but the ILV table has no such column", column=missing[0])
     frames = []
     for seg in segments:
         if seg.stop - seg.start <= lookback:

@@ -108,6 +108,10 @@ def test_cli_train_and_evaluate(table, tmp_path, capsys):
     printed = json.loads(capsys.readouterr().out)
     assert printed["closed_loop_rmse_c"] == report["test"]["closed_loop_rmse_c"]
     assert printed["monthly_rmse_c"]["max"] >= printed["monthly_rmse_c"]["median"] > 0
+    # a table without an input the model uses: one clear error, exit 2
+    table.drop(columns="indoor_dry_bulb_temperature_set_point").to_csv(tmp_path / "no_sp.csv", index=False)
+    assert main(["surrogate", "evaluate", str(out / "B1.pth"), str(tmp_path / "no_sp.csv")]) == 2
+    assert "indoor_dry_bulb_temperature_set_point" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize("damage, column", [
