@@ -75,7 +75,7 @@ class Surrogate(_Frozen):
     num_layers: int = Field(2, ge=1)
     lookback: int = Field(12, ge=1)
     epochs: int = Field(40, ge=1)
-    max_seconds: float | None = Field(60.0, gt=0)
+    max_seconds: float | None = Field(None, gt=0, description="optional wall-clock cap (makes training machine-dependent)")
     seed: int = 0
 
 

@@ -25,7 +25,8 @@ def _short_config(tmp_path: Path, **surrogate) -> Path:
     text = RAW_CONFIG.read_text().replace("end = 2018-06-30", "end = 2018-06-03")
     text = text.replace('source = "csv"', f'source = "{surrogate.get("source", "none")}"')
     text = text.replace("epochs = 40", f"epochs = {surrogate.get('epochs', 40)}")
-    text = text.replace("max_seconds = 45.0", f"max_seconds = {surrogate.get('max_seconds', 45.0)}")
+    if "max_seconds" in surrogate:
+        text = text.replace("seed = 0\n", f"seed = 0\nmax_seconds = {surrogate['max_seconds']}\n", 1)
     path = ROOT / "raw" / f".test_{tmp_path.name}.toml"
     path.write_text(text)
     return path
