@@ -24,9 +24,8 @@ def _short_config(tmp_path: Path, **surrogate) -> Path:
     """raw/district.toml for three days, written next to raw/ so relative paths still resolve."""
     text = RAW_CONFIG.read_text().replace("end = 2018-06-30", "end = 2018-06-03")
     text = text.replace('source = "csv"', f'source = "{surrogate.get("source", "none")}"')
-    text = text.replace("epochs = 40", f"epochs = {surrogate.get('epochs', 40)}")
-    if "max_seconds" in surrogate:
-        text = text.replace("seed = 0\n", f"seed = 0\nmax_seconds = {surrogate['max_seconds']}\n", 1)
+    cap = f"\nmax_seconds = {surrogate['max_seconds']}" if "max_seconds" in surrogate else ""
+    text = text.replace("epochs = 40", f"epochs = {surrogate.get('epochs', 40)}{cap}")
     path = ROOT / "raw" / f".test_{tmp_path.name}.toml"
     path.write_text(text)
     return path
