@@ -104,22 +104,60 @@ def ilv_table(config: BuildConfig, bldg_id: int, out: Path):
 
 
 def train_building(config: BuildConfig, bldg_id: int, name: str, out: Path) -> dict:
-    """Train, evaluate and export one building's LSTM; return the schema ``dynamics`` block (one object).
+    """Train, evaluate and export one building's LSTM into ``out``; return the schema ``dynamics`` block."""
+    return write_surrogate_files(out, train_building_files(config, bldg_id, name, surrogate_input_digest(config,
+                                                                                                      bldg_id)))
 
-    Writes ``<name>.pth`` next to the schema and ``surrogates/<name>.{dynamics,metrics}.json`` + ``.png``.
+
+def surrogate_input_digest(config: BuildConfig, bldg_id: int) -> str:
+    """sha256 of what a building's surrogate is trained from (its ILV table, or the EPW for EnergyPlus):
+    part of the training task's cache key, so a changed input file retrains."""
+    if config.surrogate.source == "energyplus" or config.inputs.ilv is None:
+        return _sha256(Path(config.inputs.weather))
+    for suffix in (".parquet", ".csv"):
+        path = config.inputs.ilv / f"{bldg_id}{suffix}"
+        if path.exists():
+            return _sha256(path)
+    return "missing"
+
+
+def train_building_files(config: BuildConfig, bldg_id: int, name: str, input_digest: str) -> dict[str, bytes]:
+    """Train, evaluate and export in a scratch folder; return the files (relative path -> bytes).
+
+    ``<name>.pth`` goes next to the schema, ``surrogates/<name>.{dynamics,metrics}.json`` and ``.png`` into
+    ``surrogates/``. A pure function of its arguments (``input_digest`` keys the Prefect cache).
     """
+    import tempfile
+
     from surrogates.export import train_and_export
     from surrogates.train import TrainConfig
 
     s = config.surrogate
-    table = ilv_table(config, bldg_id, out)
     train_config = TrainConfig(hidden_size=s.hidden_size, num_layers=s.num_layers, lookback=s.lookback,
                                epochs=s.epochs, seed=s.seed, max_seconds=s.max_seconds, progress=False, threads=1)
-    folder = out / "surrogates"
-    train_and_export(table, folder, name, train_config, source=f"ILV table of building {bldg_id}")
-    os.replace(folder / f"{name}.pth", out / f"{name}.pth")
-    block = json.loads((folder / f"{name}.dynamics.json").read_text())
-    block["attributes"]["filename"] = f"{name}.pth"
+    with tempfile.TemporaryDirectory(prefix="districtgen_surrogate_") as scratch:
+        scratch = Path(scratch)
+        table = ilv_table(config, bldg_id, scratch)
+        train_and_export(table, scratch / "surrogates", name, train_config,
+                         source=f"ILV table of building {bldg_id}")
+        files = {str(p.relative_to(scratch)): p.read_bytes()
+                 for p in sorted((scratch / "surrogates").glob(f"{name}.*"))}
+    files[f"{name}.pth"] = files.pop(f"surrogates/{name}.pth")
+    return files
+
+
+def write_surrogate_files(out: Path, files: dict[str, bytes]) -> dict:
+    """Write a building's surrogate files into the district folder; return its ``dynamics`` block."""
+    block = None
+    for relative, data in files.items():
+        path = out / relative
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_bytes(data)
+        if relative.endswith(".dynamics.json"):
+            block = json.loads(data)
+    pth = next(r for r in files if r.endswith(".pth"))
+    block["attributes"]["filename"] = pth
+    (out / next(r for r in files if r.endswith(".dynamics.json"))).write_text(json.dumps(block, indent=2))
     return block
 
 

@@ -1,5 +1,8 @@
 """The Prefect flow ``build_district``: the steps of :mod:`pipeline.build`, per-building work as mapped tasks.
 
+Surrogate training results are cached (Prefect result persistence, ``PREFECT_RESULTS_LOCAL_STORAGE_PATH``):
+rebuilding with unchanged inputs reuses the trained models.
+
 Runs locally with no server (Prefect's ephemeral mode) on a thread pool; pass ``task_runner="dask"`` to use
 prefect-dask's DaskTaskRunner (a local Dask cluster, or ``address=`` of an existing one).
 """
@@ -10,7 +13,7 @@ import time
 from pathlib import Path
 
 from prefect import flow, task
-from prefect.cache_policies import NO_CACHE
+from prefect.cache_policies import INPUTS, NO_CACHE, TASK_SOURCE
 from prefect.task_runners import ThreadPoolTaskRunner
 
 from pipeline import build
@@ -20,8 +23,10 @@ ingest_signals = task(build.ingest_signals, name="ingest-signals", cache_policy=
 ingest_building = task(build.ingest_building, name="ingest-building", cache_policy=NO_CACHE,
                        task_run_name="ingest-{name}")
 size_buildings = task(build.size_buildings, name="sizing", cache_policy=NO_CACHE)
-train_building = task(build.train_building, name="train-surrogate", cache_policy=NO_CACHE,
-                      task_run_name="surrogate-{name}")
+# training is the expensive step: cached on its inputs (config, building, sha256 of the training data) and
+# on the code, with persisted results, so a rerun after a crash or with unchanged inputs does not retrain
+train_files = task(build.train_building_files, name="train-surrogate", cache_policy=INPUTS + TASK_SOURCE,
+                   persist_result=True, task_run_name="surrogate-{name}")
 finish = task(build.finish, name="emit-and-validate", cache_policy=NO_CACHE)
 
 
@@ -45,8 +50,9 @@ def build_district(config: BuildConfig | str | Path, output_root: str = "artifac
         started = time.perf_counter()
         dynamics = None
         if config.surrogate.source != "none":
-            trained = [train_building.submit(config, i, n, out) for i, n in zip(ids, names, strict=True)]
-            dynamics = {n: t.result() for n, t in zip(names, trained, strict=True)}
+            trained = [train_files.submit(config, i, n, build.surrogate_input_digest(config, i))
+                       for i, n in zip(ids, names, strict=True)]
+            dynamics = {n: build.write_surrogate_files(out, t.result()) for n, t in zip(names, trained, strict=True)}
         timings["surrogates"] = time.perf_counter() - started
         finish.submit(config, out, names, sizes.result(), dynamics, timings).result()
     return Path(output_root) / config.name
