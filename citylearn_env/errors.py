@@ -1,13 +1,13 @@
-"""Errors raised by the environment for bad schemas, data files or actions."""
+"""Errors for bad input, shared by every part of districtgen (this package depends on nothing else).
+
+Each message says where: the file (or schema key path), the column or key, and the first bad row.
+"""
 
 from __future__ import annotations
 
 
-class SchemaError(ValueError):
-    """A schema, data file or action is invalid.
-
-    The message always says where: the file (or schema key path), the column or key, and the first bad row.
-    """
+class LocatedError(ValueError):
+    """A ValueError whose message starts with the location of the problem: file, column/key, row."""
 
     def __init__(self, message: str, *, file: object = None, column: object = None, row: object = None):
         parts = []
@@ -20,3 +20,12 @@ class SchemaError(ValueError):
         where = ", ".join(parts)
         super().__init__(f"{where}: {message}" if where else message)
         self.file, self.column, self.row = file, column, row
+
+
+class SchemaError(LocatedError):
+    """A schema, data file or action given to the environment is invalid."""
+
+
+class InputError(LocatedError):
+    """A raw input of the pipeline or the surrogates (EULP, weather, tariff, fuel mix, ILV table, FMU, ...)
+    is invalid. The CLI prints ``str(error)`` and exits with status 2, never a traceback."""

@@ -16,7 +16,7 @@ import numpy as np
 import pandas as pd
 import torch
 
-from pipeline.errors import InputError
+from citylearn_env.errors import InputError
 from surrogates.model import (
     LSTMModel,
     Normalization,

@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from pipeline.errors import InputError
+from citylearn_env.errors import InputError
 from surrogates.evaluate import write_json
 from surrogates.model import LSTMModel, Normalization
 from surrogates.train import Trained

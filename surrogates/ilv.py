@@ -21,8 +21,8 @@ One row per (reference run, hour). Columns (units):
 Within a reference run the timestamps are consecutive hours (no gaps, no duplicates); runs may cover
 different periods. Training needs at least two reference runs.
 
-Bad input raises :class:`pipeline.errors.InputError` naming the file (``source``), the column and the first
-bad row; ``row`` is the 0-based data row of the table as given (header excluded; CSV line = row + 2).
+Bad input raises :class:`citylearn_env.errors.InputError` (also ``pipeline.errors.InputError``) naming
+the file (``source``), the column and the first bad row; ``row`` is the 0-based data row of the table as given (header excluded; CSV line = row + 2).
 """
 
 from __future__ import annotations
@@ -34,7 +34,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from pipeline.errors import InputError
+from citylearn_env.errors import InputError
 
 REQUIRED_COLUMNS: tuple[str, ...] = (
     "reference",

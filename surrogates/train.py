@@ -24,7 +24,7 @@ import numpy as np
 import pandas as pd
 import torch
 
-from pipeline.errors import InputError
+from citylearn_env.errors import InputError
 from surrogates.ilv import validate_ilv
 from surrogates.model import (
     DEFAULT_INPUTS,

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from pipeline.errors import InputError
+from citylearn_env.errors import InputError
 
 
 def read_epw_ground_temperatures(path: Path) -> list[float]:

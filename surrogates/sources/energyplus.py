@@ -16,7 +16,7 @@ from pathlib import Path
 import pandas as pd
 from prefect import task
 
-from pipeline.errors import InputError
+from citylearn_env.errors import InputError
 from surrogates.energyplus.ilv import ILVConfig, ILVResult, generate_ilv
 from surrogates.energyplus.metadata import house_parameters_from_metadata
 from surrogates.ilv import validate_ilv

@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from pipeline.errors import InputError
+from citylearn_env.errors import InputError
 from surrogates.ilv import calendar_columns, validate_ilv
 
 #: our name -> (expected FMU causality, unit sent to / read from the FMU)
