@@ -186,8 +186,9 @@ def schema_dict(config: BuildConfig, names: list[str], sizes: dict[str, dict],
             "pv": {"type": "citylearn.energy_model.PV", "autosize": False, "attributes": devices["pv"]},
             "power_outage": {"simulate_power_outage": False, "stochastic_power_outage": False},
         }
-        if dynamics:
-            spec["dynamics"] = dynamics[name]
+        if dynamics:  # v2.1 wants a {cooling, heating} pair; one model serves both modes here
+            block = dynamics[name]
+            spec["dynamics"] = {"cooling": block, "heating": block} if config.layout == "v2.1" else block
         buildings[name] = spec
     return {
         "root_directory": None, "central_agent": True,
