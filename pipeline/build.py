@@ -245,8 +245,9 @@ def verify_district(folder: str | Path) -> list[str]:
 
 # ---------------------------------------------------------------------------------------------- validate
 def validate_district(schema_path: Path, report_dir: Path, name: str | None = None) -> dict:
-    """Load the schema in the environment, run no control and the cost RBC; write KPIs and summary.md."""
+    """Load the schema in the environment, run no control and the cost RBC; write KPI tables and the report."""
     from pipeline.controllers import run_policy
+    from pipeline.report import write_report
 
     report_dir.mkdir(parents=True, exist_ok=True)
     results = {}
@@ -255,11 +256,9 @@ def validate_district(schema_path: Path, report_dir: Path, name: str | None = No
         kpis = env.evaluate()
         kpis.to_csv(report_dir / f"kpis_{policy}.csv", index=False)
         results[policy] = {"objectives": {k: v for k, v in env.objectives().items() if np.isscalar(v)},
-                           "kpis": kpis}
-    lines = [f"# District {name or schema_path.parent.name}", "", "| objective | no control | cost RBC |", "|---|---|---|"]
-    for name, value in results["no_control"]["objectives"].items():
-        lines.append(f"| {name} | {value:.3f} | {results['cost_rbc']['objectives'][name]:.3f} |")
-    (report_dir / "summary.md").write_text("\n".join(lines) + "\n")
+                           "kpis": kpis, "net": env.series()["net_electricity_consumption"].sum(axis=0)}
+    schema = json.loads(schema_path.read_text())
+    write_report(report_dir, name or schema_path.parent.name, schema, results, schema_path.parent / "surrogates")
     return results
 
 

@@ -80,10 +80,15 @@ def test_rule_based_controllers_follow_the_paper():
 def test_local_build_is_complete_verifiable_and_loads(short_config, tmp_path):
     folder = build.build_district_local(short_config, tmp_path)
     for name in ("schema.json", "Building_1.csv", "Building_2.csv", "weather.csv", "pricing.csv",
-                 "carbon_intensity.csv", "manifest.json", "report/summary.md", "report/kpis_cost_rbc.csv"):
+                 "carbon_intensity.csv", "manifest.json", "report/summary.md", "report/kpis_cost_rbc.csv",
+                 "report/district_net.png"):
         assert (folder / name).is_file(), name
     assert [p.name for p in tmp_path.iterdir()] == ["default"]   # no temporary folder left behind
     assert build.verify_district(folder) == []
+    summary = (folder / "report" / "summary.md").read_text()
+    schema = json.loads((folder / "schema.json").read_text())
+    battery = schema["buildings"]["Building_1"]["electrical_storage"]["attributes"]
+    assert battery["capacity"] == 4.0 and "| Building_1 |" in summary and "4.0 / 3.32" in summary
     env = CityLearnEnv(folder / "schema.json")
     obs, _ = env.reset(seed=0)
     assert env.district.length == 72 and np.isfinite(obs).all()
