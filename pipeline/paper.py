@@ -130,6 +130,11 @@ def run_benchmark(district: dict, b: Benchmark, *, sac_episodes: int = 150, seed
         obs, _, terminated, _, _ = env.step(action)
     result = env.objectives()
     first = {k: float(v[0]) for k, v in result["per_building"].items()}
+    series = env.series()
+    delta = series["indoor_dry_bulb_temperature"][0] - series["indoor_dry_bulb_temperature_set_point"][0]
+    over, under = -delta[delta < 0], delta[delta > 0]  # over-cooling: colder than the set point
+    first |= {"overcooling_mean": _mean(over), "overcooling_std": _std(over),
+              "undercooling_mean": _mean(under), "undercooling_std": _std(under)}
     return {"id": b.id, **first, "average_daily_peak": result["average_daily_peak"],
             "steps": int(env.t), "mean_abs_action": float(np.mean(np.abs(actions))) if env.action_names else 0.0}
 
@@ -185,3 +190,41 @@ def run_all(schema_path: str | Path, out_dir: str | Path, *, only: list[str] | N
                      f"{r['consumption']:.2f} | {r['average_daily_peak']:.3f} |")
     (out / "results.md").write_text("\n".join(lines) + "\n")
     return results
+
+
+def _mean(x: np.ndarray) -> float:
+    return float(x.mean()) if x.size else 0.0
+
+
+def _std(x: np.ndarray) -> float:
+    return float(x.std()) if x.size else 0.0
+
+
+def multiplier_sweep(schema_path: str | Path, out_dir: str | Path, multipliers=(1.0, 3.0, 6.0, 12.0), *,
+                     sac_episodes: int = 150, seed: int = 0, log=print) -> list[dict]:
+    """The paper's m-sweep of rlc-b1-d_o-hp: discomfort, over/under-cooling, consumption, % change vs m = 1."""
+    schema_path = Path(schema_path)
+    district = json.loads(schema_path.read_text())
+    district["root_directory"] = district.get("root_directory") or str(schema_path.resolve().parent)
+    bench = next(b for b in BENCHMARKS if b.id == "rlc-b1-d_o-hp")
+    rows = []
+    for m in multipliers:
+        log(f"running rlc-b1-d_o-hp with m = {m:g} ...")
+        rows.append({"multiplier": m, **run_benchmark(district, bench, sac_episodes=sac_episodes, seed=seed,
+                                                      multiplier=m)})
+    base = rows[0]
+    lines = ["| m | discomfort C h | over-cooling C (mean +- std) | under-cooling C (mean +- std) | "
+             "consumption kWh | discomfort change | consumption change |", "|---|---|---|---|---|---|---|"]
+    for r in rows:
+        lines.append(f"| {r['multiplier']:g} | {r['discomfort']:.1f} | {r['overcooling_mean']:.2f} +- "
+                     f"{r['overcooling_std']:.2f} | {r['undercooling_mean']:.2f} +- {r['undercooling_std']:.2f} | "
+                     f"{r['consumption']:.2f} | {_change(r['discomfort'], base['discomfort'])} | "
+                     f"{_change(r['consumption'], base['consumption'])} |")
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "multiplier_sweep.md").write_text("\n".join(lines) + "\n")
+    return rows
+
+
+def _change(value: float, base: float) -> str:
+    return f"{100.0 * (value - base) / base:+.1f} %" if base else "-"

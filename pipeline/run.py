@@ -37,6 +37,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     paper.add_argument("--sac-episodes", type=int, default=150, help="SAC training episodes (paper: 150)")
     paper.add_argument("--multiplier", type=float, default=3.0, help="over-cooling multiplier m of d_o")
     paper.add_argument("--seed", type=int, default=0)
+    paper.add_argument("--sweep", type=float, nargs="*", metavar="M",
+                       help="instead: the m-sweep table of rlc-b1-d_o-hp for these multipliers (paper: 1 3 6 12)")
     paper.set_defaults(func=paper_command)
 
     verify = subparsers.add_parser("verify", help="re-check a built district's manifest hashes and validate it")
@@ -112,8 +114,12 @@ def verify_command(args: argparse.Namespace) -> int:
 
 
 def paper_command(args: argparse.Namespace) -> int:
-    from pipeline.paper import run_all
+    from pipeline.paper import multiplier_sweep, run_all
 
+    if args.sweep:
+        multiplier_sweep(args.schema, args.output, args.sweep, sac_episodes=args.sac_episodes, seed=args.seed)
+        print((args.output / "multiplier_sweep.md").read_text())
+        return 0
     run_all(args.schema, args.output, only=args.only, sac_episodes=args.sac_episodes, seed=args.seed,
             multiplier=args.multiplier)
     print((args.output / "results.md").read_text())

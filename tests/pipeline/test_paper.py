@@ -58,3 +58,32 @@ def test_runs_report_test_period_objectives(district, tmp_path):
 def test_unknown_benchmark_id(district, tmp_path):
     with pytest.raises(ValueError, match="unknown benchmark id"):
         run_all(district[0], tmp_path, only=["rbc-b3-z-x"])
+
+
+def test_overcooling_statistics_by_hand(tmp_path):
+    """Over-/under-cooling statistics of a run: mean and std of the set-point deviation on each side."""
+    from pipeline.paper import _mean, _std
+
+    delta = np.array([-1.0, -3.0, 0.5, 0.0, 1.5])
+    over, under = -delta[delta < 0], delta[delta > 0]
+    assert (_mean(over), _std(over)) == (2.0, 1.0)
+    assert (_mean(under), _std(under)) == (1.0, 0.5)
+    assert _mean(np.array([])) == 0.0
+
+
+def test_multiplier_sweep_on_lstm_district(tmp_path):
+    """rlc-b1-d_o-hp on the shared LSTM district (1 SAC episode per m): a row per multiplier, changes vs m = 1."""
+    from pipeline.paper import multiplier_sweep
+    from tests.conftest import DATASET, need_shared
+
+    need_shared(DATASET)
+    schema = json.loads((DATASET / "schema.json").read_text())
+    schema.update(root_directory=str(DATASET), simulation_end_time_step=719)
+    path = tmp_path / "schema.json"
+    path.write_text(json.dumps(schema))
+    rows = multiplier_sweep(path, tmp_path, (1.0, 12.0), sac_episodes=1, log=lambda *_: None)
+    assert [r["multiplier"] for r in rows] == [1.0, 12.0]
+    for r in rows:
+        assert r["discomfort"] > 0 and r["consumption"] > 0 and r["overcooling_mean"] >= 0
+    table = (tmp_path / "multiplier_sweep.md").read_text().splitlines()
+    assert len(table) == 4 and "+0.0 %" in table[2]
