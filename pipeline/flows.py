@@ -3,8 +3,8 @@
 Surrogate training results are cached (Prefect result persistence, ``PREFECT_RESULTS_LOCAL_STORAGE_PATH``):
 rebuilding with unchanged inputs reuses the trained models.
 
-Runs locally with no server (Prefect's ephemeral mode) on a thread pool; pass ``task_runner="dask"`` to use
-prefect-dask's DaskTaskRunner (a local Dask cluster, or ``address=`` of an existing one).
+Runs locally with no server (Prefect's ephemeral mode) on a thread pool; :func:`build_district_on_dask` runs
+the same flow with prefect-dask's DaskTaskRunner (a local Dask cluster, or the ``address`` of an existing one).
 """
 
 from __future__ import annotations
@@ -56,3 +56,17 @@ def build_district(config: BuildConfig | str | Path, output_root: str = "artifac
         timings["surrogates"] = time.perf_counter() - started
         finish.submit(config, out, names, sizes.result(), dynamics, timings).result()
     return Path(output_root) / config.name
+
+
+def build_district_on_dask(config: BuildConfig | str | Path, output_root: str = "artifacts", *,
+                           address: str | None = None, workers: int = 2) -> Path:
+    """The build flow on Dask: an existing scheduler at ``address``, else a local cluster of ``workers``
+    single-threaded processes (worth it for few, long per-building tasks such as EnergyPlus or training)."""
+    from prefect_dask import DaskTaskRunner
+
+    if address:
+        runner = DaskTaskRunner(address=address)
+    else:
+        runner = DaskTaskRunner(cluster_kwargs={"n_workers": workers, "threads_per_worker": 1, "processes": True,
+                                                "dashboard_address": None})
+    return build_district.with_options(task_runner=runner)(config, output_root)

@@ -28,6 +28,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     build.add_argument("config", type=Path, nargs="?", default=Path("raw/district.toml"))
     build.add_argument("-o", "--output-root", type=Path, default=ARTIFACTS)
     build.add_argument("--no-prefect", action="store_true", help="run the steps in-process, without Prefect")
+    build.add_argument("--dask", nargs="?", const="local", metavar="ADDRESS",
+                       help="run the flow's tasks on Dask: a local cluster, or the scheduler at ADDRESS")
     build.set_defaults(func=build_command)
 
     paper = subparsers.add_parser("paper", help="run the SimBuild 2024 paper's 17 benchmarks on a district")
@@ -88,6 +90,11 @@ def build_command(args: argparse.Namespace) -> int:
         from pipeline.build import build_district_local
 
         folder = build_district_local(config, args.output_root)
+    elif args.dask:
+        from pipeline.flows import build_district_on_dask
+
+        address = None if args.dask == "local" else args.dask
+        folder = build_district_on_dask(config, str(args.output_root), address=address)
     else:
         from pipeline.flows import build_district
 

@@ -142,3 +142,16 @@ def test_build_with_surrogates_emits_lstm_buildings(tmp_path):
     assert not np.allclose(temps[:, 13:21], data[:, 13:21])   # the surrogate, not the data, from t = 13
     assert np.all((temps > 5) & (temps < 45))
     assert build.verify_district(folder) == []
+
+
+@pytest.mark.slow  # a local Dask cluster starts in ~10-30 s here
+def test_dask_task_runner_builds_the_same_district(short_config, tmp_path):
+    from prefect.settings import PREFECT_FLOWS_HEARTBEAT_FREQUENCY, temporary_settings
+
+    from pipeline.flows import build_district_on_dask
+
+    with temporary_settings(updates={PREFECT_FLOWS_HEARTBEAT_FREQUENCY: None}):
+        folder = build_district_on_dask(short_config, str(tmp_path / "dask"), workers=2)
+    local = build.build_district_local(short_config, tmp_path / "local")
+    for name in ("schema.json", "Building_2.csv", "pricing.csv"):
+        assert (folder / name).read_bytes() == (local / name).read_bytes(), name
