@@ -111,6 +111,8 @@ class District:
         self.has_battery = bool((self.battery["capacity"] > 0).any())
         self.dynamics = np.array([x.has_dynamics for x in b])
         self.inf = np.full(self.n, np.inf)
+        self.zeros = np.zeros(self.n)  # read-only stand-in: nothing booked on a battery before it runs
+        self.zeros.flags.writeable = False
 
     def _conversion(self, devs, end_use: str) -> np.ndarray:
         """COP (heat pump) or efficiency (heater) of each building's device for ``end_use``, (B, N)."""
@@ -237,7 +239,7 @@ class District:
                 "capacity": r["electrical_storage_capacity"][:, t - 1]}
         soc_prev = r["electrical_storage_soc"][:, t - 1]
         request = np.minimum(action * bat["capacity"], flex)
-        soc, bal, eff, cap = devices.battery_charge(request, soc_prev, np.zeros(self.n), bat, prev,
+        soc, bal, eff, cap = devices.battery_charge(request, soc_prev, self.zeros, bat, prev,
                                                     compat=self.compat)
         if mask is not None:
             soc = np.where(mask, soc, r["electrical_storage_soc"][:, t])

@@ -59,11 +59,12 @@ def rule_actions(env, rule) -> np.ndarray:
     return np.array([value if name.endswith("_storage") else 0.0 for name in env.action_names])
 
 
-def run_policy(schema: str | Path | dict, policy: str, *, seed: int = 0, ideal_cooling: bool = True):
-    """Run one episode with ``policy`` (no_control, cost_rbc, emission_rbc, peak_rbc); return the env.
+def run_policy(schema: str | Path | dict, policy: str, *, seed: int = 0, ideal_cooling: bool = True,
+               compat: bool = False):
+    """Run one episode with ``policy`` (no_control, random, cost_rbc, emission_rbc, peak_rbc); return the env.
 
     ``ideal_cooling`` deactivates heat-pump actions so the heat pump serves the ideal load (the paper's
-    storage benchmarks); storage actions are 0 under no_control.
+    storage benchmarks); all actions are 0 under no_control; ``random`` samples the action space (seeded).
     """
     from citylearn_env import CityLearnEnv
 
@@ -76,13 +77,19 @@ def run_policy(schema: str | Path | dict, policy: str, *, seed: int = 0, ideal_c
     if ideal_cooling:
         raw["actions"]["cooling_device"] = {"active": False}
         raw["actions"]["heating_device"] = {"active": False}
-    env = CityLearnEnv(raw)
-    env.reset(seed=seed)
     rule = RULES.get(policy)
-    if rule is None and policy != "no_control":
-        raise ValueError(f"unknown policy {policy!r}; known: no_control, {', '.join(RULES)}")
+    if rule is None and policy not in ("no_control", "random"):
+        raise ValueError(f"unknown policy {policy!r}; known: no_control, random, {', '.join(RULES)}")
+    env = CityLearnEnv(raw, compat=compat)
+    env.reset(seed=seed)
+    env.action_space.seed(seed)
     terminated = False
     while not terminated:
-        action = rule_actions(env, rule) if rule else np.zeros(env.action_space.shape)
+        if rule is not None:
+            action = rule_actions(env, rule)
+        elif policy == "random":
+            action = env.action_space.sample()
+        else:
+            action = np.zeros(env.action_space.shape)
         _, _, terminated, _, _ = env.step(action)
     return env

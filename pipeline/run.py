@@ -48,27 +48,16 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     verify.set_defaults(func=verify_command)
 
 
-def run_episode(schema: Path, *, policy: str = "random", seed: int = 0, compat: bool = False):
-    """Run one episode; return the environment at its end."""
-    from citylearn_env import CityLearnEnv
-
-    env = CityLearnEnv(schema, compat=compat)
-    env.reset(seed=seed)
-    env.action_space.seed(seed)
-    terminated = False
-    while not terminated:
-        action = env.action_space.sample() if policy == "random" else np.zeros(env.action_space.shape)
-        _, _, terminated, _, _ = env.step(action)
-    return env
-
-
 def run_command(args: argparse.Namespace) -> int:
     import pandas as pd
 
     from citylearn_env.example import write_example_district
 
     schema = args.schema or write_example_district(ARTIFACTS / "example")
-    env = run_episode(schema, policy=args.policy, seed=args.seed, compat=args.compat)
+    from pipeline.controllers import run_policy
+
+    policy = "no_control" if args.policy == "zero" else "random"
+    env = run_policy(schema, policy, seed=args.seed, ideal_cooling=False, compat=args.compat)
     kpis = env.evaluate()
     table = kpis.pivot_table(index="cost_function", columns="name", values="value", dropna=False)
     with pd.option_context("display.width", 160, "display.max_columns", 20, "display.precision", 4):
