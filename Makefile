@@ -11,7 +11,8 @@ $(STAMP): pyproject.toml
 	$(PY) -m pip install -q --upgrade pip
 	# torch first, pinned: the CPU build on this machine; an open range would pull a CUDA build.
 	$(PY) -m pip install -q torch==2.13.0
-	$(PY) -m pip install -q -e ".[dev,rl,dask,energyplus,fmu-dev,fast]"
+	# every extra: the pipeline, surrogates, RL, Dask, EnergyPlus, FMU, numba and the test tools
+	$(PY) -m pip install -q -e ".[all]"
 	touch $(STAMP)
 
 # Prefect runs with no server (ephemeral); quiet and patient on a 2-core machine

@@ -21,7 +21,9 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
+from citylearn_env.dataset import DynamicsBlock  # noqa: E402
 from citylearn_env.dynamics import LSTMBank, LSTMSpec, read_pth_state_dict  # noqa: E402
+from citylearn_env.settings import CITYLEARN_2_1  # noqa: E402
 
 DATA = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "citylearn" / \
     "citylearn_challenge_2023_phase_3_1-v2.1"
@@ -34,8 +36,9 @@ HIGH = (931.0, 486.5, 42.8, 24.4, 3.0, 12.7, 0.0, -0.5, 1.0, 1.0, 0.97, 1.0, 43.
 
 def make_bank(n: int, backend: str) -> LSTMBank:
     states = [read_pth_state_dict(DATA / f"Building_{i}.pth") for i in range(1, 7)]
-    specs = [LSTMSpec(states[b % 6], NAMES, LOW, HIGH, 16, 2, 12) for b in range(n)]
-    return LSTMBank(specs, compat=True, backend=backend)
+    block = DynamicsBlock("model.pth", NAMES, LOW, HIGH, hidden_size=16, num_layers=2, lookback=12)
+    specs = [LSTMSpec(states[b % 6], block) for b in range(n)]
+    return LSTMBank(specs, settings=CITYLEARN_2_1, backend=backend)
 
 
 def inputs(n: int, steps: int, seed: int = 0) -> list[dict[str, np.ndarray]]:

@@ -23,6 +23,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 import numpy as np  # noqa: E402
 
 from benchmarks.env_speed import CASES, DATASET, make_schema  # noqa: E402
+from citylearn_env.settings import CITYLEARN_2_1  # noqa: E402
 from citylearn_env.vector import CityLearnVectorEnv  # noqa: E402
 
 
@@ -37,7 +38,7 @@ def main() -> None:
     print("| N copies | vector steps/s | env-steps/s (N x steps/s) | us per env-step |")
     print("|---|---|---|---|")
     for n in args.sizes:
-        vec = CityLearnVectorEnv(schema, n, compat=True)
+        vec = CityLearnVectorEnv(schema, n, settings=CITYLEARN_2_1)
         rng = np.random.default_rng(0)
         low, high = vec.single_action_space.low, vec.single_action_space.high
         table = rng.uniform(low, high, size=(719, n, low.size))

@@ -15,7 +15,11 @@ Both implementations do the same work for every *active* model slot ``m`` (one p
 
 Weights are stored transposed (``wih0t`` (M, I, 4H), ``wihrt`` (M, L-1, H, 4H), ``whht`` (M, L, H, 4H)) so the
 innermost loop runs over the 4H gate rows (i, f, g, o) and vectorises without reordering any sum.
-``f32`` rounds the window inputs and the output to float32 as torch does in CityLearn 2.1.
+``f32`` (the bank passes ``settings.lstm_float32``) rounds the window inputs and the output to float32 as torch
+does in CityLearn 2.1; ``period`` holds the sin/cos periods (day_type: ``settings.lstm_day_type_period``)
+and ``out_lo``/``out_span`` the de-normalisation bounds the bank chose
+(``settings.lstm_output_uses_last_input_bounds``).
+The kernels take plain arrays, bools and floats only, never the settings object (numba cannot type it).
 numba is imported lazily by :func:`get_numba_kernel`; this module itself needs numpy only.
 """
 

@@ -7,11 +7,16 @@ simulation range (row ``simulation_start_time_step`` .. ``simulation_end_time_st
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+import dataclasses
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from types import MappingProxyType
+from typing import Any
 
 import numpy as np
+
+from citylearn_env.dataset import DynamicsBlock
+from citylearn_env.errors import SchemaError
 
 #: CityLearn v2.1 battery curves used when a schema gives none: [[x, y], ...]
 DEFAULT_POWER_EFFICIENCY_CURVE = ((0.0, 0.83), (0.3, 0.83), (0.7, 0.9), (0.8, 0.9), (1.0, 0.85))
@@ -74,19 +79,6 @@ class Battery:
 
 
 @dataclass(frozen=True)
-class LSTMModel:
-    """One LSTM temperature model: weights file, input names and min-max bounds, architecture."""
-
-    filepath: str
-    input_observation_names: tuple[str, ...]
-    input_normalization_minimum: tuple[float, ...]
-    input_normalization_maximum: tuple[float, ...]
-    hidden_size: int
-    num_layers: int
-    lookback: int
-
-
-@dataclass(frozen=True)
 class Outage:
     """Power-outage settings. ``stochastic``: SAIFI/CAIDI model; otherwise the CSV ``power_outage`` column."""
 
@@ -113,8 +105,8 @@ class BuildingConfig:
     electrical_storage: Battery = field(default_factory=Battery)
     pv_nominal_power: float = 0.0
     outage: Outage = field(default_factory=Outage)
-    cooling_model: LSTMModel | None = None
-    heating_model: LSTMModel | None = None
+    cooling_model: DynamicsBlock | None = None
+    heating_model: DynamicsBlock | None = None
     active_observations: tuple[str, ...] = ()
     active_actions: tuple[str, ...] = ()
 
@@ -147,6 +139,90 @@ class DistrictConfig:
     @property
     def shared_observations(self) -> tuple[str, ...]:
         return tuple(name for name, shared in self.observations if shared)
+
+    # ------------------------------------------------------------------ typed edits (never the raw JSON)
+    def replace(self, **changes: Any) -> DistrictConfig:
+        """A copy with top-level fields changed (e.g. ``central_agent=True``, ``random_seed=1``)."""
+        return dataclasses.replace(self, **changes)
+
+    def with_buildings(self, names: Sequence[str]) -> DistrictConfig:
+        """Only the buildings ``names``, in that order."""
+        by_name = {b.name: b for b in self.buildings}
+        unknown = [n for n in names if n not in by_name]
+        if unknown or not names:
+            raise SchemaError(f"unknown building(s) {unknown}; the district has {', '.join(by_name)}"
+                              if unknown else "at least one building is needed", column="buildings")
+        return dataclasses.replace(self, buildings=tuple(by_name[n] for n in names))
+
+    def with_observations(self, active: Sequence[str], shared: Iterable[str] = ()) -> DistrictConfig:
+        """Exactly ``active`` observations (in this order) for every building; ``shared`` ones appear once in
+        the central agent's vector."""
+        shared = set(shared)
+        observations = tuple((name, name in shared) for name in active)
+        buildings = tuple(dataclasses.replace(b, active_observations=tuple(active)) for b in self.buildings)
+        return dataclasses.replace(self, observations=observations, buildings=buildings)
+
+    def with_actions(self, active: Iterable[str]) -> DistrictConfig:
+        """Exactly the ``active`` actions (schema order) for every building."""
+        active = tuple(active)
+        unknown = [a for a in active if a not in ACTION_NAMES]
+        if unknown:
+            raise SchemaError(f"unknown action(s) {unknown}; known: {', '.join(ACTION_NAMES)}", column="actions")
+        ordered = tuple(a for a in ACTION_NAMES if a in active)
+        return dataclasses.replace(
+            self, buildings=tuple(dataclasses.replace(b, active_actions=ordered) for b in self.buildings))
+
+    def with_episode(self, splits: Sequence[tuple[int, int]] | int | None) -> DistrictConfig:
+        """``episode_time_steps``: None (the whole range), a length, or inclusive (start, end) time steps."""
+        if splits is not None and not isinstance(splits, int):
+            splits = tuple((int(a), int(b)) for a, b in splits)
+        return dataclasses.replace(self, episode_time_steps=splits)
+
+    def with_reward(self, spec: Mapping[str, Any] | str | None) -> DistrictConfig:
+        """The reward function spec (``{"type": ..., "attributes": {...}}``, a registered name or None)."""
+        if isinstance(spec, str):
+            spec = {"type": spec, "attributes": {}}
+        return dataclasses.replace(self, reward_function=None if spec is None else MappingProxyType(dict(spec)))
+
+    def without_devices(self, *slots: str) -> DistrictConfig:
+        """Every building without the devices in ``slots`` (storages, "pv"): as if the schema had none."""
+        empty = {"cooling_storage": Tank(), "heating_storage": Tank(), "dhw_storage": Tank(),
+                 "electrical_storage": Battery()}
+        unknown = [s for s in slots if s not in empty and s != "pv"]
+        if unknown:
+            raise SchemaError(f"cannot remove {unknown}; removable: {', '.join([*empty, 'pv'])}", column="buildings")
+        changes = {s: empty[s] for s in slots if s in empty}
+        if "pv" in slots:
+            changes["pv_nominal_power"] = 0.0
+        return dataclasses.replace(
+            self, buildings=tuple(dataclasses.replace(b, **changes) for b in self.buildings))
+
+    def without_outages(self) -> DistrictConfig:
+        """No power outages in any building."""
+        return dataclasses.replace(
+            self, buildings=tuple(dataclasses.replace(b, outage=Outage()) for b in self.buildings))
+
+    def with_device(self, building: str, slot: str, **attributes: Any) -> DistrictConfig:
+        """Building ``building``'s device ``slot`` with ``attributes`` changed (units as in the schema)."""
+        names = self.building_names
+        if building not in names:
+            raise SchemaError(f"unknown building {building!r}; the district has {', '.join(names)}",
+                              column="buildings")
+        b = self.buildings[names.index(building)]
+        if slot == "pv":
+            new = dataclasses.replace(b, pv_nominal_power=float(attributes.pop("nominal_power", b.pv_nominal_power)))
+        else:
+            current = getattr(b, slot, None)
+            if not dataclasses.is_dataclass(current):
+                raise SchemaError(f"unknown device slot {slot!r}", column=f"buildings.{building}")
+            try:
+                new = dataclasses.replace(b, **{slot: dataclasses.replace(current, **attributes)})
+            except TypeError as error:
+                raise SchemaError(str(error), column=f"buildings.{building}.{slot}.attributes") from None
+            attributes = {}
+        if attributes:
+            raise SchemaError(f"unknown attribute(s) {sorted(attributes)}", column=f"buildings.{building}.{slot}")
+        return dataclasses.replace(self, buildings=tuple(new if x is b else x for x in self.buildings))
 
 
 def frozen_series(series: Mapping[str, np.ndarray]) -> Mapping[str, np.ndarray]:

@@ -11,13 +11,10 @@ import json
 import os
 from pathlib import Path
 
-from citylearn_env import layout
-from citylearn_env.schema import _columns_of, _read_csv
+from citylearn_env import dataset
 
 _KINDS = {"energy_simulation": "building", "weather": "weather", "pricing": "pricing",
           "carbon_intensity": "carbon"}
-_TABLES = {"building": layout.BUILDING_COLUMNS, "weather": layout.WEATHER_COLUMNS,
-           "pricing": layout.PRICING_COLUMNS, "carbon": layout.CARBON_COLUMNS}
 
 
 def convert_dataset(schema_path: str | Path, out_dir: str | Path, *, to_layout: str = "v2.2") -> Path:
@@ -45,15 +42,15 @@ def convert_dataset(schema_path: str | Path, out_dir: str | Path, *, to_layout: 
 
 
 def _convert_file(src: Path, dst: Path, kind: str, to_layout: str) -> None:
-    frame = _read_csv(src)
-    mapping = _columns_of(frame, kind, src)
-    table = _TABLES[kind]
+    frame = dataset.read_frame(src)
+    mapping = dataset.columns_of(frame.columns, kind, src)
+    table = dataset.TABLES[kind]
     names = [n for n in table if n in mapping]
     result = frame[[mapping[n] for n in names]].copy()
     if kind == "carbon":
         result.columns = ["kg_CO2/kWh"] if to_layout == "v2.1" else ["carbon_intensity"]
     else:
-        result.columns = layout.header({n: table[n] for n in names}, to_layout)
+        result.columns = dataset.header({n: table[n] for n in names}, to_layout)
     tmp = dst.with_suffix(dst.suffix + ".tmp")
     result.to_csv(tmp, index=False)
     os.replace(tmp, dst)

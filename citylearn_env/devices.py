@@ -7,6 +7,9 @@ and the battery (:func:`storage_charge`); the battery adds power limits, efficie
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
 import numpy as np
 
 MAX_COP = 20.0
@@ -30,34 +33,65 @@ def carnot_cop_heating(outdoor_c: np.ndarray, target_c: np.ndarray, efficiency: 
     return np.where((cop < 0) | (cop > MAX_COP) | ~np.isfinite(cop), MAX_COP, cop)
 
 
+def heater_efficiency(efficiency: np.ndarray, n_steps: int) -> np.ndarray:
+    """Electric heater: a constant thermal efficiency [-] over ``n_steps`` steps (its "COP"), (B, n_steps)."""
+    return np.repeat(np.asarray(efficiency, dtype=np.float64).reshape(-1, 1), n_steps, axis=1)
+
+
+def device_output(demand: np.ndarray, nominal_power: np.ndarray, cop: np.ndarray,
+                  supply: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Serve a thermal ``demand`` [kWh] with a device of ``nominal_power`` [kW electric] and ``cop`` [-], drawing
+    at most ``supply`` [kWh electric] (inf outside an outage). Returns (thermal energy delivered [kWh],
+    electricity used [kWh]); the delivery is min(demand, min(supply, P) * COP) for a demand >= 0 and the
+    electricity is never negative."""
+    delivered = np.minimum(demand, np.minimum(supply, nominal_power) * cop)
+    return delivered, np.maximum(0.0, delivered / cop)
+
+
 def pv_generation(nominal_kw: np.ndarray, yield_w_per_kw: np.ndarray) -> np.ndarray:
     """PV AC energy [kWh per 1-h step] = nominal power [kW] * specific yield [W/kW] / 1000 (positive)."""
     return nominal_kw * yield_w_per_kw / 1000.0
 
 
-def curve_slopes(xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
-    """Slopes of the segments of (B, K) padded curves, (B, K - 1); 0 for zero-width segments."""
-    dx, dy = np.diff(xs, axis=1), np.diff(ys, axis=1)
-    return np.divide(dy, dx, out=np.zeros_like(dy), where=dx != 0)
+@dataclass(frozen=True, eq=False)
+class Curve:
+    """Piecewise-linear curves of B buildings: points ``xs``/``ys`` (B, K), padded with each curve's last
+    point, and the slopes of their K - 1 segments (0 for zero-width segments)."""
+
+    xs: np.ndarray
+    ys: np.ndarray
+    slopes: np.ndarray
+    #: 0 .. B - 1, for indexing one point per building (derived)
+    rows: np.ndarray = field(init=False)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "rows", np.arange(len(self.xs)))
+
+    @classmethod
+    def from_points(cls, curves: Sequence[Sequence[tuple[float, float]]]) -> Curve:
+        """Stack one ((x, y), ...) point sequence per building."""
+        width = max(len(c) for c in curves)
+        padded = [list(c) + [c[-1]] * (width - len(c)) for c in curves]
+        xs = np.array([[pt[0] for pt in c] for c in padded], dtype=np.float64)
+        ys = np.array([[pt[1] for pt in c] for c in padded], dtype=np.float64)
+        dx, dy = np.diff(xs, axis=1), np.diff(ys, axis=1)
+        return cls(xs, ys, np.divide(dy, dx, out=np.zeros_like(dy), where=dx != 0))
 
 
-def interpolate_curve(x: np.ndarray, xs: np.ndarray, ys: np.ndarray, slopes: np.ndarray | None = None, *,
-                      compat: bool = True) -> np.ndarray:
-    """Piecewise-linear y(x) per building; ``xs``/``ys`` are (B, K) curve points padded with the last point.
+def interpolate_curve(x: np.ndarray, curve: Curve, *, extrapolate_first_segment: bool = False) -> np.ndarray:
+    """Piecewise-linear y(x) per building.
 
     The segment is the one ending at the first point with x_k >= x (segment 0 when x <= x_0). Beyond the last
-    point CityLearn 2.1 extrapolates segment 0 (``compat=True``); otherwise the last y is held.
-    ``slopes`` may be passed precomputed (:func:`curve_slopes`).
+    point the last y is held, or -- ``extrapolate_first_segment``, CityLearn 2.1's behaviour -- segment 0 is
+    extrapolated.
     """
-    if slopes is None:
-        slopes = curve_slopes(xs, ys)
-    above = xs >= x[:, None]
-    found = above.any(axis=1)
-    segment = np.maximum(above.argmax(axis=1), 1) - 1  # argmax is 0 when nothing is found: segment 0
-    rows = np.arange(len(x))
-    y = ys[rows, segment] + (x - xs[rows, segment]) * slopes[rows, segment]
-    if not compat:
-        y = np.where(found, y, ys[:, -1])
+    above = curve.xs >= x[:, None]
+    segment = above.argmax(axis=1)  # 0 when nothing is found: segment 0
+    segment -= segment > 0
+    rows = curve.rows if len(x) == len(curve.rows) else np.arange(len(x))
+    y = curve.ys[rows, segment] + (x - curve.xs[rows, segment]) * curve.slopes[rows, segment]
+    if not extrapolate_first_segment:
+        y = np.where(x > curve.xs[:, -1], curve.ys[:, -1], y)
     return y
 
 
@@ -68,7 +102,8 @@ def storage_charge(
 
     Standby loss first: E0 = soc_prev * C * (1 - loss). Charging stores ``energy * one_way`` (capped at C),
     discharging removes ``energy / one_way`` (floored at 0). The balance is the device-side energy:
-    equal to ``energy`` unless the storage limits clipped it.
+    equal to ``energy`` unless the storage limits clipped it. ``one_way`` is the one-way efficiency
+    (the square root of the round-trip efficiency); ``loss`` the fraction of the content lost per step.
     """
     e0 = np.maximum(0.0, soc_prev * capacity * (1.0 - loss))
     e1 = np.where(energy >= 0, np.minimum(e0 + energy * one_way, capacity), np.maximum(0.0, e0 + energy / one_way))
@@ -78,50 +113,61 @@ def storage_charge(
     return soc, balance
 
 
-def battery_limit(
-    energy: np.ndarray,
-    soc_prev: np.ndarray,
-    booked: np.ndarray,
-    battery: dict[str, np.ndarray],
-    state: dict[str, np.ndarray],
-    *,
-    compat: bool = True,
-) -> np.ndarray:
-    """Clip a battery request [kWh] to its power curve, nominal power, free capacity and depth of discharge."""
-    capacity, nominal = battery["capacity"], battery["nominal_power"]
-    e0 = np.maximum(0.0, soc_prev * capacity * (1.0 - battery["loss_coefficient"]))
+@dataclass(frozen=True, eq=False)
+class BatteryParams:
+    """Batteries of B buildings, (B,) arrays: nominal ``capacity`` [kWh], ``nominal_power`` [kW], initial
+    round-trip ``efficiency`` [-], standby ``loss_coefficient`` [fraction per step], ``capacity_loss_coefficient``
+    [fraction of capacity per full cycle], ``depth_of_discharge`` [-], ``initial_soc`` [-]; the
+    ``power_efficiency`` curve (x = |energy| / nominal power, y = round-trip efficiency) and the
+    ``capacity_power`` curve (x = state of charge, y = fraction of nominal power available)."""
+
+    capacity: np.ndarray
+    nominal_power: np.ndarray
+    efficiency: np.ndarray
+    loss_coefficient: np.ndarray
+    capacity_loss_coefficient: np.ndarray
+    depth_of_discharge: np.ndarray
+    initial_soc: np.ndarray
+    power_efficiency: Curve
+    capacity_power: Curve
+    #: 1 / nominal power [1/kW], 0 where the nominal power is 0 (derived)
+    inverse_nominal_power: np.ndarray = field(init=False)
+
+    def __post_init__(self) -> None:
+        p = self.nominal_power
+        object.__setattr__(self, "inverse_nominal_power", np.divide(1.0, p, out=np.zeros_like(p), where=p > 0))
+
+
+def battery_limit(energy: np.ndarray, soc_prev: np.ndarray, booked: np.ndarray, battery: BatteryParams,
+                  efficiency_prev: np.ndarray, capacity_prev: np.ndarray, *,
+                  extrapolate_first_segment: bool = False) -> np.ndarray:
+    """Clip a battery request [kWh] to its capacity-power curve, nominal power (less ``booked`` energy), free
+    (degraded) capacity ``capacity_prev`` [kWh] and depth of discharge (at the previous efficiency)."""
+    capacity, nominal = battery.capacity, battery.nominal_power
+    e0 = np.maximum(0.0, soc_prev * capacity * (1.0 - battery.loss_coefficient))
     soc0 = e0 / np.maximum(capacity, 1e-6)
-    p_max = nominal * interpolate_curve(soc0, battery["cp_x"], battery["cp_y"], battery["cp_slope"], compat=compat)
-    charge = np.minimum(np.minimum(p_max, nominal - booked), np.minimum(state["capacity"] - e0, energy))
-    floor = -np.maximum((soc_prev - (1.0 - battery["depth_of_discharge"])) * capacity
-                        * np.sqrt(state["efficiency"]), 0.0)
+    p_max = nominal * interpolate_curve(soc0, battery.capacity_power,
+                                        extrapolate_first_segment=extrapolate_first_segment)
+    charge = np.minimum(np.minimum(p_max, nominal - booked), np.minimum(capacity_prev - e0, energy))
+    floor = -np.maximum((soc_prev - (1.0 - battery.depth_of_discharge)) * capacity * np.sqrt(efficiency_prev), 0.0)
     discharge = np.maximum(np.maximum(-p_max, floor), energy)
     return np.where(energy >= 0, charge, discharge)
 
 
-def battery_charge(
-    energy: np.ndarray,
-    soc_prev: np.ndarray,
-    booked: np.ndarray,
-    battery: dict[str, np.ndarray],
-    state: dict[str, np.ndarray],
-    *,
-    compat: bool = True,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """One battery step. Returns (soc, balance [kWh], efficiency [-], degraded capacity [kWh]).
+def battery_charge(energy: np.ndarray, soc_prev: np.ndarray, booked: np.ndarray, battery: BatteryParams,
+                   efficiency_prev: np.ndarray, capacity_prev: np.ndarray, *,
+                   extrapolate_first_segment: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """One battery step. Returns (soc [-], balance [kWh], round-trip efficiency [-], degraded capacity [kWh]).
 
-    ``battery`` holds the per-building parameters (capacity, nominal_power, inverse_nominal_power (0 where
-    the nominal power is 0), loss_coefficient, capacity_loss_coefficient, depth_of_discharge, curve points
-    pe_x/pe_y and cp_x/cp_y with their segment slopes pe_slope/cp_slope); ``state`` the
-    previous round-trip ``efficiency`` and degraded ``capacity``. The efficiency of the step comes from the
-    power-efficiency curve at |clipped energy| / nominal power.
+    The request is clipped by :func:`battery_limit`; the step's efficiency comes from the power-efficiency
+    curve at |clipped energy| / nominal power; the storage model is :func:`storage_charge` with one-way
+    efficiency sqrt(efficiency); capacity fades by capacity_loss_coefficient * C * |balance| / (2 C_prev) [kWh].
     """
-    capacity = battery["capacity"]
-    e = battery_limit(energy, soc_prev, booked, battery, state, compat=compat)
-    x = np.abs(e) * battery["inverse_nominal_power"]
-    efficiency = interpolate_curve(x, battery["pe_x"], battery["pe_y"], battery["pe_slope"], compat=compat)
-    soc, balance = storage_charge(soc_prev, e, capacity, battery["loss_coefficient"], np.sqrt(efficiency))
-    degraded = state["capacity"]
-    fade = np.divide(battery["capacity_loss_coefficient"] * capacity * np.abs(balance), 2.0 * degraded,
-                     out=np.zeros_like(balance), where=degraded > 0)
-    return soc, balance, efficiency, np.maximum(degraded - fade, 0.0)
+    e = battery_limit(energy, soc_prev, booked, battery, efficiency_prev, capacity_prev,
+                      extrapolate_first_segment=extrapolate_first_segment)
+    x = np.abs(e) * battery.inverse_nominal_power
+    efficiency = interpolate_curve(x, battery.power_efficiency, extrapolate_first_segment=extrapolate_first_segment)
+    soc, balance = storage_charge(soc_prev, e, battery.capacity, battery.loss_coefficient, np.sqrt(efficiency))
+    fade = np.divide(battery.capacity_loss_coefficient * battery.capacity * np.abs(balance), 2.0 * capacity_prev,
+                     out=np.zeros_like(balance), where=capacity_prev > 0)
+    return soc, balance, efficiency, np.maximum(capacity_prev - fade, 0.0)

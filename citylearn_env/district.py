@@ -1,60 +1,33 @@
-"""Array state of all buildings of a district and the per-step order of operations (CityLearn 2.1).
+"""The district: typed state of all buildings and the per-step order of operations (CityLearn 2.1).
 
 Every quantity is a numpy array with one element per building; a step advances all buildings together.
-Order inside a step (per building, expressed with masks): demands (LSTM buildings: from the heat-pump
-action) -> battery if it discharges -> for cooling, heating, DHW: device then storage (storage first if it
-discharges) -> non-shiftable load -> battery if it charges. During a power outage every draw is capped by
-the building's remaining supply (PV minus what was already booked this step) and net consumption is 0.
-Energies are kWh per step.
+Order inside a step (per building, expressed with masks): the thermal model turns device actions into demands
+(LSTM buildings) -> battery if it discharges -> for cooling, heating, DHW: device then storage (storage first if
+it discharges) -> non-shiftable load -> battery if it charges -> the thermal model predicts the indoor
+temperature. During a power outage every draw is capped by the building's remaining supply (PV minus what was
+already booked this step) and net consumption is 0. Energies are kWh per step.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from dataclasses import dataclass
+from types import MappingProxyType
 
 import numpy as np
 
 from citylearn_env import devices
 from citylearn_env.config import DistrictConfig
-
-END_USES = ("cooling", "heating", "dhw")
-
-#: series recorded every step, (B, T) each; the names of the CityLearn 2.1 building properties
-RECORDED = (
-    "net_electricity_consumption",
-    "cooling_electricity_consumption",
-    "heating_electricity_consumption",
-    "dhw_electricity_consumption",
-    "non_shiftable_load_electricity_consumption",
-    "cooling_storage_electricity_consumption",
-    "heating_storage_electricity_consumption",
-    "dhw_storage_electricity_consumption",
-    "electrical_storage_electricity_consumption",
-    "cooling_demand",
-    "heating_demand",
-    "energy_from_cooling_device",
-    "energy_from_heating_device",
-    "energy_from_dhw_device",
-    "energy_to_non_shiftable_load",
-    "energy_from_cooling_storage",
-    "energy_from_heating_storage",
-    "energy_from_dhw_storage",
-    "energy_from_electrical_storage",
-    "energy_from_cooling_device_to_cooling_storage",
-    "energy_from_heating_device_to_heating_storage",
-    "energy_from_dhw_device_to_dhw_storage",
-    "energy_to_electrical_storage",
-    "cooling_storage_soc",
-    "heating_storage_soc",
-    "dhw_storage_soc",
-    "electrical_storage_soc",
-    "cooling_storage_energy_balance",
-    "heating_storage_energy_balance",
-    "dhw_storage_energy_balance",
-    "electrical_storage_energy_balance",
-    "electrical_storage_efficiency",
-    "electrical_storage_capacity",
-    "indoor_dry_bulb_temperature",
+from citylearn_env.settings import CORRECTED, Behaviour
+from citylearn_env.state import (
+    END_USE_SLOTS,
+    END_USES,
+    BatteryRecord,
+    BuildingRecord,
+    EndUseParams,
+    EndUseRecord,
+    Signals,
+    TankParams,
+    recorded_names,
 )
 
 
@@ -62,195 +35,239 @@ def _stack(values) -> np.ndarray:
     return np.asarray(list(values), dtype=np.float64)
 
 
-class District:
-    """Parameters (B,), full-range series (B, N) and the recorded episode (B, T) of a district."""
+@dataclass(slots=True, eq=False)
+class Actions:
+    """One step's actions of every building, (B,): storage actions as fractions of capacity (0 where
+    inactive), device actions as fractions of nominal power (NaN where inactive)."""
 
-    def __init__(self, config: DistrictConfig, *, compat: bool = False):
-        self.config, self.compat = config, compat
+    cooling_storage: np.ndarray
+    heating_storage: np.ndarray
+    dhw_storage: np.ndarray
+    electrical_storage: np.ndarray
+    cooling_device: np.ndarray
+    heating_device: np.ndarray
+
+    def storage(self, end_use: str) -> np.ndarray:
+        return {"cooling": self.cooling_storage, "heating": self.heating_storage, "dhw": self.dhw_storage}[end_use]
+
+
+@dataclass(eq=False)
+class EndUseState:
+    """One end use during an episode: its parameters, the episode's COP and data demand (B, T) and record."""
+
+    params: EndUseParams
+    cop: np.ndarray
+    demand_data: np.ndarray
+    record: EndUseRecord
+
+
+class District:
+    """Parameters, data series and the recorded episode of a district; :meth:`step` advances it.
+
+    ``settings`` chooses upstream behaviour (:mod:`citylearn_env.settings`). Buildings with LSTM dynamics get
+    a :class:`citylearn_env.thermal.ThermalModel`, owned and stepped here.
+    """
+
+    def __init__(self, config: DistrictConfig, *, settings: Behaviour = CORRECTED):
+        self.config, self.settings = config, settings
         b = config.buildings
         self.n = len(b)
         self.names = config.building_names
-        names = b[0].series.keys()
-        self.series: dict[str, np.ndarray] = {k: np.stack([x.series[k] for x in b]) for k in names}
-        s = self.series
-        self.p: dict[str, np.ndarray] = {}
-        for k in END_USES:
-            dev = [getattr(x, f"{k}_device") for x in b]
-            tank = [getattr(x, f"{k}_storage") for x in b]
-            self.p[f"{k}_nominal_power"] = _stack(d.nominal_power for d in dev)
-            self.p[f"{k}_capacity"] = _stack(t.capacity for t in tank)
-            self.p[f"{k}_loss"] = _stack(t.loss_coefficient for t in tank)
-            self.p[f"{k}_one_way"] = np.sqrt(_stack(t.efficiency for t in tank))
-            self.p[f"{k}_initial_soc"] = _stack(t.initial_soc for t in tank)
-            self.p[f"{k}_max_in"] = _stack(t.max_input_power for t in tank)
-            self.p[f"{k}_max_out"] = _stack(t.max_output_power for t in tank)
-            s[f"{k}_device_cop"] = self._conversion(dev, k)
-        bat = [x.electrical_storage for x in b]
-        self.battery = {
-            name: _stack(getattr(x, name) for x in bat)
-            for name in ("capacity", "nominal_power", "efficiency", "loss_coefficient",
-                         "capacity_loss_coefficient", "depth_of_discharge", "initial_soc")
-        }
-        for key, attr in (("pe", "power_efficiency_curve"), ("cp", "capacity_power_curve")):
-            width = max(len(getattr(x, attr)) for x in bat)
-            pad = [list(getattr(x, attr)) + [getattr(x, attr)[-1]] * (width - len(getattr(x, attr))) for x in bat]
-            self.battery[f"{key}_x"] = np.array([[pt[0] for pt in c] for c in pad])
-            self.battery[f"{key}_y"] = np.array([[pt[1] for pt in c] for c in pad])
-            self.battery[f"{key}_slope"] = devices.curve_slopes(self.battery[f"{key}_x"], self.battery[f"{key}_y"])
-        nominal = self.battery["nominal_power"]
-        self.battery["inverse_nominal_power"] = np.divide(1.0, nominal, out=np.zeros_like(nominal), where=nominal > 0)
+        columns = {k: np.stack([x.series[k] for x in b]) for k in b[0].series}
+        for value in columns.values():
+            value.flags.writeable = False
         self.pv_nominal_power = _stack(x.pv_nominal_power for x in b)
-        s["pv_generation"] = devices.pv_generation(self.pv_nominal_power[:, None], s["solar_generation"])
-        # which end uses can ever be non-zero: the others are skipped in the step
-        self.live = {
-            k: bool((self.p[f"{k}_nominal_power"] > 0).any() or (self.p[f"{k}_capacity"] > 0).any()
-                    or (s[f"{k}_demand"] > 0).any())
-            for k in END_USES
-        }
-        self.has_storage = {k: bool((self.p[f"{k}_capacity"] > 0).any()) for k in END_USES}
-        self.has_battery = bool((self.battery["capacity"] > 0).any())
+        pv = devices.pv_generation(self.pv_nominal_power[:, None], columns["solar_generation"])
+        self.signals = Signals(MappingProxyType(columns), pv, columns["power_outage"])
+        self.end_use_params = tuple(self._end_use_params(k) for k in END_USES)
+        self.battery = self._battery_params()
+        self.has_battery = bool((self.battery.capacity > 0).any())
         self.dynamics = np.array([x.has_dynamics for x in b])
+        self.thermal = None
+        if self.dynamics.any():
+            from citylearn_env.thermal import ThermalModel
+
+            self.thermal = ThermalModel(self, settings)
         self.inf = np.full(self.n, np.inf)
         self.zeros = np.zeros(self.n)  # read-only stand-in: nothing booked on a battery before it runs
         self.zeros.flags.writeable = False
+        self.t, self.length = 0, 0
+
+    # ------------------------------------------------------------------ construction
+    def _end_use_params(self, k: str) -> EndUseParams:
+        b = self.config.buildings
+        device_slot, storage_slot, demand_column, _ = END_USE_SLOTS[k]
+        devs = [getattr(x, device_slot) for x in b]
+        tanks = [getattr(x, storage_slot) for x in b]
+        tank = TankParams(
+            capacity=_stack(t.capacity for t in tanks), loss_coefficient=_stack(t.loss_coefficient for t in tanks),
+            one_way_efficiency=np.sqrt(_stack(t.efficiency for t in tanks)),
+            initial_soc=_stack(t.initial_soc for t in tanks), max_input_power=_stack(t.max_input_power for t in tanks),
+            max_output_power=_stack(t.max_output_power for t in tanks))
+        nominal = _stack(d.nominal_power for d in devs)
+        demand = self.signals[demand_column]
+        return EndUseParams(
+            name=k, nominal_power=nominal, cop=self._conversion(devs, k), demand=demand, tank=tank,
+            live=bool((nominal > 0).any() or (tank.capacity > 0).any() or (demand > 0).any()),
+            has_storage=bool((tank.capacity > 0).any()))
 
     def _conversion(self, devs, end_use: str) -> np.ndarray:
         """COP (heat pump) or efficiency (heater) of each building's device for ``end_use``, (B, N)."""
-        t_out = self.series["outdoor_dry_bulb_temperature"]
+        t_out = self.signals["outdoor_dry_bulb_temperature"]
         rows = []
         for i, d in enumerate(devs):
             if d.kind == "ElectricHeater":
-                rows.append(np.full(t_out.shape[1], d.efficiency))
+                rows.append(devices.heater_efficiency(np.array([d.efficiency]), t_out.shape[1])[0])
             elif end_use == "cooling":
                 rows.append(devices.carnot_cop_cooling(t_out[i], d.target_cooling_temperature, d.efficiency))
             else:
                 rows.append(devices.carnot_cop_heating(t_out[i], d.target_heating_temperature, d.efficiency))
-        return np.stack(rows)
+        cop = np.stack(rows)
+        cop.flags.writeable = False
+        return cop
+
+    def _battery_params(self) -> devices.BatteryParams:
+        bat = [x.electrical_storage for x in self.config.buildings]
+        return devices.BatteryParams(
+            capacity=_stack(x.capacity for x in bat), nominal_power=_stack(x.nominal_power for x in bat),
+            efficiency=_stack(x.efficiency for x in bat), loss_coefficient=_stack(x.loss_coefficient for x in bat),
+            capacity_loss_coefficient=_stack(x.capacity_loss_coefficient for x in bat),
+            depth_of_discharge=_stack(x.depth_of_discharge for x in bat),
+            initial_soc=_stack(x.initial_soc for x in bat),
+            power_efficiency=devices.Curve.from_points([x.power_efficiency_curve for x in bat]),
+            capacity_power=devices.Curve.from_points([x.capacity_power_curve for x in bat]))
+
+    def end_use(self, name: str) -> EndUseState:
+        """The episode state of end use ``name`` (cooling, heating or dhw)."""
+        return self.end_uses[END_USES.index(name)]
 
     # ------------------------------------------------------------------ episode
     def reset(self, start: int, length: int, outage: np.ndarray) -> None:
-        """Start an episode over simulation rows ``start .. start+length-1``; ``outage`` is (B, length) 0/1."""
-        self.t = 0
-        self.length = length
-        self.ep = {k: v[:, start : start + length] for k, v in self.series.items()}
-        self.ep["power_outage"] = outage.astype(np.float64)
-        self.rec = {k: np.zeros((self.n, length)) for k in RECORDED}
-        e, r, p = self.ep, self.rec, self.p
-        r["indoor_dry_bulb_temperature"][:] = e["indoor_dry_bulb_temperature"]
-        r["cooling_demand"][:] = e["cooling_demand"]
-        r["heating_demand"][:] = e["heating_demand"]
-        for k in END_USES:
-            r[f"{k}_storage_soc"][:, 0] = p[f"{k}_initial_soc"]
-            demand = e[f"{k}_demand"][:, 0]
-            r[f"energy_from_{k}_device"][:, 0] = demand
-            r[f"{k}_electricity_consumption"][:, 0] = demand / e[f"{k}_device_cop"][:, 0]
-        r["electrical_storage_soc"][:, 0] = self.battery["initial_soc"]
-        r["electrical_storage_efficiency"][:, 0] = self.battery["efficiency"]
-        r["electrical_storage_capacity"][:, 0] = self.battery["capacity"]
-        nsl = e["non_shiftable_load"][:, 0]
-        r["non_shiftable_load_electricity_consumption"][:, 0] = nsl
-        r["energy_to_non_shiftable_load"][:, 0] = nsl
-        total = nsl + sum(r[f"{k}_electricity_consumption"][:, 0] for k in END_USES)
-        net = total - e["pv_generation"][:, 0]
-        r["net_electricity_consumption"][:, 0] = np.where(outage[:, 0] > 0, 0.0, net)
+        """Start an episode over simulation rows ``start .. start+length-1``; ``outage`` is (B, length) 0/1.
 
-    def step(self, actions: Mapping[str, np.ndarray], demand_override: Mapping[str, np.ndarray] | None = None):
-        """Advance to t + 1 and apply ``actions`` there (name -> (B,); storage actions as fractions of capacity).
-
-        ``demand_override`` maps ``cooling_demand``/``heating_demand`` to (B,) arrays (NaN = keep the data).
+        At t = 0 nothing is controlled: devices serve the data-set demands and storages hold their initial SOC.
         """
+        n = self.n
+        self.t, self.length = 0, length
+        self.episode = self.signals.window(start, length, outage.astype(np.float64))
+        e = self.episode
+        self._outage_steps = (outage > 0).any(axis=0)  # (T,): some building is out at that step
+        self.end_uses = tuple(
+            EndUseState(p, p.cop[:, start:start + length], p.demand[:, start:start + length],
+                        EndUseRecord.zeros(n, length)) for p in self.end_use_params)
+        self.battery_record = BatteryRecord.zeros(n, length)
+        self.building_record = BuildingRecord.zeros(n, length)
+        self.building_record.indoor_dry_bulb_temperature[:] = e["indoor_dry_bulb_temperature"]
+        total = e["non_shiftable_load"][:, 0].copy()
+        for u in self.end_uses:
+            r = u.record
+            r.demand[:] = u.demand_data
+            r.storage_soc[:, 0] = u.params.tank.initial_soc
+            r.energy_from_device[:, 0] = u.demand_data[:, 0]
+            r.electricity_consumption[:, 0] = u.demand_data[:, 0] / u.cop[:, 0]
+            total += r.electricity_consumption[:, 0]
+        bat = self.battery_record
+        bat.soc[:, 0] = self.battery.initial_soc
+        bat.efficiency[:, 0] = self.battery.efficiency
+        bat.capacity[:, 0] = self.battery.capacity
+        self.building_record.non_shiftable_load_served[:, 0] = e["non_shiftable_load"][:, 0]
+        net = total - e.pv_generation[:, 0]
+        self.building_record.net_electricity_consumption[:, 0] = np.where(outage[:, 0] > 0, 0.0, net)
+        self.recorded = recorded_names({u.params.name: u.record for u in self.end_uses}, bat, self.building_record)
+        if self.thermal is not None:
+            self.thermal.reset()
+
+    def step(self, actions: Actions) -> None:
+        """Advance to t + 1 and apply ``actions`` there."""
         self.t += 1
-        t, e, r = self.t, self.ep, self.rec
-        outage = e["power_outage"][:, t] > 0
-        in_outage = bool(outage.any())
-        pv = e["pv_generation"][:, t]
+        t, e = self.t, self.episode
+        in_outage = bool(self._outage_steps[t])
+        outage = e.outage[:, t] > 0 if in_outage else None
+        pv = e.pv_generation[:, t]
         total = np.zeros(self.n)
 
-        def flex() -> np.ndarray:
+        def supply() -> np.ndarray:
+            """Electricity each building may still draw this step [kWh]: inf, or PV left during an outage."""
             if not in_outage:
                 return self.inf
             return np.where(outage, np.maximum(0.0, pv - total), np.inf)
 
-        battery_action = actions["electrical_storage"]
+        overrides = self.thermal.demands(t, actions) if self.thermal is not None else None
+        battery_action = actions.electrical_storage
         first = battery_action < 0
         if in_outage and first.any():
-            total += self._battery(t, battery_action, flex(), first)
-        for k in END_USES:
-            if not self.live[k]:
+            total += self._battery(t, battery_action, supply(), first)
+        for u in self.end_uses:
+            if not u.params.live:
                 continue
-            demand = e[f"{k}_demand"][:, t]
-            if demand_override is not None and f"{k}_demand" in demand_override:
-                demand = np.where(np.isnan(demand_override[f"{k}_demand"]), demand, demand_override[f"{k}_demand"])
-                r[f"{k}_demand"][:, t] = demand
-            total += self._end_use(k, t, demand, actions[f"{k}_storage"], flex)
-        served = np.minimum(e["non_shiftable_load"][:, t], flex())
-        r["non_shiftable_load_electricity_consumption"][:, t] = served
-        r["energy_to_non_shiftable_load"][:, t] = served
+            demand = u.demand_data[:, t]
+            override = overrides.get(u.params.name) if overrides is not None else None
+            if override is not None:
+                demand = np.where(np.isnan(override), demand, override)
+                u.record.demand[:, t] = demand
+            total += self._end_use(u, t, demand, actions.storage(u.params.name), supply)
+        served = np.minimum(e["non_shiftable_load"][:, t], supply())
+        self.building_record.non_shiftable_load_served[:, t] = served
         total += served
         if in_outage:
-            total += self._battery(t, battery_action, flex(), ~first)
+            total += self._battery(t, battery_action, supply(), ~first)
         else:
             total += self._battery(t, battery_action, self.inf, None)
-        r["net_electricity_consumption"][:, t] = np.where(outage, 0.0, total - pv)
+        net = total - pv
+        self.building_record.net_electricity_consumption[:, t] = np.where(outage, 0.0, net) if in_outage else net
+        if self.thermal is not None:
+            self.thermal.update(t)
 
-    def _end_use(self, k: str, t: int, demand: np.ndarray, action: np.ndarray, flex) -> np.ndarray:
-        """Serve end use ``k`` with its device and storage; return the electricity booked (B,).
+    def _end_use(self, u: EndUseState, t: int, demand: np.ndarray, action: np.ndarray, supply) -> np.ndarray:
+        """Serve one end use with its device and storage; return the electricity booked (B,).
 
         Where the storage action is negative the storage discharges first and the device serves the rest;
         otherwise the device serves the demand and the storage charges with the device's remaining power.
         Both cases need one storage call: the discharge request does not depend on the device.
         """
-        e, r, p = self.ep, self.rec, self.p
-        cop = e[f"{k}_device_cop"][:, t]
-        nominal = p[f"{k}_nominal_power"]
-        f0 = flex()
-        q_max = np.minimum(f0, nominal) * cop
-        q_dev = np.minimum(demand, q_max)
-        booked = np.maximum(0.0, q_dev / cop)
-        if self.has_storage[k]:
-            capacity = p[f"{k}_capacity"]
-            request = action * capacity
+        p, r = u.params, u.record
+        cop = u.cop[:, t]
+        nominal = p.nominal_power
+        s0 = supply()
+        q_dev, booked = devices.device_output(demand, nominal, cop, s0)
+        if p.has_storage:
+            tank = p.tank
+            request = action * tank.capacity
             discharge = action < 0
-            f1 = f0 if f0 is self.inf else np.where(f0 == np.inf, np.inf, f0 - booked)
-            charge = np.minimum(np.minimum(f1, nominal - booked) * cop, request)
-            ask = np.where(discharge, np.maximum(-demand, request), np.minimum(charge, p[f"{k}_max_in"]))
-            ask = np.maximum(ask, -p[f"{k}_max_out"])
-            soc, bal = devices.storage_charge(r[f"{k}_storage_soc"][:, t - 1], ask, capacity, p[f"{k}_loss"],
-                                              p[f"{k}_one_way"])
+            s1 = s0 if s0 is self.inf else np.where(s0 == np.inf, np.inf, s0 - booked)
+            charge = np.minimum(np.minimum(s1, nominal - booked) * cop, request)
+            ask = np.where(discharge, np.maximum(-demand, request), np.minimum(charge, tank.max_input_power))
+            ask = np.maximum(ask, -tank.max_output_power)
+            soc, bal = devices.storage_charge(r.storage_soc[:, t - 1], ask, tank.capacity, tank.loss_coefficient,
+                                              tank.one_way_efficiency)
             from_storage = -np.minimum(bal, 0.0)
             if discharge.any():
-                q_dev = np.minimum(demand - from_storage, q_max)
-                booked = np.maximum(0.0, q_dev / cop)
+                q_dev, booked = devices.device_output(demand - from_storage, nominal, cop, s0)
             to_storage = np.maximum(bal, 0.0)
             booked = booked + to_storage / cop
-            r[f"{k}_storage_soc"][:, t] = soc
-            r[f"{k}_storage_energy_balance"][:, t] = bal
-            r[f"{k}_storage_electricity_consumption"][:, t] = bal / cop
-            r[f"energy_from_{k}_storage"][:, t] = from_storage
-            r[f"energy_from_{k}_device_to_{k}_storage"][:, t] = to_storage
-        r[f"energy_from_{k}_device"][:, t] = q_dev
-        r[f"{k}_electricity_consumption"][:, t] = booked
+            r.storage_soc[:, t] = soc
+            r.storage_energy_balance[:, t] = bal
+            r.storage_electricity_consumption[:, t] = bal / cop
+            r.energy_from_storage[:, t] = from_storage
+            r.energy_from_device_to_storage[:, t] = to_storage
+        r.energy_from_device[:, t] = q_dev
+        r.electricity_consumption[:, t] = booked
         return booked
 
-    def _battery(self, t: int, action: np.ndarray, flex: np.ndarray, mask: np.ndarray | None) -> np.ndarray:
+    def _battery(self, t: int, action: np.ndarray, supply: np.ndarray, mask: np.ndarray | None) -> np.ndarray:
         """Charge/discharge the batteries (only where ``mask``); return the electricity booked (B,)."""
-        r, bat = self.rec, self.battery
-        prev = {"efficiency": r["electrical_storage_efficiency"][:, t - 1],
-                "capacity": r["electrical_storage_capacity"][:, t - 1]}
-        soc_prev = r["electrical_storage_soc"][:, t - 1]
-        request = np.minimum(action * bat["capacity"], flex)
-        soc, bal, eff, cap = devices.battery_charge(request, soc_prev, self.zeros, bat, prev,
-                                                    compat=self.compat)
+        r = self.battery_record
+        request = np.minimum(action * self.battery.capacity, supply)
+        soc, bal, eff, cap = devices.battery_charge(
+            request, r.soc[:, t - 1], self.zeros, self.battery, r.efficiency[:, t - 1], r.capacity[:, t - 1],
+            extrapolate_first_segment=self.settings.battery_curve_extrapolates_first_segment)
         if mask is not None:
-            soc = np.where(mask, soc, r["electrical_storage_soc"][:, t])
-            bal = np.where(mask, bal, r["electrical_storage_energy_balance"][:, t])
-            eff = np.where(mask, eff, r["electrical_storage_efficiency"][:, t])
-            cap = np.where(mask, cap, r["electrical_storage_capacity"][:, t])
-        r["electrical_storage_soc"][:, t] = soc
-        r["electrical_storage_energy_balance"][:, t] = bal
-        r["electrical_storage_efficiency"][:, t] = eff
-        r["electrical_storage_capacity"][:, t] = cap
-        r["electrical_storage_electricity_consumption"][:, t] = bal
-        r["energy_from_electrical_storage"][:, t] = -np.minimum(bal, 0.0)
-        r["energy_to_electrical_storage"][:, t] = np.maximum(bal, 0.0)
+            soc = np.where(mask, soc, r.soc[:, t])
+            bal = np.where(mask, bal, r.energy_balance[:, t])
+            eff = np.where(mask, eff, r.efficiency[:, t])
+            cap = np.where(mask, cap, r.capacity[:, t])
+        r.soc[:, t] = soc
+        r.energy_balance[:, t] = bal
+        r.efficiency[:, t] = eff
+        r.capacity[:, t] = cap
         return bal if mask is None else np.where(mask, bal, 0.0)

@@ -3,7 +3,8 @@
 ``read_pth_state_dict`` reads a PyTorch zip checkpoint with a restricted unpickler (tensors and plain
 containers only, nothing executed). :class:`LSTMBank` advances the LSTM models of all dynamics buildings of a
 district together, one call per environment step, with CityLearn 2.1 semantics (see
-docs/environment_dynamics.md for the window/state rules and the ``compat`` quirks).
+docs/environment_dynamics.md for the window/state rules and the ``lstm_*`` quirks of
+:class:`~citylearn_env.settings.Behaviour`).
 """
 
 from __future__ import annotations
@@ -17,12 +18,21 @@ from pathlib import Path
 
 import numpy as np
 
-from citylearn_env import _lstm_kernels
+from citylearn_env import _lstm_kernels, dataset
+from citylearn_env.dataset import DynamicsBlock, split_periodic_name
 from citylearn_env.errors import SchemaError
+from citylearn_env.settings import CORRECTED, Behaviour
 
 TEMPERATURE = "indoor_dry_bulb_temperature"
-PERIODS = {"hour": 24.0, "month": 12.0, "day_type": 7.0}
-COMPAT_PERIODS = {"hour": 24.0, "month": 12.0, "day_type": 8.0}
+#: periods of the sin/cos encoded LSTM inputs (hour 1-24, month 1-12, day_type 1-7); the day_type period is
+#: replaced by ``settings.lstm_day_type_period`` in :class:`LSTMBank`
+PERIODS = dataset.PERIODS
+
+
+def input_periods(settings: Behaviour = CORRECTED) -> dict[str, float]:
+    """Periods of the periodic LSTM inputs: hour 24 [h], month 12 [months], day_type
+    ``settings.lstm_day_type_period`` [days] (8 in CityLearn 2.1)."""
+    return dict(PERIODS, day_type=float(settings.lstm_day_type_period))
 
 # ------------------------------------------------------------------------------------------- .pth reader
 _STORAGE_DTYPES = {
@@ -147,22 +157,42 @@ def read_pth_state_dict(path: str | Path) -> dict[str, np.ndarray]:
 # ------------------------------------------------------------------------------------------ model specs
 @dataclass(frozen=True, eq=False)
 class LSTMSpec:
-    """One trained LSTM temperature model: weights plus the input contract.
+    """One trained LSTM temperature model: its weights plus the input contract (a :class:`DynamicsBlock`).
 
     ``state_dict``: ``<lstm>.weight_ih_l{k}`` (4H, in), ``<lstm>.weight_hh_l{k}`` (4H, H), ``<lstm>.bias_ih_l{k}``,
     ``<lstm>.bias_hh_l{k}`` (4H) for k < num_layers, plus one linear head ``<head>.weight`` (1, H),
-    ``<head>.bias`` (1,). Inputs are min-max normalised with the given bounds (same units as the observations:
-    W/m2, degC, kWh, people; ``*_sin``/``*_cos`` names are periodic encodings of hour/month/day_type).
+    ``<head>.bias`` (1,). ``block``: input names, min-max bounds (same units as the observations: W/m2, degC,
+    kWh, people; ``*_sin``/``*_cos`` names are periodic encodings of hour/month/day_type), hidden size,
+    layers and lookback; its fields are readable on the spec too (``spec.hidden_size``).
     """
 
     state_dict: Mapping[str, np.ndarray]
-    input_observation_names: tuple[str, ...]
-    input_normalization_minimum: tuple[float, ...]
-    input_normalization_maximum: tuple[float, ...]
-    hidden_size: int
-    num_layers: int
-    lookback: int
+    block: DynamicsBlock
     source: str = "LSTM model"
+
+    @property
+    def input_observation_names(self) -> tuple[str, ...]:
+        return self.block.input_observation_names
+
+    @property
+    def input_normalization_minimum(self) -> tuple[float, ...]:
+        return self.block.input_normalization_minimum
+
+    @property
+    def input_normalization_maximum(self) -> tuple[float, ...]:
+        return self.block.input_normalization_maximum
+
+    @property
+    def hidden_size(self) -> int:
+        return int(self.block.hidden_size)
+
+    @property
+    def num_layers(self) -> int:
+        return int(self.block.num_layers)
+
+    @property
+    def lookback(self) -> int:
+        return int(self.block.lookback)
 
     def arrays(self) -> dict[str, np.ndarray]:
         """Validated float64 weights: wih (list), whh (list), bias (L, 4H: b_ih + b_hh), wlin (H,), blin."""
@@ -211,32 +241,29 @@ class LSTMSpec:
         return out
 
 
-def spec_from_model(model, *, state_cache: dict | None = None) -> LSTMSpec:
-    """An :class:`LSTMSpec` from a config object with ``filepath``, ``input_observation_names``, bounds,
-    ``hidden_size``, ``num_layers``, ``lookback`` (e.g. ``citylearn_env.config.LSTMModel``)."""
+def spec_from_model(model: DynamicsBlock, *, state_cache: dict | None = None) -> LSTMSpec:
+    """An :class:`LSTMSpec` for a :class:`~citylearn_env.dataset.DynamicsBlock` whose ``filename`` is the
+    resolved weights path (as :func:`citylearn_env.dataset.parse_dynamics` gives); ``state_cache`` maps
+    path -> state dict so a file shared by several buildings is read once."""
     cache = {} if state_cache is None else state_cache
-    path = str(model.filepath)
+    path = str(model.filename)
     if path not in cache:
         cache[path] = read_pth_state_dict(path)
-    return LSTMSpec(cache[path], tuple(model.input_observation_names),
-                    tuple(float(x) for x in model.input_normalization_minimum),
-                    tuple(float(x) for x in model.input_normalization_maximum),
-                    int(model.hidden_size), int(model.num_layers), int(model.lookback), source=path)
+    return LSTMSpec(cache[path], model, source=path)
 
 
 # ------------------------------------------------------------------------------------------------- bank
 def _parse_input(name: str, periods: Mapping[str, float]) -> tuple[str, int, float]:
     """(raw observation name, kind 0 plain / 1 sin / 2 cos, period) of one model input name."""
-    for suffix, kind in (("_sin", 1), ("_cos", 2)):
-        if name.endswith(suffix) and name[: -len(suffix)] in periods:
-            return name[: -len(suffix)], kind, periods[name[: -len(suffix)]]
-    return name, 0, 1.0
+    base, kind = split_periodic_name(name, periods)
+    return (name, 0, 1.0) if kind is None else (base, 1 if kind == "sin" else 2, periods[base])
 
 
 class _Group:
     """Stacked weights and state of all model instances that share one architecture."""
 
-    def __init__(self, specs: list[LSTMSpec], raw_index: Mapping[str, int], periods, compat: bool):
+    def __init__(self, specs: list[LSTMSpec], raw_index: Mapping[str, int], periods,
+                 output_uses_last_input_bounds: bool):
         arrays = [s.arrays() for s in specs]
         first = specs[0]
         n_in, hid, n_layers = len(first.input_observation_names), first.hidden_size, first.num_layers
@@ -256,7 +283,7 @@ class _Group:
         self.lo = np.array([s.input_normalization_minimum for s in specs], dtype=np.float64)
         self.span = np.array([s.input_normalization_maximum for s in specs], dtype=np.float64) - self.lo
         self.tcol = np.array([s.input_observation_names.index(TEMPERATURE) for s in specs], dtype=np.int64)
-        out_col = np.full(len(specs), n_in - 1) if compat else self.tcol
+        out_col = np.full(len(specs), n_in - 1) if output_uses_last_input_bounds else self.tcol
         self.out_lo = self.lo[np.arange(len(specs)), out_col].copy()
         self.out_span = self.span[np.arange(len(specs)), out_col].copy()
         self.buf = np.zeros((len(specs), self.lookback + 1, n_in))
@@ -278,13 +305,17 @@ class LSTMBank:
     model every other mode (0 off, 1 cooling). ``heating[b] = None`` uses the cooling model for all modes.
     When the selected model of a building changes between steps, the newly selected model starts again from
     an empty buffer and zero state (a new warm-up of ``lookback + 1`` steps).
-    ``compat=True`` reproduces CityLearn 2.1 (day_type period 8, de-normalisation with the last bound pair,
-    float32 rounding of the window and output); ``compat=False`` uses day_type period 7 and the indoor
-    temperature's own bounds. ``backend``: "auto" (numba if installed), "numba" or "numpy".
+    ``settings`` fields read here: ``lstm_day_type_period`` (period of day_type_sin/cos, days: 8 in CityLearn
+    2.1, 7 corrected), ``lstm_output_uses_last_input_bounds`` (de-normalise the prediction with the last
+    input's bounds as CityLearn 2.1, instead of the indoor temperature's own), ``lstm_float32`` (round the
+    window and the output to float32 as torch does). ``backend``: "auto" (numba if installed), "numba" or
+    "numpy".
     """
 
     def __init__(self, cooling: Sequence[LSTMSpec], heating: Sequence[LSTMSpec | None] | None = None, *,
-                 compat: bool = False, backend: str = "auto"):
+                 settings: Behaviour = CORRECTED, backend: str = "auto"):
+        if not isinstance(settings, Behaviour):
+            raise TypeError(f"settings must be a Behaviour, not {type(settings).__name__}")
         n = len(cooling)
         heating = list(heating) if heating is not None else [None] * n
         if len(heating) != n or n == 0:
@@ -298,7 +329,7 @@ class LSTMBank:
             if heating[b] is not None:
                 instances.append(heating[b])
                 self._table[b, 1] = len(instances) - 1
-        periods = COMPAT_PERIODS if compat else PERIODS
+        periods = input_periods(settings)
         names: dict[str, int] = {}
         for spec in instances:
             for name in spec.input_observation_names:
@@ -308,13 +339,15 @@ class LSTMBank:
         for i, spec in enumerate(instances):
             key = (len(spec.input_observation_names), spec.hidden_size, spec.num_layers, spec.lookback)
             keys.setdefault(key, []).append(i)
-        self._groups = [_Group([instances[i] for i in members], names, periods, compat) for members in keys.values()]
+        self._groups = [_Group([instances[i] for i in members], names, periods,
+                               settings.lstm_output_uses_last_input_bounds) for members in keys.values()]
         self._inst_group = np.zeros(len(instances), dtype=np.int64)
         self._inst_slot = np.zeros(len(instances), dtype=np.int64)
         for g, members in enumerate(keys.values()):
             self._inst_group[members] = g
             self._inst_slot[members] = np.arange(len(members))
-        self.compat, self.n_buildings = bool(compat), n
+        self.settings, self.n_buildings = settings, n
+        self._f32 = bool(settings.lstm_float32)
         if backend not in ("auto", "numba", "numpy"):
             raise ValueError(f"backend must be 'auto', 'numba' or 'numpy', not {backend!r}")
         kernel = _lstm_kernels.get_numba_kernel() if backend != "numpy" else None
@@ -369,6 +402,11 @@ class LSTMBank:
         except KeyError as exc:
             raise SchemaError(f"LSTM input {exc.args[0]!r} missing from the step inputs",
                               column=exc.args[0]) from None
+        return self.step_raw(raw, hvac_mode)
+
+    def step_raw(self, raw: np.ndarray, hvac_mode) -> np.ndarray:
+        """:meth:`step` with the inputs already stacked: ``raw`` (len(input_names), B), rows in
+        :attr:`input_names` order (the array is read, not kept)."""
         modes = np.asarray(hvac_mode, dtype=np.float64).reshape(self.n_buildings)
         key = modes.tobytes()
         if key != self._modes_key:  # model selection changes only when hvac_mode does
@@ -387,15 +425,16 @@ class LSTMBank:
                 self._kernel(raw, bidx, slots, group.src, group.kind, group.period, group.lo, group.span,
                              group.tcol, group.out_lo, group.out_span, group.buf, group.count, group.wih0t,
                              group.wihrt, group.whht, group.bias, group.wlin, group.blin, group.h, group.c,
-                             self.compat, out, self._warm_flags)
+                             self._f32, out, self._warm_flags)
         return out
 
 
-def build_bank(buildings: Sequence, *, compat: bool = False, backend: str = "auto") -> LSTMBank:
-    """An :class:`LSTMBank` for buildings with ``cooling_model`` / ``heating_model`` config attributes."""
+def build_bank(buildings: Sequence, *, settings: Behaviour = CORRECTED, backend: str = "auto") -> LSTMBank:
+    """An :class:`LSTMBank` for buildings with ``cooling_model`` / ``heating_model`` config attributes, with
+    the ``lstm_*`` quirks that ``settings`` selects."""
     cache: dict = {}
     cooling = [spec_from_model(b.cooling_model or b.heating_model, state_cache=cache) for b in buildings]
     heating = [spec_from_model(b.heating_model, state_cache=cache) if b.heating_model is not None
                and b.cooling_model is not None else None for b in buildings]
-    return LSTMBank(cooling, heating, compat=compat, backend=backend)
+    return LSTMBank(cooling, heating, settings=settings, backend=backend)
 

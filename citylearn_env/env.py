@@ -17,9 +17,11 @@ import numpy as np
 
 from citylearn_env import observations as obs_mod
 from citylearn_env.config import DistrictConfig
-from citylearn_env.district import District
+from citylearn_env.district import Actions, District
 from citylearn_env.errors import SchemaError
 from citylearn_env.schema import load_schema
+from citylearn_env.settings import Behaviour, resolve
+from citylearn_env.state import END_USE_SLOTS
 
 STORAGE_ACTIONS = ("cooling_storage", "heating_storage", "dhw_storage", "electrical_storage")
 DEVICE_ACTIONS = ("cooling_device", "heating_device")
@@ -30,8 +32,11 @@ class CityLearnEnv(gym.Env):
 
     Parameters
     ----------
-    schema: a CityLearn v2 schema.json path, a schema dict, or a :class:`DistrictConfig`.
-    compat: reproduce CityLearn 2.1 exactly, bugs included (see docs/environment.md); default corrected.
+    schema: a CityLearn v2 schema.json path, a schema dict, or a :class:`DistrictConfig` (change a loaded
+        config with its typed ``with_*`` methods rather than editing the JSON).
+    settings: upstream behaviour, a :class:`citylearn_env.settings.Behaviour` or a preset name
+        ("corrected", the default, or "citylearn-2.1").
+    compat: shorthand for ``settings="citylearn-2.1"``: CityLearn 2.1 exactly, bugs included.
     reward_function: a reward spec (``{"type": ..., "attributes": ...}`` or a registered short name) or a
         reward object; default: the schema's.
     central_agent: override the schema's flag (decides whether the reward is central or per building).
@@ -43,20 +48,21 @@ class CityLearnEnv(gym.Env):
         self,
         schema: str | Path | Mapping[str, Any] | DistrictConfig,
         *,
+        settings: Behaviour | str | None = None,
         compat: bool = False,
         reward_function: Any = None,
         central_agent: bool | None = None,
         episode_time_steps: int | None = None,
     ):
-        config = schema if isinstance(schema, DistrictConfig) else load_schema(schema, compat=compat)
-        self.config, self.compat = config, compat
+        self.settings = resolve(settings, compat)
+        config = schema if isinstance(schema, DistrictConfig) else load_schema(schema, settings=self.settings)
+        self.config = config
         self.central_agent = config.central_agent if central_agent is None else central_agent
-        self.district = District(config, compat=compat)
+        self.district = District(config, settings=self.settings)
         self.layout = obs_mod.ObservationLayout(self.district)
         self.building_names = config.building_names
         self._setup_actions()
         self._setup_episodes(episode_time_steps)
-        self._setup_dynamics()
         self.reward_function = self._make_reward(reward_function)
         lo, hi = self.layout.bounds()
         self._obs_low, self._obs_high = lo, hi
@@ -80,12 +86,12 @@ class CityLearnEnv(gym.Env):
                 lo.append(0.0), hi.append(1.0)
                 continue
             if name == "electrical_storage":
-                cap, power = d.battery["capacity"][b], d.battery["nominal_power"][b]
+                cap, power = d.battery.capacity[b], d.battery.nominal_power[b]
                 bound = power / cap if cap > 0 else 1.0
             else:
-                k = name.removesuffix("_storage")
-                cap = d.p[f"{k}_capacity"][b]
-                bound = min(float(d.series[f"{k}_demand"][b].max()) / cap, 1.0) if cap > 0 else 1.0
+                params = next(p for p in d.end_use_params if END_USE_SLOTS[p.name][3] == name)
+                cap = params.tank.capacity[b]
+                bound = min(float(params.demand[b].max()) / cap, 1.0) if cap > 0 else 1.0
             lo.append(-bound), hi.append(bound)
         self._act_low, self._act_high = np.array(lo), np.array(hi)
         names = (*STORAGE_ACTIONS, *DEVICE_ACTIONS)
@@ -118,15 +124,6 @@ class CityLearnEnv(gym.Env):
                 if a < 0 or a + length > n or length < 2:
                     raise SchemaError("split outside the simulation range", column="episode_time_steps")
 
-    def _setup_dynamics(self) -> None:
-        d = self.district
-        self.dyn_index = np.flatnonzero(d.dynamics)
-        self.bank = None
-        if len(self.dyn_index):
-            from citylearn_env.dynamics import build_bank
-
-            self.bank = build_bank([self.config.buildings[i] for i in self.dyn_index], compat=self.compat)
-
     def _make_reward(self, spec: Any):
         from citylearn_env import rewards
 
@@ -134,10 +131,10 @@ class CityLearnEnv(gym.Env):
         context = rewards.RewardContext(
             central_agent=self.central_agent,
             building_names=self.building_names,
-            capacity={f"{k}_storage": d.p[f"{k}_capacity"] for k in ("cooling", "heating", "dhw")}
-            | {"electrical_storage": d.battery["capacity"]},
-            initial_soc={f"{k}_storage": d.p[f"{k}_initial_soc"] for k in ("cooling", "heating", "dhw")}
-            | {"electrical_storage": d.battery["initial_soc"]},
+            capacity={END_USE_SLOTS[p.name][1]: p.tank.capacity for p in d.end_use_params}
+            | {"electrical_storage": d.battery.capacity},
+            initial_soc={END_USE_SLOTS[p.name][1]: p.tank.initial_soc for p in d.end_use_params}
+            | {"electrical_storage": d.battery.initial_soc},
             active_actions={name: np.isin(np.arange(d.n), self._action_index[name][1])
                             for name in (*STORAGE_ACTIONS, *DEVICE_ACTIONS)},
         )
@@ -147,14 +144,14 @@ class CityLearnEnv(gym.Env):
         if callable(spec) and hasattr(spec, "reset"):
             reward = spec
         else:
-            reward = rewards.make_reward(spec, context, compat=self.compat)
+            reward = rewards.make_reward(spec, context, settings=self.settings)
         return reward
 
     # ------------------------------------------------------------------ gymnasium API
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
         self.episode += 1
-        if self.config.random_episode_split and self.compat:
+        if self.config.random_episode_split and self.settings.legacy_random_episode_split:
             # CityLearn 2.1: legacy RandomState(seed * (episode + 1)), never the last split
             rs = np.random.RandomState((self.config.random_seed or 0) * (self.episode + 1))
             if len(self.splits) < 2:
@@ -168,26 +165,27 @@ class CityLearnEnv(gym.Env):
         self.episode_start = start
         self.district.reset(start, length, self._outage_signal(start, length))
         self._static = self.layout.episode_matrix()
-        if self.bank is not None:
-            self.bank.reset()
         self.reward_function.reset(self._reward_context)
         self.rewards = np.full(length, np.nan)
-        return self._observation(0), {"time_step": 0}
+        self._refresh(0)
+        return self._observation(), {"time_step": 0}
 
     def step(self, action):
+        """Apply ``action`` (the Box action vector) at the next time step; ``info`` holds the reward's
+        named terms (``reward_terms``: name -> (B,) per building) and per-building rewards when not central."""
         t = self.advance(action)
         value, terms = self.reward_function(self._view)
         reward = float(np.sum(value))
         self.rewards[t] = reward
         terminated = t == self.district.length - 1
-        info = {"time_step": t}
+        info = {"time_step": t, "reward_terms": terms}
         if not np.isscalar(value):
             info["building_rewards"] = np.asarray(value)
-        return self._observation(t), reward, terminated, False, info
+        return self._observation(), reward, terminated, False, info
 
-    # ------------------------------------------------------------------ helpers
+    # ------------------------------------------------------------------ public accessors
     def advance(self, action) -> int:
-        """Validate ``action``, advance the district one step and run the temperature model; return t."""
+        """Validate ``action`` and advance the district one step (no reward); return the new time step."""
         a = np.asarray(action, dtype=np.float64).reshape(-1)
         if a.shape != self._act_low.shape:
             raise SchemaError(f"action has {a.size} values, the action space has {self._act_low.size} "
@@ -200,58 +198,57 @@ class CityLearnEnv(gym.Env):
                               row=i)
         if self.t >= self.district.length - 1:
             raise RuntimeError("episode is over: call reset()")
-        actions = self._split_actions(a)
-        override = self._lstm_demands(actions)
-        self.district.step(actions, override)
+        self.district.step(self._actions(a))
         self.t = t = self.district.t
-        self._view = obs_mod.StepObservations(self.district, t)
-        if self.bank is not None:
-            self._lstm_temperature(t)
+        self._refresh(t)
         return t
 
-    def _observation(self, t: int) -> np.ndarray:
-        return self._last_flat_at(t)[self.layout.central_index].astype(np.float32)
+    def step_observations(self) -> Mapping[str, np.ndarray]:
+        """Every observation of every building at the current step: name -> (B,) raw values (what rewards see)."""
+        return self._view
 
-    def _last_flat_at(self, t: int) -> np.ndarray:
-        """Every building's active observations at ``t`` (the flat vector the central one is cut from)."""
-        self._last_flat = self.layout.vector(self._static[t], t)
-        return self._last_flat
+    def flat_observations(self) -> np.ndarray:
+        """All buildings' active observations at the current step, float64, laid out as
+        ``layout.pairs`` (the central vector is ``flat[layout.central_index]``; per-building slices in
+        ``layout.building_slices``)."""
+        return self._flat
 
-    def _split_actions(self, a: np.ndarray) -> dict[str, np.ndarray]:
-        """Action vector -> name -> (B,): inactive storage actions 0, inactive device actions NaN."""
+    def data(self, name: str) -> np.ndarray:
+        """The episode's (B, T) series of data column ``name`` (e.g. "hour", "day_type", "electricity_pricing")."""
+        try:
+            return self.district.episode[name]
+        except KeyError:
+            raise SchemaError(f"no data column {name!r}; known: {', '.join(sorted(self.district.episode.columns))}",
+                              column=name) from None
+
+    @property
+    def episode_length(self) -> int:
+        """Time steps of the current episode (the episode has ``episode_length - 1`` step calls)."""
+        return self.district.length
+
+    @property
+    def observation_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """Lower and upper bounds (float64) of every entry of :meth:`flat_observations`."""
+        return self._obs_low, self._obs_high
+
+    @property
+    def reward_context(self):
+        """The static facts rewards are reset with (:class:`citylearn_env.rewards.RewardContext`)."""
+        return self._reward_context
+
+    # ------------------------------------------------------------------ helpers
+    def _refresh(self, t: int) -> None:
+        self._view = obs_mod.StepObservations(self.district, t)
+        self._flat = self.layout.vector(self._static[t], t)
+
+    def _observation(self) -> np.ndarray:
+        return self._flat[self.layout.central_index].astype(np.float32)
+
+    def _actions(self, a: np.ndarray) -> Actions:
+        """Action vector -> typed per-building actions: inactive storage actions 0, inactive device actions NaN."""
         table = self._action_template.copy()
         table[self._action_rows, self._action_cols] = a
-        return dict(zip(self._action_table_names, table, strict=True))
-
-    def _lstm_demands(self, actions: dict[str, np.ndarray]) -> dict[str, np.ndarray] | None:
-        """Demand from heat-pump actions for warm LSTM buildings: min(a * P, P) * COP in the matching mode."""
-        if self.bank is None:
-            return None
-        d, t = self.district, self.district.t + 1
-        warm = np.zeros(d.n, dtype=bool)
-        hvac = d.ep["hvac_mode"][:, t]
-        # False where t switches between the cooling and heating model (that model starts a new warm-up)
-        warm[self.dyn_index] = self.bank.warm(hvac[self.dyn_index])
-        out = {}
-        for k, mode, action in (("cooling", 1, "cooling_device"), ("heating", 2, "heating_device")):
-            a = actions[action]
-            use = warm & np.isfinite(a)
-            if not use.any():
-                continue
-            power = d.p[f"{k}_nominal_power"]
-            q = np.where(hvac == mode, np.minimum(np.maximum(a, 0.0) * power, power), 0.0)
-            out[f"{k}_demand"] = np.where(use, q * d.ep[f"{k}_device_cop"][:, t], np.nan)
-        return out or None
-
-    def _lstm_temperature(self, t: int) -> None:
-        d = self.district
-        view = self._view
-        idx = self.dyn_index
-        inputs = {name: view[name][idx] for name in self.bank.input_names}
-        predicted = self.bank.step(inputs, d.ep["hvac_mode"][idx, t])
-        temps = d.rec["indoor_dry_bulb_temperature"]
-        temps[idx, t] = np.where(np.isnan(predicted), temps[idx, t], predicted)
-        self._view = obs_mod.StepObservations(d, t)  # temperature changed: drop cached values
+        return Actions(*table)
 
     def _outage_signal(self, start: int, length: int) -> np.ndarray:
         d = self.district
@@ -261,7 +258,7 @@ class CityLearnEnv(gym.Env):
             if not o.simulate:
                 continue
             if not o.stochastic:
-                signal[b] = d.series["power_outage"][b, start : start + length]
+                signal[b] = d.signals["power_outage"][b, start : start + length]
                 continue
             from citylearn_env.outages import reliability_outage_signal
 
@@ -271,7 +268,7 @@ class CityLearnEnv(gym.Env):
             signal[b] = reliability_outage_signal(
                 length, saifi=o.saifi, caidi=o.caidi, seed=int(seed),
                 seconds_per_time_step=self.config.seconds_per_time_step,
-                start_time_steps=o.start_time_steps, compat=self.compat,
+                start_time_steps=o.start_time_steps, legacy=self.settings.legacy_outage_draws,
             )
         return signal
 
@@ -302,7 +299,7 @@ class CityLearnEnv(gym.Env):
         from citylearn_env import kpis
 
         return kpis.evaluate(self.series(), self.building_names, dynamics=list(self.district.dynamics),
-                             comfort_band=comfort_band, window=window, compat=self.compat)
+                             comfort_band=comfort_band, window=window, settings=self.settings)
 
     def objectives(self, window: slice | None = None) -> dict[str, Any]:
         """The SimBuild paper's five objectives in absolute units over ``window`` of the episode so far."""

@@ -10,9 +10,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from citylearn_env.district import END_USES, RECORDED, District
+from citylearn_env.district import District
 
-#: data series copied into the history (name in history -> name in the episode data)
+#: data columns copied into the history (name in history -> data-set column of the episode)
 DATA_COLUMNS = {
     "dhw_demand": "dhw_demand",
     "non_shiftable_load": "non_shiftable_load",
@@ -22,12 +22,24 @@ DATA_COLUMNS = {
     "indoor_dry_bulb_temperature_set_point": "indoor_dry_bulb_temperature_set_point",
     "occupant_count": "occupant_count",
     "hvac_mode": "hvac_mode",
-    "power_outage": "power_outage",
     "outdoor_dry_bulb_temperature": "outdoor_dry_bulb_temperature",
     "electricity_pricing": "electricity_pricing",
     "carbon_intensity": "carbon_intensity",
-    "cooling_device_cop": "cooling_device_cop",
-    "heating_device_cop": "heating_device_cop",
+}
+#: end use -> its COP column in the history
+COP_COLUMNS = {"cooling": "cooling_device_cop", "heating": "heating_device_cop"}
+#: end use -> (served demand, ideal demand) columns, for the partial-load counterfactual
+PARTIAL_LOAD = {"cooling": ("cooling_demand", "cooling_demand_without_partial_load"),
+                "heating": ("heating_demand", "heating_demand_without_partial_load")}
+STORAGE_CONSUMPTION = ("cooling_storage_electricity_consumption", "heating_storage_electricity_consumption",
+                       "dhw_storage_electricity_consumption", "electrical_storage_electricity_consumption")
+#: counterfactual suffix -> (remove storage, add partial load back, remove PV)
+BASELINES = {
+    "": (False, False, False),
+    "_without_storage": (True, False, False),
+    "_without_storage_and_pv": (True, False, True),
+    "_without_storage_and_partial_load": (True, True, False),
+    "_without_storage_and_partial_load_and_pv": (True, True, True),
 }
 
 #: series that add up over buildings (the district rows of the history)
@@ -38,29 +50,33 @@ ADDITIVE_PREFIXES = ("net_electricity_consumption", "energy_", "solar_generation
 def episode_series(district: District, t_end: int, window: slice | None = None) -> dict[str, np.ndarray]:
     """All recorded and derived series over time steps 0..t_end (optionally a ``window`` of them), (B, T)."""
     n = t_end + 1
-    e = district.ep
-    out = {k: district.rec[k][:, :n] for k in RECORDED}
+    e = district.episode
+    out = {k: v[:, :n] for k, v in district.recorded.items()}
+    balance = district.battery_record.energy_balance[:, :n]
+    out["energy_from_electrical_storage"] = -np.minimum(balance, 0.0)
+    out["energy_to_electrical_storage"] = np.maximum(balance, 0.0)
     out.update({k: e[src][:, :n] for k, src in DATA_COLUMNS.items()})
-    out["solar_generation"] = -e["pv_generation"][:, :n]
+    out["power_outage"] = e.outage[:, :n]
+    for end_use, column in COP_COLUMNS.items():
+        out[column] = district.end_use(end_use).cop[:, :n]
+    out["solar_generation"] = -e.pv_generation[:, :n]
     out["pv_nominal_power"] = np.repeat(district.pv_nominal_power[:, None], n, axis=1)
     price, carbon = out["electricity_pricing"], out["carbon_intensity"]
     net = out["net_electricity_consumption"]
-    storage = sum(out[f"{k}_storage_electricity_consumption"] for k in (*END_USES, "electrical"))
+    storage = sum(out[k] for k in STORAGE_CONSUMPTION)
     partial = np.zeros_like(net)
-    for k in ("cooling", "heating"):
-        saved = (out[f"{k}_demand_without_partial_load"] - out[f"{k}_demand"]) / e[f"{k}_device_cop"][:, :n]
+    for end_use, (served, ideal) in PARTIAL_LOAD.items():
+        saved = (out[ideal] - out[served]) / district.end_use(end_use).cop[:, :n]
         partial += np.where(district.dynamics[:, None], saved, 0.0)
-    base = {
-        "": net,
-        "_without_storage": net - storage,
-        "_without_storage_and_pv": net - storage - out["solar_generation"],
-        "_without_storage_and_partial_load": net - storage + partial,
-        "_without_storage_and_partial_load_and_pv": net - storage + partial - out["solar_generation"],
-    }
-    for suffix, values in base.items():
-        out[f"net_electricity_consumption{suffix}"] = values
-        out[f"net_electricity_consumption_cost{suffix}"] = values * price
-        out[f"net_electricity_consumption_emission{suffix}"] = np.maximum(0.0, values * carbon)
+    for suffix, (no_storage, add_partial, no_pv) in BASELINES.items():
+        values = net - storage if no_storage else net
+        if add_partial:
+            values = values + partial
+        if no_pv:
+            values = values - out["solar_generation"]
+        out["net_electricity_consumption" + suffix] = values
+        out["net_electricity_consumption_cost" + suffix] = values * price
+        out["net_electricity_consumption_emission" + suffix] = np.maximum(0.0, values * carbon)
     if window is not None:
         out = {k: v[:, window] for k, v in out.items()}
     return out

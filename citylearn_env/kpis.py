@@ -6,9 +6,14 @@ names: ``net_electricity_consumption``, ``..._without_storage_and_partial_load``
 ``occupant_count``, ``power_outage``, ``energy_from_cooling_device``, ...) to arrays of shape (B, T): B buildings,
 T time steps. Energies are kWh per step, cost $ per step, emissions kg per step, temperatures degC.
 
-``compat=True`` reproduces CityLearn 2.1 number for number, quirks included (plain division that can give
-inf/NaN; delta statistics over unoccupied steps as zeros; the first building decides the evaluation condition
-of all). ``compat=False`` (default) applies the corrections listed in docs/environment_kpis.md.
+The table functions take ``settings`` (:class:`~citylearn_env.settings.Behaviour`); each CityLearn 2.1 quirk is
+one field: ``kpi_plain_division`` (IEEE division that can give inf/NaN), ``kpi_discomfort_over_all_steps``
+(delta statistics over all steps, unoccupied ones as zeros), ``kpi_baseline_from_first_building`` (the first
+building decides the evaluation condition of all), ``kpi_float32_score`` (challenge score summed in float32).
+:data:`~citylearn_env.settings.CITYLEARN_2_1` reproduces CityLearn 2.1 number for number; the default
+:data:`~citylearn_env.settings.CORRECTED` applies the corrections listed in docs/environment_kpis.md. The
+primitives take one keyword named after the quirk they implement (``plain``, ``plain_division``,
+``over_all_steps``).
 pandas is imported only inside the functions that build DataFrames.
 """
 
@@ -19,6 +24,7 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 
 from citylearn_env.errors import SchemaError
+from citylearn_env.settings import CORRECTED, Behaviour
 
 NET = "net_electricity_consumption"
 DAY_STEPS, MONTH_STEPS, YEAR_STEPS = 24, 730, 8760
@@ -42,11 +48,11 @@ DEMANDS = ("cooling_demand", "heating_demand", "dhw_demand", "non_shiftable_load
 
 
 # ---------------------------------------------------------------------------------------------- primitives
-def divide(numerator: float, denominator: float, *, compat: bool = False) -> float:
-    """``numerator / denominator``. compat: IEEE plain division (x/0 = +-inf, 0/0 = NaN); otherwise 0/0 = 1.0
-    (both sides agree there is nothing), x/0 = NaN, and any non-finite input gives NaN."""
+def divide(numerator: float, denominator: float, *, plain: bool = False) -> float:
+    """``numerator / denominator``. ``plain``: IEEE division (x/0 = +-inf, 0/0 = NaN; CityLearn 2.1);
+    otherwise 0/0 = 1.0 (both sides agree there is nothing), x/0 = NaN, and any non-finite input gives NaN."""
     numerator, denominator = float(numerator), float(denominator)
-    if compat:
+    if plain:
         with np.errstate(divide="ignore", invalid="ignore"):
             return float(np.float64(numerator) / np.float64(denominator))
     if not (np.isfinite(numerator) and np.isfinite(denominator)):
@@ -66,15 +72,16 @@ def ramping(net: np.ndarray) -> float:
     return float(np.abs(np.diff(np.asarray(net, dtype=float))).sum())
 
 
-def one_minus_load_factor(net: np.ndarray, window: int, *, compat: bool = False) -> float:
-    """Mean over ``window``-step blocks of 1 - mean/max (dimensionless); a block with max 0 is NaN (skipped
-    unless compat, where it makes the result inf/NaN)."""
+def one_minus_load_factor(net: np.ndarray, window: int, *, plain_division: bool = False) -> float:
+    """Mean over ``window``-step blocks (from the first step; the last may be shorter) of 1 - mean/max of
+    ``net`` (dimensionless). A block with max 0 is NaN and skipped (NaN when every block is); with
+    ``plain_division`` (CityLearn 2.1) it is divided anyway and its inf/NaN enters the plain mean."""
     values = []
     for block in _blocks(np.asarray(net, dtype=float), window):
-        values.append(1.0 - divide(block.mean(), block.max(), compat=True) if compat or block.max() != 0
+        values.append(1.0 - divide(block.mean(), block.max(), plain=True) if plain_division or block.max() != 0
                       else np.nan)
     values = np.array(values)
-    if compat:
+    if plain_division:
         return float(values.mean())
     return float(np.nanmean(values)) if np.isfinite(values).any() else float("nan")
 
@@ -90,24 +97,25 @@ def positive_sum(values: np.ndarray) -> float:
 
 
 def discomfort(temperature: np.ndarray, set_point: np.ndarray, band: float, occupants: np.ndarray, *,
-               compat: bool = False) -> dict[str, float]:
+               over_all_steps: bool = False) -> dict[str, float]:
     """Comfort statistics of one building: proportions of occupied steps with |T - S| > band (too cold:
     T - S < -band, too hot: T - S > band), and min/max/mean of T - S (degC).
 
-    compat: deltas are zeroed on unoccupied steps and the statistics run over all steps (CityLearn 2.1);
-    otherwise they run over occupied steps only (NaN when none). Proportions are NaN with no occupied step.
+    ``over_all_steps`` (CityLearn 2.1): deltas are zeroed on unoccupied steps and the min/max/mean run over all
+    steps; otherwise they run over occupied steps only (NaN when none). Proportions are over occupied steps
+    either way (NaN with no occupied step).
     """
     occupied = np.asarray(occupants, dtype=float) > 0.0
     delta = np.asarray(temperature, dtype=float) - np.asarray(set_point, dtype=float)
     delta = np.where(np.asarray(occupants, dtype=float) == 0.0, 0.0, delta)
     n = int(occupied.sum())
     cold, hot = int((delta < -band).sum()), int((delta > band).sum())
-    stats = delta if compat else delta[occupied]
+    stats = delta if over_all_steps else delta[occupied]
     empty = stats.size == 0
     return {
-        "discomfort_proportion": divide(cold + hot, n, compat=True) if compat else _share(cold + hot, n),
-        "discomfort_too_cold_proportion": divide(cold, n, compat=True) if compat else _share(cold, n),
-        "discomfort_too_hot_proportion": divide(hot, n, compat=True) if compat else _share(hot, n),
+        "discomfort_proportion": _share(cold + hot, n),
+        "discomfort_too_cold_proportion": _share(cold, n),
+        "discomfort_too_hot_proportion": _share(hot, n),
         "discomfort_delta_minimum": float("nan") if empty else float(stats.min()),
         "discomfort_delta_maximum": float("nan") if empty else float(stats.max()),
         "discomfort_delta_average": float("nan") if empty else float(stats.mean()),
@@ -119,14 +127,16 @@ def _share(count: int, total: int) -> float:
 
 
 def normalized_unserved_energy(expected: np.ndarray, served: np.ndarray, outage: np.ndarray | None = None, *,
-                               compat: bool = False) -> float:
+                               plain_division: bool = False) -> float:
     """Sum of (expected - served) over outage steps / sum of expected over outage steps (all steps when
-    ``outage`` is None); NaN when there is no such step."""
+    ``outage`` is None); energies in kWh, result dimensionless. NaN when there is no such step, 0 when nothing
+    was expected nor unserved. ``plain_division`` (CityLearn 2.1): the plain IEEE quotient whatever the mask
+    (0/0 = NaN, x/0 = inf)."""
     expected, served = np.asarray(expected, dtype=float), np.asarray(served, dtype=float)
     mask = np.ones(expected.shape, bool) if outage is None else np.asarray(outage, dtype=float) != 0.0
     unserved, total = (expected - served)[mask].sum(), expected[mask].sum()
-    if compat:
-        return divide(unserved, total, compat=True)
+    if plain_division:
+        return divide(unserved, total, plain=True)
     if not mask.any():
         return float("nan")
     return 0.0 if total == 0.0 and unserved == 0.0 else divide(unserved, total)
@@ -151,19 +161,19 @@ def _nanmean(values: Sequence[float]) -> float:
 
 
 def evaluate(series: Mapping[str, np.ndarray], building_names: Sequence[str], *, dynamics: Sequence[bool],
-             comfort_band: float = 2.0, window: slice | None = None, compat: bool = False):
+             comfort_band: float = 2.0, window: slice | None = None, settings: Behaviour = CORRECTED):
     """CityLearn's KPI table: a long DataFrame (cost_function, value, name, level).
 
     Building rows compare each building's control series (with storage, partial load and PV) to its baseline
     (``..._without_storage_and_partial_load`` if ``dynamics[b]``, else ``..._without_storage``); the
     ``District`` rows hold the district KPIs (on district sums) and the mean over buildings (NaN ignored) of
-    the building KPIs. Ratios are dimensionless; discomfort deltas in degC.
+    the building KPIs. Ratios are dimensionless; discomfort deltas in degC. ``settings``: the ``kpi_*`` quirks.
     """
     import pandas as pd
 
     rows = building_kpis(series, building_names, dynamics=dynamics, comfort_band=comfort_band,
-                         window=window, compat=compat)
-    district = district_kpis(series, dynamics=dynamics, window=window, compat=compat)
+                         window=window, settings=settings)
+    district = district_kpis(series, dynamics=dynamics, window=window, settings=settings)
     names = sorted({k for r in rows for k in r} | set(district))
     district_rows = [{"cost_function": k, "value": district[k] if k in district else _nanmean([r[k] for r in rows]),
                       "name": "District", "level": "district"} for k in names]
@@ -174,15 +184,18 @@ def evaluate(series: Mapping[str, np.ndarray], building_names: Sequence[str], *,
     return frame
 
 
-def _conditions(dynamics: Sequence[bool], compat: bool) -> list[str]:
-    """Baseline suffix per building. compat: CityLearn 2.1 fixes the condition on the first building."""
+def _conditions(dynamics: Sequence[bool], from_first_building: bool) -> list[str]:
+    """Baseline suffix per building. ``from_first_building``: CityLearn 2.1 fixes the condition of every
+    building on the first building's."""
     dynamics = [bool(d) for d in dynamics]
-    return [BASELINE[dynamics[0]] if compat else BASELINE[d] for d in dynamics]
+    return [BASELINE[dynamics[0]] if from_first_building else BASELINE[d] for d in dynamics]
 
 
 def building_kpis(series: Mapping[str, np.ndarray], building_names: Sequence[str], *, dynamics: Sequence[bool],
-                  comfort_band: float = 2.0, window: slice | None = None, compat: bool = False) -> list[dict]:
-    """One dict of building-level KPIs per building (same order and names as CityLearn 2.1)."""
+                  comfort_band: float = 2.0, window: slice | None = None,
+                  settings: Behaviour = CORRECTED) -> list[dict]:
+    """One dict of building-level KPIs per building (same order and names as CityLearn 2.1); ``settings``:
+    the ``kpi_*`` quirks."""
     n = len(building_names)
     if len(dynamics) != n:
         raise SchemaError(f"dynamics has {len(dynamics)} entries for {n} buildings", column="dynamics")
@@ -194,67 +207,74 @@ def building_kpis(series: Mapping[str, np.ndarray], building_names: Sequence[str
     occupants, outage = get("occupant_count"), get("power_outage")
     expected = sum(get(k) for k in DEMANDS)
     served = sum(get(k) for k in DELIVERED)
-    for b, suffix in enumerate(_conditions(dynamics, compat)):
+    plain, all_steps = settings.kpi_plain_division, settings.kpi_discomfort_over_all_steps
+    for b, suffix in enumerate(_conditions(dynamics, settings.kpi_baseline_from_first_building)):
         base_net, base_cost = get(f"{NET}{suffix}")[b], get(f"{NET}_cost{suffix}")[b]
         base_emission = get(f"{NET}_emission{suffix}")[b]
-        comfort = discomfort(temperature[b], set_point[b], comfort_band, occupants[b], compat=compat)
+        comfort = discomfort(temperature[b], set_point[b], comfort_band, occupants[b], over_all_steps=all_steps)
         resilience = discomfort(temperature[b], set_point[b], comfort_band,
-                                np.where(outage[b] == 0.0, 0.0, occupants[b]), compat=compat)
+                                np.where(outage[b] == 0.0, 0.0, occupants[b]), over_all_steps=all_steps)
         kpi = {
-            "electricity_consumption_total": divide(positive_sum(net[b]), positive_sum(base_net), compat=compat),
-            "zero_net_energy": divide(net[b].sum(), base_net.sum(), compat=compat),
+            "electricity_consumption_total": divide(positive_sum(net[b]), positive_sum(base_net), plain=plain),
+            "zero_net_energy": divide(net[b].sum(), base_net.sum(), plain=plain),
             "carbon_emissions_total": divide(positive_sum(emission[b]), positive_sum(base_emission),
-                                             compat=compat) if carbon[b].sum() != 0 else float("nan"),
-            "cost_total": divide(positive_sum(cost[b]), positive_sum(base_cost), compat=compat)
+                                             plain=plain) if carbon[b].sum() != 0 else float("nan"),
+            "cost_total": divide(positive_sum(cost[b]), positive_sum(base_cost), plain=plain)
             if pricing[b].sum() != 0 else float("nan"),
             **comfort,
             "one_minus_thermal_resilience_proportion": resilience["discomfort_proportion"],
             "power_outage_normalized_unserved_energy_total":
-                normalized_unserved_energy(expected[b], served[b], outage[b], compat=compat),
+                normalized_unserved_energy(expected[b], served[b], outage[b], plain_division=plain),
             "annual_normalized_unserved_energy_total":
-                normalized_unserved_energy(expected[b], served[b], compat=compat),
+                normalized_unserved_energy(expected[b], served[b], plain_division=plain),
         }
         out.append(kpi)
     return out
 
 
 def district_kpis(series: Mapping[str, np.ndarray], *, dynamics: Sequence[bool], window: slice | None = None,
-                  compat: bool = False) -> dict[str, float]:
+                  settings: Behaviour = CORRECTED) -> dict[str, float]:
     """District-level KPIs on the district sums of the control and baseline net consumption (ratios).
 
     The district baseline is ``..._without_storage_and_partial_load`` (which equals ``..._without_storage``
-    for buildings without dynamics); compat: the first building's condition, as CityLearn 2.1.
+    for buildings without dynamics); ``settings.kpi_baseline_from_first_building``: the first building's
+    condition, as CityLearn 2.1. ``settings.kpi_plain_division``: plain IEEE ratios.
     """
     get = _prepare(series, window)
-    suffix = _conditions(dynamics, compat)[0] if compat else BASELINE[True]
+    first = settings.kpi_baseline_from_first_building
+    suffix = _conditions(dynamics, True)[0] if first else BASELINE[True]
     control, base = get(NET).sum(axis=0), get(f"{NET}{suffix}").sum(axis=0)
+    plain = settings.kpi_plain_division
+
+    def load_factor_ratio(window_steps: int) -> float:
+        return divide(one_minus_load_factor(control, window_steps, plain_division=plain),
+                      one_minus_load_factor(base, window_steps, plain_division=plain), plain=plain)
+
     return {
-        "ramping_average": divide(ramping(control), ramping(base), compat=compat),
-        "daily_one_minus_load_factor_average": divide(one_minus_load_factor(control, DAY_STEPS, compat=compat),
-                                                      one_minus_load_factor(base, DAY_STEPS, compat=compat),
-                                                      compat=compat),
-        "monthly_one_minus_load_factor_average": divide(
-            one_minus_load_factor(control, MONTH_STEPS, compat=compat),
-            one_minus_load_factor(base, MONTH_STEPS, compat=compat), compat=compat),
-        "daily_peak_average": divide(peak(control, DAY_STEPS), peak(base, DAY_STEPS), compat=compat),
-        "annual_peak_average": divide(peak(control, YEAR_STEPS), peak(base, YEAR_STEPS), compat=compat),
+        "ramping_average": divide(ramping(control), ramping(base), plain=plain),
+        "daily_one_minus_load_factor_average": load_factor_ratio(DAY_STEPS),
+        "monthly_one_minus_load_factor_average": load_factor_ratio(MONTH_STEPS),
+        "daily_peak_average": divide(peak(control, DAY_STEPS), peak(base, DAY_STEPS), plain=plain),
+        "annual_peak_average": divide(peak(control, YEAR_STEPS), peak(base, YEAR_STEPS), plain=plain),
     }
 
 
 def evaluate_challenge(series: Mapping[str, np.ndarray], building_names: Sequence[str], *,
-                       dynamics: Sequence[bool], window: slice | None = None, compat: bool = False):
+                       dynamics: Sequence[bool], window: slice | None = None, settings: Behaviour = CORRECTED):
     """The CityLearn Challenge 2023 table (kpi, display_name, weight, value) with an ``average_score`` row:
     sum of weight x district value over the KPIs that are not NaN, divided by the sum of all weights
-    (lower is better). compat: float32 sums as CityLearn 2.1."""
+    (lower is better). ``settings.kpi_float32_score``: both sums in float32, as CityLearn 2.1; the other
+    ``kpi_*`` fields act in :func:`evaluate`."""
     import pandas as pd
 
-    table = evaluate(series, building_names, dynamics=dynamics, comfort_band=1.0, window=window, compat=compat)
+    table = evaluate(series, building_names, dynamics=dynamics, comfort_band=1.0, window=window,
+                     settings=settings)
     district = table[table["level"] == "district"].set_index("cost_function")["value"]
     rows = [{"kpi": k, "display_name": name, "weight": weight, "value": float(district[k])}
             for k, (name, weight) in CHALLENGE_WEIGHTS.items()]
     weights = np.array([r["weight"] for r in rows])
     weighted = weights * np.array([r["value"] for r in rows])
-    dtype = np.float32 if compat else np.float64
+    dtype = np.float32 if settings.kpi_float32_score else np.float64
     score = float(np.nansum(weighted, dtype=dtype) / np.nansum(weights, dtype=dtype))
     rows.append({"kpi": "average_score", "display_name": "Score", "weight": float("nan"), "value": score})
     return pd.DataFrame(rows, columns=["kpi", "display_name", "weight", "value"])

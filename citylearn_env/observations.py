@@ -11,15 +11,12 @@ from collections.abc import Iterator, Mapping
 
 import numpy as np
 
-from citylearn_env.district import END_USES, District
+from citylearn_env.district import District
 from citylearn_env.errors import SchemaError
+from citylearn_env.state import END_USES
 
-#: observation name -> data series name, for observations that are plain data
+#: observation name -> data column, for observations that are plain data
 STATIC_ALIASES = {
-    "solar_generation": "pv_generation",
-    "cooling_device_cop": "cooling_device_cop",
-    "heating_device_cop": "heating_device_cop",
-    "dhw_device_cop": "dhw_device_cop",
     "indoor_dry_bulb_temperature_without_control": "indoor_dry_bulb_temperature",
     "cooling_demand_without_control": "cooling_demand",
     "heating_demand_without_control": "heating_demand",
@@ -28,34 +25,49 @@ STATIC_ALIASES = {
     "indoor_relative_humidity_without_control": "indoor_relative_humidity",
     "indoor_dry_bulb_temperature_set_point_without_control": "indoor_dry_bulb_temperature_set_point",
 }
+#: observation name -> end use, for the device COP observations (derived from weather and the device)
+COP_OBSERVATIONS = {"cooling_device_cop": "cooling", "heating_device_cop": "heating", "dhw_device_cop": "dhw"}
+#: thermal energy delivered (device + storage) observed as a demand
+DELIVERED_OBSERVATIONS = {"cooling_demand": "cooling", "heating_demand": "heating", "dhw_demand": "dhw"}
 
 DYNAMIC = (
     "indoor_dry_bulb_temperature",
     "indoor_dry_bulb_temperature_delta",
     "net_electricity_consumption",
-    "cooling_demand",
-    "heating_demand",
-    "dhw_demand",
-    *(f"{k}_storage_soc" for k in (*END_USES, "electrical")),
-    *(f"{k}_electricity_consumption" for k in END_USES),
-    *(f"{k}_storage_electricity_consumption" for k in (*END_USES, "electrical")),
+    *DELIVERED_OBSERVATIONS,
+    "cooling_storage_soc", "heating_storage_soc", "dhw_storage_soc", "electrical_storage_soc",
+    "cooling_electricity_consumption", "heating_electricity_consumption", "dhw_electricity_consumption",
+    "cooling_storage_electricity_consumption", "heating_storage_electricity_consumption",
+    "dhw_storage_electricity_consumption", "electrical_storage_electricity_consumption",
 )
 
 
 def dynamic_value(district: District, name: str, t: int) -> np.ndarray:
     """The (B,) value of dynamic observation ``name`` at episode step ``t``."""
-    r = district.rec
-    if name in ("cooling_demand", "heating_demand", "dhw_demand"):
-        k = name.removesuffix("_demand")
-        return r[f"energy_from_{k}_device"][:, t] + r[f"energy_from_{k}_storage"][:, t]
+    end_use = DELIVERED_OBSERVATIONS.get(name)
+    if end_use is not None:
+        r = district.end_use(end_use).record
+        return r.energy_from_device[:, t] + r.energy_from_storage[:, t]
     if name == "indoor_dry_bulb_temperature_delta":
-        setpoint = district.ep["indoor_dry_bulb_temperature_set_point"][:, t]
-        return np.abs(r["indoor_dry_bulb_temperature"][:, t] - setpoint)
-    return r[name][:, t]
+        setpoint = district.episode["indoor_dry_bulb_temperature_set_point"][:, t]
+        return np.abs(district.building_record.indoor_dry_bulb_temperature[:, t] - setpoint)
+    return district.recorded[name][:, t]
+
+
+def static_series(district: District, name: str, *, full_range: bool = False) -> np.ndarray | None:
+    """The (B, T) episode series (or (B, N) over the simulation range) of a data observation; None if unknown."""
+    if name == "solar_generation":
+        return district.signals.pv_generation if full_range else district.episode.pv_generation
+    end_use = COP_OBSERVATIONS.get(name)
+    if end_use is not None:
+        params = district.end_use_params[END_USES.index(end_use)]
+        return params.cop if full_range else district.end_use(end_use).cop
+    signals = district.signals if full_range else district.episode
+    return signals.columns.get(STATIC_ALIASES.get(name, name))
 
 
 def is_known(district: District, name: str) -> bool:
-    return name in DYNAMIC or name in STATIC_ALIASES or name in district.series
+    return name in DYNAMIC or static_series(district, name, full_range=True) is not None
 
 
 class StepObservations(Mapping):
@@ -76,7 +88,7 @@ class StepObservations(Mapping):
         if name in DYNAMIC:
             value = dynamic_value(d, name, self._t)
         else:
-            series = d.ep.get(STATIC_ALIASES.get(name, name))
+            series = static_series(d, name)
             if series is None:
                 raise KeyError(name)
             value = series[:, self._t]
@@ -85,8 +97,8 @@ class StepObservations(Mapping):
 
     def __iter__(self) -> Iterator[str]:
         d = self._d
-        names = set(DYNAMIC) | set(STATIC_ALIASES) | set(d.ep)
-        return iter(sorted(names))
+        names = set(DYNAMIC) | set(STATIC_ALIASES) | set(COP_OBSERVATIONS) | {"solar_generation"}
+        return iter(sorted(names | set(d.episode.columns)))
 
     def __len__(self) -> int:
         return sum(1 for _ in self)
@@ -140,7 +152,7 @@ class ObservationLayout:
         matrix = np.zeros((d.length, len(self.pairs)))
         for name, (pos, bidx) in self.groups.items():
             if name not in DYNAMIC:
-                matrix[:, pos] = d.ep[STATIC_ALIASES.get(name, name)][bidx].T
+                matrix[:, pos] = static_series(d, name)[bidx].T
         return matrix
 
     def vector(self, static_row: np.ndarray, t: int) -> np.ndarray:
@@ -163,13 +175,14 @@ class ObservationLayout:
 
 
 def _bound(d: District, name: str, b: int) -> tuple[float, float]:
-    s, p, bat = d.series, d.p, d.battery
-    pv = s["pv_generation"][b]
-    p_batt = bat["nominal_power"][b]
+    s = d.signals
+    uses = {p.name: p for p in d.end_use_params}
+    pv = s.pv_generation[b]
+    p_batt = d.battery.nominal_power[b]
     if name == "net_electricity_consumption":
         nsl = s["non_shiftable_load"][b]
         low = min(float(np.min(nsl - p_batt - pv)), 0.0)
-        devices_power = sum(p[f"{k}_nominal_power"][b] for k in END_USES)
+        devices_power = sum(p.nominal_power[b] for p in d.end_use_params)
         return low, float(np.max(nsl + devices_power + p_batt - pv))
     if name.endswith("_soc") or name == "power_outage":
         return 0.0, 1.0
@@ -178,15 +191,22 @@ def _bound(d: District, name: str, b: int) -> tuple[float, float]:
         return float(t.min()) - 10.0, float(t.max()) + 10.0
     if name == "indoor_dry_bulb_temperature_delta":
         return 0.0, 10.0
-    if name in ("cooling_demand", "heating_demand", "dhw_demand"):
-        return 0.0, 1.15 * float(s[name][b].max())
-    for k in END_USES:
-        if name == f"{k}_electricity_consumption":
-            return 0.0, float(p[f"{k}_nominal_power"][b])
-        if name == f"{k}_storage_electricity_consumption":
-            low = -float(np.max(s[f"{k}_demand"][b] / s[f"{k}_device_cop"][b]))
-            return low, float(p[f"{k}_nominal_power"][b])
+    if name in DELIVERED_OBSERVATIONS:
+        return 0.0, 1.15 * float(uses[DELIVERED_OBSERVATIONS[name]].demand[b].max())
     if name == "electrical_storage_electricity_consumption":
         return -float(p_batt), float(p_batt)
-    values = s[STATIC_ALIASES.get(name, name)][b]
+    for p in d.end_use_params:
+        if name == ELECTRICITY_NAMES[p.name]:
+            return 0.0, float(p.nominal_power[b])
+        if name == STORAGE_ELECTRICITY_NAMES[p.name]:
+            return -float(np.max(p.demand[b] / p.cop[b])), float(p.nominal_power[b])
+    values = static_series(d, name, full_range=True)[b]
     return float(values.min()), float(values.max())
+
+
+#: end use -> its electricity-consumption observation names
+ELECTRICITY_NAMES = {"cooling": "cooling_electricity_consumption", "heating": "heating_electricity_consumption",
+                     "dhw": "dhw_electricity_consumption"}
+STORAGE_ELECTRICITY_NAMES = {"cooling": "cooling_storage_electricity_consumption",
+                             "heating": "heating_storage_electricity_consumption",
+                             "dhw": "dhw_storage_electricity_consumption"}

@@ -2,8 +2,9 @@
 
 The stochastic model draws, for every day of the episode, whether an outage starts that day
 (probability SAIFI / 365), a start step within the day and an exponentially distributed duration with mean
-CAIDI minutes. ``compat=True`` reproduces CityLearn 2.1 draw for draw (including its quirks);
-``compat=False`` is the corrected model. Differences: docs/environment_dynamics.md.
+CAIDI minutes. ``legacy=True`` reproduces CityLearn 2.1 draw for draw (including its quirks; the environment
+passes ``settings.legacy_outage_draws``); ``legacy=False`` is the corrected model. Differences:
+docs/environment_dynamics.md.
 """
 
 from __future__ import annotations
@@ -39,7 +40,7 @@ def _start_choices(start_time_steps: Sequence[int] | None, spd: int) -> np.ndarr
 
 def reliability_outage_signal(n_steps: int, *, saifi: float = 1.436, caidi: float = 331.2, seed: int,
                               seconds_per_time_step: float = 3600.0,
-                              start_time_steps: Sequence[int] | None = None, compat: bool = False) -> np.ndarray:
+                              start_time_steps: Sequence[int] | None = None, legacy: bool = False) -> np.ndarray:
     """Outage signal (1 = outage) of an ``n_steps``-step episode from the reliability indices.
 
     Parameters
@@ -50,7 +51,7 @@ def reliability_outage_signal(n_steps: int, *, saifi: float = 1.436, caidi: floa
     seed : random seed; the same seed gives the same signal.
     seconds_per_time_step : time-step length in s (a day must hold a whole number of steps).
     start_time_steps : allowed start steps within a day (0 = midnight); default: any step.
-    compat : reproduce CityLearn 2.1's ``ReliabilityMetricsPowerOutage`` exactly (legacy ``RandomState``;
+    legacy : reproduce CityLearn 2.1's ``ReliabilityMetricsPowerOutage`` exactly (legacy ``RandomState``;
         all day draws, then all start draws, then all durations; day 0 never has an outage but its draw
         shifts the start/duration draws of later days; ``int`` truncation of start and end; the episode must
         be a whole number of days).
@@ -74,7 +75,7 @@ def reliability_outage_signal(n_steps: int, *, saifi: float = 1.436, caidi: floa
     if p_day > 1:
         raise SchemaError(f"saifi {saifi} exceeds one outage per day", column="power_outage.saifi")
     signal = np.zeros(n_steps, dtype=np.int8)
-    if compat:
+    if legacy:
         if n_steps % spd:
             raise SchemaError(f"CityLearn 2.1 needs a whole number of days: {n_steps} steps is not a multiple of "
                               f"{spd}", column="episode_time_steps")

@@ -8,7 +8,10 @@ kWh, ``electricity_pricing`` $/kWh, ``indoor_dry_bulb_temperature`` degC, ``dhw_
 
 Upstream classes (CityLearn 2.1 ``citylearn.reward_function``) and the SimBuild 2024 classes
 (``src.reward_function``) are registered under their dotted type strings in :data:`REWARDS`, next to short
-names for the paper's four objectives. ``compat=True`` keeps upstream's bugs (docs/environment_kpis.md).
+names for the paper's four objectives. Upstream's bugs are kept where the :class:`~citylearn_env.settings.Behaviour`
+passed as ``settings`` asks for them (``independent_sac_reward_precedence_bug``, ``comfort_reward_float32``,
+``storage_signal_reward_multiplies_by_delta``; the default :data:`~citylearn_env.settings.CORRECTED` fixes all
+three; docs/environment_kpis.md).
 """
 
 from __future__ import annotations
@@ -21,6 +24,7 @@ from typing import Any
 import numpy as np
 
 from citylearn_env.errors import SchemaError
+from citylearn_env.settings import CORRECTED, Behaviour
 
 STORAGES = ("cooling_storage", "heating_storage", "dhw_storage", "electrical_storage")
 #: storages whose capacity does not exceed this (kWh) count as absent (CityLearn's zero-division placeholder)
@@ -64,12 +68,15 @@ def _get(obs: Mapping[str, np.ndarray], name: str, default: float | None = None)
 
 
 class Reward:
-    """Base class: per-building values aggregated by sum (CityLearn) or mean for a central agent."""
+    """Base class: per-building values aggregated by sum (CityLearn) or mean for a central agent.
+    ``settings`` selects which upstream quirks a subclass reproduces (each reads its own field)."""
 
     central_aggregate = "sum"
 
-    def __init__(self, *, compat: bool = False):
-        self.compat = compat
+    def __init__(self, *, settings: Behaviour = CORRECTED):
+        if not isinstance(settings, Behaviour):
+            raise TypeError(f"settings must be a Behaviour, not {type(settings).__name__}")
+        self.settings = settings
         self.context: RewardContext | None = None
 
     def reset(self, context: RewardContext) -> None:
@@ -119,11 +126,12 @@ class MARL(Reward):
 
 
 class IndependentSACReward(Reward):
-    """-max(e_b, 0)^3 (intended); compat: -max(e_b, 0), CityLearn's operator-precedence bug. Central: sum."""
+    """-max(e_b, 0)^3 (intended, e_b kWh); with ``settings.independent_sac_reward_precedence_bug``:
+    -max(e_b, 0), CityLearn's operator-precedence bug. Central: sum."""
 
     def building_values(self, obs):
         e = np.clip(_get(obs, "net_electricity_consumption"), 0.0, None)
-        values = -e if self.compat else -(e ** 3)
+        values = -e if self.settings.independent_sac_reward_precedence_bug else -(e ** 3)
         return values, {"grid_import": values}
 
 
@@ -147,8 +155,8 @@ class ComfortReward(Reward):
     Central: sum."""
 
     def __init__(self, band: float | None = None, lower_exponent: float | None = None,
-                 higher_exponent: float | None = None, *, compat: bool = False):
-        super().__init__(compat=compat)
+                 higher_exponent: float | None = None, *, settings: Behaviour = CORRECTED):
+        super().__init__(settings=settings)
         self.band = 2.0 if band is None else float(band)
         self.lower_exponent = 2.0 if lower_exponent is None else float(lower_exponent)
         self.higher_exponent = 3.0 if higher_exponent is None else float(higher_exponent)
@@ -158,28 +166,28 @@ class ComfortReward(Reward):
         t = _get(obs, "indoor_dry_bulb_temperature")
         s = _get(obs, "indoor_dry_bulb_temperature_set_point")
         delta = np.abs(t - s)
-        if self.compat:  # CityLearn 2.1 subtracts its float32 observations in float32
+        if self.settings.comfort_reward_float32:  # CityLearn 2.1 subtracts its float32 observations in float32
             delta = np.abs(t.astype(np.float32) - s.astype(np.float32)).astype(float)
-        low, high = self.lower_exponent, self.higher_exponent
-        too_cold = -(delta ** np.where(heating, low, high))
-        too_hot = -(delta ** np.where(heating, high, low))
-        # nested where (np.select costs ~10x more on a handful of buildings)
-        values = np.where(t < s - self.band, too_cold,
-                          np.where(t < s, np.where(heating, 0.0, -delta),
-                                   np.where(t <= s + self.band, np.where(heating, -delta, 0.0), too_hot)))
+        below = t < s
+        outside = (t < s - self.band) | (t > s + self.band)
+        # outside the band: the lower exponent on the side the mode pushes towards (too cold while heating,
+        # too hot while cooling), the higher one otherwise; inside it only that side costs |T - S|
+        exponent = np.where(below == heating, self.lower_exponent, self.higher_exponent)
+        values = np.where(outside, -(delta ** exponent), np.where(below != heating, -delta, 0.0))
         return values, {"comfort": values}
 
 
 class SolarPenaltyAndComfortReward(Reward):
     """coefficients[0] * SolarPenaltyReward + coefficients[1] * ComfortReward (per building; central: the sum
-    of each part, added). compat: each part rounded to float32 first, as CityLearn 2.1."""
+    of each part, added). ``settings.comfort_reward_float32``: each part rounded to float32 first, as
+    CityLearn 2.1."""
 
     def __init__(self, band: float | None = None, lower_exponent: float | None = None,
                  higher_exponent: float | None = None, coefficients: Sequence[float] | None = None, *,
-                 compat: bool = False):
-        super().__init__(compat=compat)
-        self.parts = (SolarPenaltyReward(compat=compat),
-                      ComfortReward(band, lower_exponent, higher_exponent, compat=compat))
+                 settings: Behaviour = CORRECTED):
+        super().__init__(settings=settings)
+        self.parts = (SolarPenaltyReward(settings=settings),
+                      ComfortReward(band, lower_exponent, higher_exponent, settings=settings))
         self.coefficients = (1.0, 1.0) if coefficients is None else tuple(float(c) for c in coefficients)
         if len(self.coefficients) != 2:
             raise SchemaError(f"needs 2 coefficients, got {len(self.coefficients)}",
@@ -204,7 +212,7 @@ class SolarPenaltyAndComfortReward(Reward):
         terms = {"solar_penalty": self.coefficients[0] * parts[0], "comfort": self.coefficients[1] * parts[1]}
         if self.context.central_agent:
             parts = [np.array([p.sum()]) for p in parts]
-        if self.compat:
+        if self.settings.comfort_reward_float32:
             parts = [p.astype(np.float32).astype(float) for p in parts]
         total = self.coefficients[0] * parts[0] + self.coefficients[1] * parts[1]
         return (float(total[0]) if self.context.central_agent else total), terms
@@ -218,8 +226,8 @@ class SignalReward(Reward):
     default_signal: str | None = None
 
     def __init__(self, signal: str | None = None, exponent: float | None = None, window: int | None = None, *,
-                 compat: bool = False):
-        super().__init__(compat=compat)
+                 settings: Behaviour = CORRECTED):
+        super().__init__(settings=settings)
         self.signal = self.default_signal if signal is None else signal
         self.exponent = 1.0 if exponent is None else float(exponent)
         self.window = window
@@ -235,11 +243,13 @@ class SignalReward(Reward):
 
 class StorageSignalReward(SignalReward):
     """Penalises storing energy while importing: when e_b > 0, with D = sum over storages of
-    (soc - previous soc) * capacity (kWh), r_b = -(|D| * s)^exponent * sign(D); 0 otherwise. compat: for
-    D <= 0 upstream multiplies by D itself instead of its sign. Central: sum."""
+    (soc - previous soc) * capacity (kWh), r_b = -(|D| * s)^exponent * sign(D); 0 otherwise.
+    ``settings.storage_signal_reward_multiplies_by_delta``: for D <= 0 multiply by D itself instead of its sign
+    (CityLearn 2.1 / SimBuild). Central: sum."""
 
-    def __init__(self, signal: str | None = None, exponent: float | None = None, *, compat: bool = False):
-        super().__init__(signal, exponent, compat=compat)
+    def __init__(self, signal: str | None = None, exponent: float | None = None, *,
+                 settings: Behaviour = CORRECTED):
+        super().__init__(signal, exponent, settings=settings)
         self.kinds = ("dhw_storage", "cooling_storage", "heating_storage", "electrical_storage")
         self.previous_soc: dict[str, np.ndarray] = {}
 
@@ -253,7 +263,10 @@ class StorageSignalReward(SignalReward):
         stored = sum((soc[k] - self.previous_soc[k]) * self.context.storage_capacity(k) for k in self.kinds)
         self.previous_soc = {k: v.copy() for k, v in soc.items()}
         magnitude = (np.abs(stored) * self._signal(obs)) ** self.exponent
-        direction = np.where(stored > 0.0, 1.0, stored) if self.compat else np.sign(stored)
+        if self.settings.storage_signal_reward_multiplies_by_delta:
+            direction = np.where(stored > 0.0, 1.0, stored)
+        else:
+            direction = np.sign(stored)
         values = np.where(e > 0.0, -magnitude * direction, 0.0)
         return values, {"stored_energy": stored, "signal": values}
 
@@ -265,8 +278,8 @@ class StorageCostReductionReward(Reward):
     charges while its device consumes more than the storage; central: sum. The price list persists across
     episodes, as upstream."""
 
-    def __init__(self, *, compat: bool = False, **_unused: Any):
-        super().__init__(compat=compat)
+    def __init__(self, *, settings: Behaviour = CORRECTED, **_unused: Any):
+        super().__init__(settings=settings)
         self.prices: list[float] = []
 
     def building_values(self, obs):
@@ -306,8 +319,8 @@ class ComfortAndConsumptionReductionReward(Reward):
 
     central_aggregate = "mean"
 
-    def __init__(self, multiplier: float | None = None, *, compat: bool = False):
-        super().__init__(compat=compat)
+    def __init__(self, multiplier: float | None = None, *, settings: Behaviour = CORRECTED):
+        super().__init__(settings=settings)
         self.multiplier = 3.0 if multiplier is None else float(multiplier)
 
     def building_values(self, obs):
@@ -356,8 +369,8 @@ class AverageDailyPeakReward(RewardFunction):
     central agent (``aggregate="district"``), or -sum_b max(e_b, 0) (``aggregate="buildings"``: what the
     published SimBuild runs computed with SignalReward and no signal); decentralised: -max(e_b, 0)."""
 
-    def __init__(self, aggregate: str = "district", *, compat: bool = False):
-        super().__init__(compat=compat)
+    def __init__(self, aggregate: str = "district", *, settings: Behaviour = CORRECTED):
+        super().__init__(settings=settings)
         if aggregate not in ("district", "buildings"):
             raise SchemaError(f"aggregate must be 'district' or 'buildings', got {aggregate!r}",
                               column="reward_function.attributes.aggregate")
@@ -402,10 +415,12 @@ REWARDS: dict[str, type[Reward]] = {
 }
 
 
-def make_reward(spec: Mapping[str, Any] | str | None, context: RewardContext, *, compat: bool = False) -> Reward:
+def make_reward(spec: Mapping[str, Any] | str | None, context: RewardContext, *,
+                settings: Behaviour = CORRECTED) -> Reward:
     """Build and reset the reward of a schema's ``reward_function`` entry (``{"type": ..., "attributes":
-    {...}}``), a type string, or None (the default :class:`RewardFunction`). Raises SchemaError for an unknown
-    type (listing the known ones) or attributes the class does not take."""
+    {...}}``), a type string, or None (the default :class:`RewardFunction`), with the upstream quirks that
+    ``settings`` selects. Raises SchemaError for an unknown type (listing the known ones) or attributes the
+    class does not take."""
     if spec is None:
         spec = {"type": "default"}
     elif isinstance(spec, str):
@@ -419,9 +434,12 @@ def make_reward(spec: Mapping[str, Any] | str | None, context: RewardContext, *,
         raise SchemaError(f"unknown reward function type {name!r}; known: {', '.join(REWARDS)}",
                           column="reward_function.type")
     attributes = dict(spec.get("attributes") or {})
-    accepted = [p for p in inspect.signature(cls.__init__).parameters if p not in ("self", "compat", "_unused")]
+    accepted = [p for p in inspect.signature(cls.__init__).parameters if p not in ("self", "settings", "_unused")]
+    if "settings" in attributes:
+        raise SchemaError("'settings' is not a reward attribute (pass the environment's settings instead)",
+                          column="reward_function.attributes.settings")
     try:
-        reward = cls(**attributes, compat=compat)
+        reward = cls(**attributes, settings=settings)
     except TypeError as error:
         raise SchemaError(f"{name} does not take attributes {sorted(attributes)} ({error}); it takes "
                           f"{', '.join(accepted) or 'none'}", column="reward_function.attributes") from None

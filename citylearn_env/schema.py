@@ -16,35 +16,33 @@ from typing import Any
 
 import numpy as np
 
-from citylearn_env import layout
+from citylearn_env import dataset
 from citylearn_env.config import (
     ACTION_NAMES,
     Battery,
     BuildingConfig,
     ConversionDevice,
     DistrictConfig,
-    LSTMModel,
     Outage,
     Tank,
     frozen_series,
 )
 from citylearn_env.errors import SchemaError
 from citylearn_env.registry import SLOT_CLASSES, resolve_type
-
-#: columns (internal names) that must not be negative
-NON_NEGATIVE = ("non_shiftable_load", "dhw_demand", "cooling_demand", "heating_demand", "solar_generation",
-                "occupant_count")
-#: later-version building columns that are accepted and ignored
-IGNORED_NAMED_COLUMNS = ("minutes", "comfort_band", "indoor_dry_bulb_temperature_heating_set_point")
+from citylearn_env.settings import Behaviour, resolve
 
 
-def load_schema(schema: str | Path | Mapping[str, Any], *, compat: bool = False) -> DistrictConfig:
+def load_schema(schema: str | Path | Mapping[str, Any], *, settings: Behaviour | str | None = None,
+                compat: bool = False) -> DistrictConfig:
     """Validate ``schema`` (a schema.json path or an already parsed dict) and read its data files.
 
-    ``compat=True`` keeps CityLearn 2.1 defaults that differ from the documented ones (a missing
-    ``hvac_mode`` column means "off"). Relative file names resolve against ``root_directory``, or the schema
-    file's folder when that is null.
+    ``settings`` (a :class:`~citylearn_env.settings.Behaviour` or preset name; ``compat=True`` is shorthand for
+    the CityLearn 2.1 preset) decides the data-set defaults that differ between CityLearn 2.1 and its
+    documentation: ``missing_hvac_mode_is_off`` (a building file without ``hvac_mode`` runs mode 0 "off"
+    instead of 1 "cooling"). Relative file names resolve against ``root_directory``, or the schema file's
+    folder when that is null.
     """
+    settings = resolve(settings, compat)
     if isinstance(schema, (str, Path)):
         path = Path(schema)
         try:
@@ -60,7 +58,7 @@ def load_schema(schema: str | Path | Mapping[str, Any], *, compat: bool = False)
     else:
         raise SchemaError(f"a schema must be a path or a dict, got {type(schema).__name__}")
     root = Path(raw.get("root_directory") or default_root)
-    return _parse(raw, root, source, compat)
+    return _parse(raw, root, source, settings.missing_hvac_mode_is_off)
 
 
 def _get(d: Mapping[str, Any], key: str, default: Any, kind: type | tuple[type, ...], where: str) -> Any:
@@ -76,7 +74,7 @@ def _get(d: Mapping[str, Any], key: str, default: Any, kind: type | tuple[type, 
     return value
 
 
-def _parse(raw: dict[str, Any], root: Path, source: str, compat: bool) -> DistrictConfig:
+def _parse(raw: dict[str, Any], root: Path, source: str, missing_hvac_mode_is_off: bool) -> DistrictConfig:
     start = _get(raw, "simulation_start_time_step", 0, int, "schema")
     end = _get(raw, "simulation_end_time_step", None, int, "schema")
     if end is None or end < start:
@@ -99,7 +97,7 @@ def _parse(raw: dict[str, Any], root: Path, source: str, compat: bool) -> Distri
         if not spec.get("include", True):
             continue
         buildings.append(
-            _building(name, spec, root, start, end, cache, active_obs, active_actions, compat)
+            _building(name, spec, root, start, end, cache, active_obs, active_actions, missing_hvac_mode_is_off)
         )
     if not buildings:
         raise SchemaError("no building has include = true", column="buildings")
@@ -169,38 +167,6 @@ def _device(slot: str, spec: Mapping[str, Any] | None, where: str) -> Any:
     return target(**attrs)
 
 
-def _dynamics(spec: Mapping[str, Any] | None, root: Path, where: str) -> tuple[LSTMModel | None, ...]:
-    if not spec:
-        return None, None
-    if "type" in spec:  # v2.2+: one model serves both modes
-        model = _lstm(spec, root, where)
-        return model, model
-    return tuple(_lstm(spec.get(mode), root, f"{where}.{mode}") for mode in ("cooling", "heating"))
-
-
-def _lstm(spec: Mapping[str, Any] | None, root: Path, where: str) -> LSTMModel | None:
-    if spec is None:
-        return None
-    resolve_type("dynamics", spec.get("type"), where=f"{where}.type")
-    a = spec.get("attributes") or {}
-    try:
-        names = tuple(a["input_observation_names"])
-        lo = tuple(float(x) for x in a["input_normalization_minimum"])
-        hi = tuple(float(x) for x in a["input_normalization_maximum"])
-        model = LSTMModel(
-            filepath=str(root / a["filename"]) if "filename" in a else str(a["filepath"]),
-            input_observation_names=names, input_normalization_minimum=lo, input_normalization_maximum=hi,
-            hidden_size=int(a["hidden_size"]), num_layers=int(a["num_layers"]), lookback=int(a["lookback"]),
-        )
-    except KeyError as error:
-        raise SchemaError("missing attribute", column=f"{where}.attributes.{error.args[0]}") from error
-    if not (len(names) == len(lo) == len(hi)) or len(names) != int(a.get("input_size", len(names))):
-        raise SchemaError("input names, bounds and input_size disagree in length", column=f"{where}.attributes")
-    if not Path(model.filepath).is_file():
-        raise SchemaError("LSTM weights file not found", file=model.filepath, column=f"{where}.attributes.filename")
-    return model
-
-
 def _outage(spec: Mapping[str, Any] | None, where: str) -> Outage:
     if not spec:
         return Outage()
@@ -217,7 +183,8 @@ def _outage(spec: Mapping[str, Any] | None, where: str) -> Outage:
     )
 
 
-def _building(name, spec, root, start, end, cache, active_obs, active_actions, compat) -> BuildingConfig:
+def _building(name, spec, root, start, end, cache, active_obs, active_actions,
+              missing_hvac_mode_is_off: bool) -> BuildingConfig:
     where = f"buildings.{name}"
     btype = resolve_type("building", spec.get("type", "citylearn.building.Building"), where=f"{where}.type")
     for key in ("energy_simulation", "weather"):
@@ -225,19 +192,20 @@ def _building(name, spec, root, start, end, cache, active_obs, active_actions, c
             raise SchemaError("missing data file name", column=f"{where}.{key}")
     n = end + 1
     series: dict[str, np.ndarray] = {}
-    series.update(_read(root / spec["energy_simulation"], "building", n, cache, compat))
-    series.update(_read(root / spec["weather"], "weather", n, cache, compat))
-    for key, kind, cols in (("pricing", "pricing", layout.PRICING_COLUMNS),
-                            ("carbon_intensity", "carbon", layout.CARBON_COLUMNS)):
+    hvac_off = missing_hvac_mode_is_off
+    series.update(_read(root / spec["energy_simulation"], "building", n, cache, hvac_off))
+    series.update(_read(root / spec["weather"], "weather", n, cache, hvac_off))
+    for key, kind, cols in (("pricing", "pricing", dataset.PRICING_COLUMNS),
+                            ("carbon_intensity", "carbon", dataset.CARBON_COLUMNS)):
         if spec.get(key):
-            series.update(_read(root / spec[key], kind, n, cache, compat))
+            series.update(_read(root / spec[key], kind, n, cache, hvac_off))
         else:
             series.update({c: np.zeros(n) for c in cols})
     series = {k: v[start : end + 1] for k, v in series.items()}
     devices = {slot: _device(slot, spec.get(slot), f"{where}.{slot}") for slot in SLOT_CLASSES}
     cooling_model, heating_model = (None, None)
     if btype == "LSTMDynamicsBuilding":
-        cooling_model, heating_model = _dynamics(spec.get("dynamics"), root, f"{where}.dynamics")
+        cooling_model, heating_model = dataset.parse_dynamics(spec.get("dynamics"), root, where=f"{where}.dynamics")
     inactive_obs = set(spec.get("inactive_observations") or [])
     inactive_act = set(spec.get("inactive_actions") or [])
     kwargs = {slot: dev for slot, dev in devices.items() if dev is not None and slot != "pv"}
@@ -251,127 +219,8 @@ def _building(name, spec, root, start, end, cache, active_obs, active_actions, c
     )
 
 
-_TABLES = {
-    "building": layout.BUILDING_COLUMNS,
-    "weather": layout.WEATHER_COLUMNS,
-    "pricing": layout.PRICING_COLUMNS,
-    "carbon": layout.CARBON_COLUMNS,
-}
-
-
-def _read(path: Path, kind: str, n_rows: int, cache: dict, compat: bool) -> dict[str, np.ndarray]:
+def _read(path: Path, kind: str, n_rows: int, cache: dict, missing_hvac_mode_is_off: bool) -> dict[str, np.ndarray]:
     key = (str(path), kind)
     if key not in cache:
-        cache[key] = parse_data_frame(_read_csv(path), kind, path, n_rows, compat)
+        cache[key] = dataset.read_table(path, kind, n_rows, missing_hvac_mode_is_off=missing_hvac_mode_is_off)
     return cache[key]
-
-
-def _read_csv(path: Path):
-    import pandas as pd
-
-    try:
-        return pd.read_csv(path, dtype=str, keep_default_na=False)
-    except FileNotFoundError as error:
-        raise SchemaError("data file not found", file=path) from error
-    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as error:
-        raise SchemaError(f"cannot parse as CSV: {error}", file=path) from error
-
-
-def _columns_of(frame, kind: str, path: Path) -> dict[str, str]:
-    """Map internal names to the frame's columns: by header name (v2.2+) or by position (v2.1)."""
-    table = _TABLES[kind]
-    headers = list(frame.columns)
-    named = [layout.ALIASES.get(h, h) for h in headers]
-    if kind == "carbon":  # by name in both layouts
-        for h in headers:
-            if h in ("kg_CO2/kWh", "carbon_intensity"):
-                return {"carbon_intensity": h}
-        raise SchemaError("missing carbon column (expected 'kg_CO2/kWh' or 'carbon_intensity')", file=path,
-                          column="carbon_intensity")
-    if set(named) & set(table):  # named layout
-        unknown = [h for h, m in zip(headers, named, strict=True)
-                   if m not in table and m not in IGNORED_NAMED_COLUMNS]
-        if unknown:
-            raise SchemaError(f"unexpected column(s) {unknown}; expected names from: {', '.join(table)}",
-                              file=path, column=unknown[0])
-        mapping = {m: h for h, m in zip(headers, named, strict=True) if m in table}
-        required = list(table)[: layout.BUILDING_REQUIRED] if kind == "building" else list(table)
-        required = [c for c in required if c not in ("daylight_savings_status",
-                                                     "average_unmet_cooling_setpoint_difference",
-                                                     "indoor_relative_humidity")]
-        for col in required:
-            if col not in mapping:
-                raise SchemaError("missing column", file=path, column=col)
-        return mapping
-    lo = layout.BUILDING_REQUIRED if kind == "building" else len(table)
-    if not lo <= len(headers) <= len(table):
-        expected = f"{lo} to {len(table)}" if lo != len(table) else f"{lo}"
-        raise SchemaError(f"has {len(headers)} columns, the v2.1 layout has {expected} (by position: "
-                          f"{', '.join(table.values())})", file=path,
-                          column=headers[len(table)] if len(headers) > len(table) else list(table.values())[len(headers)])
-    return dict(zip(table, headers, strict=False))
-
-
-def parse_data_frame(frame, kind: str, path: Path, n_rows: int, compat: bool = False) -> dict[str, np.ndarray]:
-    """Validate one data frame (all cells as strings) of ``kind`` and return float arrays by internal name."""
-    mapping = _columns_of(frame, kind, path)
-    if len(frame) < n_rows:
-        raise SchemaError(f"has {len(frame)} data rows; the schema's simulation range needs {n_rows}",
-                          file=path, row=len(frame))
-    out: dict[str, np.ndarray] = {}
-    for name, col in mapping.items():
-        text = frame[col].to_numpy()[:n_rows]
-        try:
-            values = np.asarray(text, dtype=np.float64)
-        except ValueError:
-            bad = _first_bad_number(text)
-            raise SchemaError(f"not a number: {text[bad]!r}", file=path, column=col, row=_row(bad)) from None
-        if np.isnan(values).any():
-            raise SchemaError("missing value (NaN)", file=path, column=col, row=_row(int(np.isnan(values).argmax())))
-        if name in NON_NEGATIVE and (values < 0).any():
-            i = int((values < 0).argmax())
-            raise SchemaError(f"negative value {values[i]:g}", file=path, column=col, row=_row(i))
-        out[name] = values.astype(np.float32).astype(np.float64)
-    if kind == "building":
-        both = (out["cooling_demand"] > 0) & (out["heating_demand"] > 0)
-        if both.any():
-            i = int(both.argmax())
-            raise SchemaError("cooling_demand and heating_demand are both > 0", file=path,
-                              column=f"{mapping['cooling_demand']} / {mapping['heating_demand']}", row=_row(i))
-        _defaults(out, n_rows, compat)
-        for name in ("hvac_mode", "power_outage"):
-            bad = ~np.isin(out[name], (0, 1, 2) if name == "hvac_mode" else (0, 1))
-            if bad.any():
-                i = int(bad.argmax())
-                raise SchemaError(f"invalid value {out[name][i]:g}", file=path, column=mapping.get(name, name),
-                                  row=_row(i))
-    if kind == "weather" and "outdoor_relative_humidity" in out:
-        rh = out["outdoor_relative_humidity"]
-        if ((rh < 0) | (rh > 100)).any():
-            i = int(((rh < 0) | (rh > 100)).argmax())
-            raise SchemaError(f"relative humidity {rh[i]:g} outside 0..100 %", file=path,
-                              column=mapping["outdoor_relative_humidity"], row=_row(i))
-    return out
-
-
-def _defaults(out: dict[str, np.ndarray], n: int, compat: bool) -> None:
-    for name in ("daylight_savings_status", "average_unmet_cooling_setpoint_difference",
-                 "indoor_relative_humidity", "occupant_count", "indoor_dry_bulb_temperature_set_point",
-                 "power_outage"):
-        out.setdefault(name, np.zeros(n))
-    # CityLearn 2.1 treats a missing hvac_mode column as 0 (off); its docs and later versions mean cooling.
-    out.setdefault("hvac_mode", np.full(n, 0.0 if compat else 1.0))
-
-
-def _first_bad_number(text) -> int:
-    for i, cell in enumerate(text):
-        try:
-            float(cell)
-        except ValueError:
-            return i
-    return 0
-
-
-def _row(i: int) -> str:
-    """Describe data row ``i`` (0-based, after the header) for messages."""
-    return f"{i} (file line {i + 2})"

@@ -23,6 +23,7 @@ from citylearn_env import rewards
 from citylearn_env.config import DistrictConfig
 from citylearn_env.env import CityLearnEnv
 from citylearn_env.schema import load_schema
+from citylearn_env.settings import Behaviour, resolve
 
 
 class _CopyView(Mapping):
@@ -47,15 +48,16 @@ class CityLearnVectorEnv(VectorEnv):
     metadata = {"autoreset_mode": AutoresetMode.NEXT_STEP, "render_modes": []}
 
     def __init__(self, schema: str | Path | Mapping[str, Any] | DistrictConfig, num_envs: int, *,
-                 compat: bool = False, reward_function: Any = None):
-        config = schema if isinstance(schema, DistrictConfig) else load_schema(schema, compat=compat)
-        self.single = CityLearnEnv(config, compat=compat, reward_function=reward_function, central_agent=True)
+                 settings: Behaviour | str | None = None, compat: bool = False, reward_function: Any = None):
+        settings = resolve(settings, compat)
+        config = schema if isinstance(schema, DistrictConfig) else load_schema(schema, settings=settings)
+        self.single = CityLearnEnv(config, settings=settings, reward_function=reward_function, central_agent=True)
         self.num_envs = num_envs
         self.n_buildings = len(config.buildings)
         copies = tuple(
             dataclasses.replace(b, name=f"{b.name}#{i}") for i in range(num_envs) for b in config.buildings
         )
-        self.inner = CityLearnEnv(dataclasses.replace(config, buildings=copies), compat=compat,
+        self.inner = CityLearnEnv(config.replace(buildings=copies), settings=settings,
                                   reward_function="default", central_agent=True)
         self.single_observation_space = self.single.observation_space
         self.single_action_space = self.single.action_space
@@ -64,25 +66,25 @@ class CityLearnVectorEnv(VectorEnv):
         pairs = len(self.single.layout.pairs)
         self._obs_index = (np.arange(num_envs)[:, None] * pairs + self.single.layout.central_index[None, :])
         spec = reward_function if reward_function is not None else config.reward_function
-        context = self.single._reward_context
-        probe = rewards.make_reward(spec, context, compat=compat)
+        context = self.single.reward_context
+        probe = rewards.make_reward(spec, context, settings=settings)
         self._batched = None
         self._rewards = []
         if type(probe).__call__ is rewards.Reward.__call__:
             # central value = sum (or mean) of per-building values: one call over all copies' buildings
-            batched_context = dataclasses.replace(self.inner._reward_context, central_agent=False)
-            self._batched = rewards.make_reward(spec, batched_context, compat=compat)
+            batched_context = dataclasses.replace(self.inner.reward_context, central_agent=False)
+            self._batched = rewards.make_reward(spec, batched_context, settings=settings)
             self._batched_context = batched_context
             self._mean = probe.central_aggregate == "mean"
         else:
-            self._rewards = [rewards.make_reward(spec, context, compat=compat) for _ in range(num_envs)]
+            self._rewards = [rewards.make_reward(spec, context, settings=settings) for _ in range(num_envs)]
         self._parts = [slice(i * self.n_buildings, (i + 1) * self.n_buildings) for i in range(num_envs)]
         self._needs_reset = False
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         self.inner.reset(seed=seed, options=options)
         for reward in self._rewards:
-            reward.reset(self.single._reward_context)
+            reward.reset(self.single.reward_context)
         if self._batched is not None:
             self._batched.reset(self._batched_context)
         self._needs_reset = False
@@ -94,20 +96,20 @@ class CityLearnVectorEnv(VectorEnv):
             zeros = np.zeros(self.num_envs, dtype=bool)
             return obs, np.zeros(self.num_envs), zeros, zeros.copy(), info
         t = self.inner.advance(np.asarray(actions, dtype=np.float64).reshape(-1))
-        view = self.inner._view
+        view = self.inner.step_observations()
         if self._batched is not None:
             per_building = np.asarray(self._batched(view)[0]).reshape(self.num_envs, self.n_buildings)
             values = per_building.mean(axis=1) if self._mean else per_building.sum(axis=1)
         else:
             values = np.array([float(np.sum(r(_CopyView(view, part))[0]))
                                for r, part in zip(self._rewards, self._parts, strict=True)])
-        done = t == self.inner.district.length - 1
+        done = t == self.inner.episode_length - 1
         self._needs_reset = done
         terminated = np.full(self.num_envs, done)
         return self._observations(), values, terminated, np.zeros(self.num_envs, dtype=bool), {}
 
     def _observations(self) -> np.ndarray:
-        return self.inner._last_flat_at(self.inner.t)[self._obs_index].astype(np.float32)
+        return self.inner.flat_observations()[self._obs_index].astype(np.float32)
 
     def history(self):
         """The inner history: buildings are named ``<building>#<copy>``."""

@@ -7,22 +7,23 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-#: periodic observations and their periods (hour 1..24, month 1..12, day_type 1..7 (+8 holiday))
-PERIODS = {"hour": 24.0, "month": 12.0, "day_type": 7.0}
+from citylearn_env.dataset import PERIODS, periodic_encoding
 
 
 class NormalizedObservationWrapper(gym.ObservationWrapper):
     """Periodic hour/day_type/month as (cos, sin) pairs, then min-max scaling of everything to [0, 1].
 
     The bounds are the environment's observation bounds (estimated over the simulation range); values
-    outside them are not clipped (as upstream). With ``compat=True`` the day_type period is 8 (CityLearn 2.1).
+    outside them are not clipped (as upstream). The day_type period is the environment's
+    ``settings.wrapper_day_type_period`` (8 in CityLearn 2.1, 7 corrected) unless ``day_type_period`` is given.
     """
 
-    def __init__(self, env: gym.Env, *, compat: bool | None = None):
+    def __init__(self, env: gym.Env, *, day_type_period: float | None = None):
         super().__init__(env)
         base = env.unwrapped
-        compat = base.compat if compat is None else compat
-        periods = dict(PERIODS, day_type=8.0 if compat else 7.0)
+        if day_type_period is None:
+            day_type_period = base.settings.wrapper_day_type_period
+        periods = dict(PERIODS, day_type=float(day_type_period))
         names = base.observation_names
         low, high = base.observation_space.low.astype(np.float64), base.observation_space.high.astype(np.float64)
         self._plan: list[tuple[int, float | None]] = []
@@ -51,8 +52,8 @@ class NormalizedObservationWrapper(gym.ObservationWrapper):
             if period is None:
                 values.append(x)
             else:
-                angle = 2.0 * np.pi * x / period
-                values += [np.cos(angle), np.sin(angle)]
+                sin, cos = periodic_encoding(x, period)
+                values += [float(cos), float(sin)]
         return ((np.array(values) - self._lo) / self._span).astype(np.float32)
 
 
@@ -61,12 +62,13 @@ class NormalizedActionWrapper(gym.ActionWrapper):
 
     def __init__(self, env: gym.Env):
         super().__init__(env)
-        self._low = env.action_space.low.astype(np.float64)
-        self._span = env.action_space.high.astype(np.float64) - self._low
+        #: the environment's action bounds: an agent action x in [0, 1] maps to ``low + x * span``
+        self.low = env.action_space.low.astype(np.float64)
+        self.span = env.action_space.high.astype(np.float64) - self.low
         self.action_space = gym.spaces.Box(0.0, 1.0, shape=env.action_space.shape, dtype=np.float32)
 
     def action(self, action: np.ndarray) -> np.ndarray:
-        return self._low + np.asarray(action, dtype=np.float64) * self._span
+        return self.low + np.asarray(action, dtype=np.float64) * self.span
 
 
 def parallel_env(schema: Any, **kwargs: Any):
@@ -83,7 +85,7 @@ def parallel_env(schema: Any, **kwargs: Any):
             env = self.env
             self.possible_agents = list(env.building_names)
             self.agents = list(self.possible_agents)
-            lo, hi = env._obs_low, env._obs_high
+            lo, hi = env.observation_bounds
             self._obs_slices = dict(zip(self.possible_agents, env.layout.building_slices, strict=True))
             self._act_index = {a: [i for i, (_, b) in enumerate(env.action_pairs) if b == k]
                                for k, a in enumerate(self.possible_agents)}
@@ -99,7 +101,7 @@ def parallel_env(schema: Any, **kwargs: Any):
             return self._act_spaces[agent]
 
         def _split(self):
-            flat = self.env._last_flat
+            flat = self.env.flat_observations()
             return {a: flat[s].astype(np.float32) for a, s in self._obs_slices.items()}
 
         def reset(self, seed=None, options=None):

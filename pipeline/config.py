@@ -90,6 +90,8 @@ class BuildConfig(_Frozen):
     forecast: Literal["perfect", "noisy"] = "perfect"
     seed: int = 0
     timezone: str = "America/Chicago"
+    cache_dir: Path | None = Field(None, description="surrogate cache root (default: $DISTRICTGEN_CACHE_DIR, "
+                                                     "else ~/.cache/districtgen); relative to the file")
     source: Path = Path("<dict>")
 
 
@@ -110,7 +112,10 @@ def parse_build_config(data: dict, *, file: object = "<config>", base: Path | No
     if inputs.ilv is not None:
         resolved["ilv"] = base / inputs.ilv
     eulp = inputs.eulp if inputs.eulp.startswith(("http://", "https://")) else str(base / inputs.eulp)
-    return config.model_copy(update={"inputs": inputs.model_copy(update={**resolved, "eulp": eulp})})
+    update: dict[str, object] = {"inputs": inputs.model_copy(update={**resolved, "eulp": eulp})}
+    if config.cache_dir is not None:
+        update["cache_dir"] = base / config.cache_dir.expanduser()
+    return config.model_copy(update=update)
 
 
 def read_build_config(path: str | Path) -> BuildConfig:

@@ -8,10 +8,14 @@ of storage capacity per hour, the same for every storage of a building.
 
 from __future__ import annotations
 
-import json
+import dataclasses
+from collections.abc import Mapping
 from pathlib import Path
+from typing import Any
 
 import numpy as np
+
+from citylearn_env.config import DistrictConfig
 
 OFF_PEAK = {23, 24, 1, 2, 3, 4, 5, 6, 7}        # 10 PM - 7 AM
 ON_PEAK = {16, 17, 18}                           # 3 PM - 6 PM
@@ -48,39 +52,48 @@ def peak_rbc(hour: int, day_type: int) -> float:
 
 
 RULES = {"cost_rbc": cost_rbc, "emission_rbc": emission_rbc, "peak_rbc": peak_rbc}
+#: actions of conversion devices (not storages): inactive under ``ideal_cooling``
+DEVICE_ACTIONS = ("cooling_device", "heating_device")
 
 
 def rule_actions(env, rule) -> np.ndarray:
     """The action vector of ``rule`` for the step that controls t + 1 (storage actions; devices left at 0)."""
     t = env.t + 1
-    hour = int(env.district.ep["hour"][0, t])
-    day_type = int(env.district.ep["day_type"][0, t])
+    hour = int(env.data("hour")[0, t])
+    day_type = int(env.data("day_type")[0, t])
     value = rule(hour, day_type)
     return np.array([value if name.endswith("_storage") else 0.0 for name in env.action_names])
 
 
-def run_policy(schema: str | Path | dict, policy: str, *, seed: int = 0, ideal_cooling: bool = True,
-               compat: bool = False):
+def without_device_actions(config: DistrictConfig) -> DistrictConfig:
+    """``config`` with the heat-pump and heater actions inactive (the devices then serve the ideal load);
+    every other active action of each building is kept."""
+    def kept(building) -> tuple[str, ...]:
+        return tuple(a for a in building.active_actions if a not in DEVICE_ACTIONS)
+
+    per_building = {kept(b) for b in config.buildings}
+    if len(per_building) == 1:
+        return config.with_actions(per_building.pop())
+    return config.replace(buildings=tuple(dataclasses.replace(b, active_actions=kept(b)) for b in config.buildings))
+
+
+def run_policy(schema: str | Path | Mapping[str, Any] | DistrictConfig, policy: str, *, seed: int = 0,
+               ideal_cooling: bool = True, compat: bool = False):
     """Run one episode with ``policy`` (no_control, random, cost_rbc, emission_rbc, peak_rbc); return the env.
 
-    ``ideal_cooling`` deactivates heat-pump actions so the heat pump serves the ideal load (the paper's
+    ``schema``: a loaded :class:`DistrictConfig` (loaded once by the caller) or a schema path/dict (loaded
+    here). ``ideal_cooling`` deactivates heat-pump actions so the heat pump serves the ideal load (the paper's
     storage benchmarks); all actions are 0 under no_control; ``random`` samples the action space (seeded).
     """
-    from citylearn_env import CityLearnEnv
+    from citylearn_env import CityLearnEnv, load_schema
 
-    if isinstance(schema, (str, Path)):
-        path = Path(schema)
-        raw = json.loads(path.read_text())
-        raw["root_directory"] = raw.get("root_directory") or str(path.resolve().parent)
-    else:
-        raw = json.loads(json.dumps(schema))
-    if ideal_cooling:
-        raw["actions"]["cooling_device"] = {"active": False}
-        raw["actions"]["heating_device"] = {"active": False}
     rule = RULES.get(policy)
     if rule is None and policy not in ("no_control", "random"):
         raise ValueError(f"unknown policy {policy!r}; known: no_control, random, {', '.join(RULES)}")
-    env = CityLearnEnv(raw, compat=compat)
+    config = schema if isinstance(schema, DistrictConfig) else load_schema(schema, compat=compat)
+    if ideal_cooling:
+        config = without_device_actions(config)
+    env = CityLearnEnv(config, compat=compat)
     env.reset(seed=seed)
     env.action_space.seed(seed)
     terminated = False

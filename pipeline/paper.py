@@ -2,8 +2,8 @@
 
     districtgen paper artifacts/default/schema.json -o artifacts/default/paper [--sac-episodes 150]
 
-Each benchmark edits the district schema (which buildings, which devices exist, which actions and
-observations are active, which reward), runs its controller (none, the paper's rule, or SAC trained on the
+Each benchmark derives its variant from the district, loaded once as a typed configuration (which
+buildings, which devices exist, which actions and observations are active, which reward), runs its controller (none, the paper's rule, or SAC trained on the
 first 13 days), and reports the paper's objectives over the test period (days 14 to the end): cost,
 emissions, discomfort and consumption of the first building, and the district's average daily peak.
 Power outages are off in every run, as in the paper.
@@ -11,13 +11,13 @@ Power outages are off in every run, as in the paper.
 
 from __future__ import annotations
 
-import copy
-import json
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from citylearn_env.config import DistrictConfig
 
 TRAIN_DAYS = 13
 
@@ -77,39 +77,46 @@ def observations(b: Benchmark) -> list[str]:
     return names
 
 
-def benchmark_schema(district: dict, b: Benchmark, split: tuple[int, int], multiplier: float = 3.0) -> dict:
-    """The district schema edited for benchmark ``b`` over the inclusive time-step range ``split``."""
-    schema = copy.deepcopy(district)
+def benchmark_schema(district: DistrictConfig, b: Benchmark, split: tuple[int, int],
+                     multiplier: float = 3.0) -> DistrictConfig:
+    """The district edited for benchmark ``b`` over the inclusive time-step range ``split`` (typed edits).
+
+    The first ``b.buildings`` buildings; the paper's observations (:func:`observations`, calendar, prices,
+    carbon and outdoor temperature shared in the central agent); the storage/heat-pump actions of ``b``;
+    devices ``b`` does not use removed; the objective's reward; a central agent; no power outages.
+    """
+    names = observations(b)
     shared = set(ALWAYS) | {"electricity_pricing", "carbon_intensity", "outdoor_dry_bulb_temperature"}
-    schema["observations"] = {n: {"active": True, "shared_in_central_agent": n in shared} for n in observations(b)}
-    schema["actions"] = {"dhw_storage": {"active": b.dhw}, "electrical_storage": {"active": b.bess_pv},
-                         "cooling_device": {"active": b.hp}}
-    schema["central_agent"] = True
-    schema["episode_time_steps"] = [list(split)]
-    reward = REWARDS[b.objective]
+    actions = [a for a, on in (("dhw_storage", b.dhw), ("electrical_storage", b.bess_pv),
+                               ("cooling_device", b.hp)) if on]
+    removed = [slot for slot, keep in (("dhw_storage", b.dhw), ("electrical_storage", b.bess_pv), ("pv", b.pv))
+               if not keep]
     attributes = {"multiplier": multiplier} if b.objective == "discomfort_consumption" else {}
-    schema["reward_function"] = {"type": reward, "attributes": attributes}
-    for i, spec in enumerate(schema["buildings"].values()):
-        spec["include"] = i < b.buildings
-        if not b.dhw:
-            spec.pop("dhw_storage", None)
-        if not b.bess_pv:
-            spec.pop("electrical_storage", None)
-        if not b.pv:
-            spec.pop("pv", None)
-        spec["power_outage"] = {"simulate_power_outage": False, "stochastic_power_outage": False}
-        spec["inactive_observations"], spec["inactive_actions"] = [], []
-    return schema
+    return (district.with_buildings(district.building_names[:b.buildings])
+            .with_observations(names, shared=[n for n in names if n in shared])
+            .with_actions(actions)
+            .with_episode([split])
+            .with_reward({"type": REWARDS[b.objective], "attributes": attributes})
+            .without_devices(*removed)
+            .without_outages()
+            .replace(central_agent=True))
 
 
-def run_benchmark(district: dict, b: Benchmark, *, sac_episodes: int = 150, seed: int = 0,
+def load_district(schema_path: str | Path) -> DistrictConfig:
+    """The district schema loaded once (data files read and validated); benchmarks derive from it."""
+    from citylearn_env import load_schema
+
+    return load_schema(Path(schema_path))
+
+
+def run_benchmark(district: DistrictConfig, b: Benchmark, *, sac_episodes: int = 150, seed: int = 0,
                   multiplier: float = 3.0) -> dict[str, Any]:
     """Run one benchmark; return its test-period objectives (first building; district peak)."""
     from citylearn_env import CityLearnEnv
     from pipeline.controllers import RULES as RULE_FUNCTIONS
     from pipeline.controllers import rule_actions
 
-    n = district["simulation_end_time_step"] - district["simulation_start_time_step"] + 1
+    n = district.simulation_end_time_step - district.simulation_start_time_step + 1
     train, test = (0, TRAIN_DAYS * 24 - 1), (TRAIN_DAYS * 24, n - 1)
     env = CityLearnEnv(benchmark_schema(district, b, test, multiplier))
     policy = None
@@ -149,12 +156,12 @@ def train_sac(env, episodes: int, seed: int):
     torch.set_num_threads(1)
     wrapped = NormalizedActionWrapper(NormalizedObservationWrapper(env))
     env.reset(seed=seed)
-    steps_per_episode = env.district.length - 1
+    steps_per_episode = env.episode_length - 1
     model = SAC("MlpPolicy", wrapped, seed=seed, device="cpu", verbose=0,
                 learning_starts=min(100, steps_per_episode))
     model.learn(total_timesteps=max(episodes, 1) * steps_per_episode)
     obs_wrapper = wrapped.env  # NormalizedObservationWrapper
-    low, span = wrapped._low, wrapped._span
+    low, span = wrapped.low, wrapped.span
 
     def policy(raw_obs: np.ndarray) -> np.ndarray:
         action, _ = model.predict(obs_wrapper.observation(raw_obs), deterministic=True)
@@ -168,13 +175,11 @@ def run_all(schema_path: str | Path, out_dir: str | Path, *, only: list[str] | N
     """Run the benchmarks (all 17, or ``only``) on a district schema; write results.csv and results.md."""
     import pandas as pd
 
-    schema_path = Path(schema_path)
-    district = json.loads(schema_path.read_text())
-    district["root_directory"] = district.get("root_directory") or str(schema_path.resolve().parent)
     chosen = [b for b in BENCHMARKS if only is None or b.id in only]
     unknown = set(only or ()) - {b.id for b in BENCHMARKS}
     if unknown:
         raise ValueError(f"unknown benchmark id(s) {sorted(unknown)}; known: {', '.join(b.id for b in BENCHMARKS)}")
+    district = load_district(schema_path)
     results = []
     for b in chosen:
         log(f"running {b.id} ...")
@@ -203,9 +208,7 @@ def _std(x: np.ndarray) -> float:
 def multiplier_sweep(schema_path: str | Path, out_dir: str | Path, multipliers=(1.0, 3.0, 6.0, 12.0), *,
                      sac_episodes: int = 150, seed: int = 0, log=print) -> list[dict]:
     """The paper's m-sweep of rlc-b1-d_o-hp: discomfort, over/under-cooling, consumption, % change vs m = 1."""
-    schema_path = Path(schema_path)
-    district = json.loads(schema_path.read_text())
-    district["root_directory"] = district.get("root_directory") or str(schema_path.resolve().parent)
+    district = load_district(schema_path)
     bench = next(b for b in BENCHMARKS if b.id == "rlc-b1-d_o-hp")
     rows = []
     for m in multipliers:

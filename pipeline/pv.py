@@ -9,6 +9,7 @@ losses; PVWatts inverter with a DC/AC ratio. No shading, soiling beyond the lump
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Mapping
 
 import numpy as np
 import pandas as pd
@@ -83,3 +84,19 @@ def pv_yield(weather: pd.DataFrame, site: PVSite, utc_offset_hours: float) -> pd
     ac = pvlib.inverter.pvwatts(dc, 1000.0 / site.dc_ac_ratio, eta_inv_nom=site.inverter_efficiency)
     values = np.clip(np.nan_to_num(np.asarray(ac, dtype=float), nan=0.0), 0.0, None)
     return pd.Series(values, index=weather.index, name="solar_generation")
+
+
+def site_pv_yield(weather: pd.DataFrame, meta: Mapping[str, object], *, tilt: float | None = None,
+                  azimuth: float = 180.0, file: object = None) -> pd.Series:
+    """The site's PV yield [W AC per kW DC] for every hour of a weather file (see :func:`pv_yield`).
+
+    Computed once per weather file: all buildings of a district share the site, so they share this series.
+    ``meta`` is the weather reader's metadata (``latitude``, ``longitude`` [deg], ``utc_offset_hours``,
+    optional ``elevation_m``); a file without a site location (ResStock weather CSV) is an
+    :class:`InputError` naming ``file``.
+    """
+    if "latitude" not in meta or "longitude" not in meta:
+        raise InputError("PV needs an EPW (site latitude/longitude)", file=file)
+    site = PVSite(float(meta["latitude"]), float(meta["longitude"]), tilt=tilt, azimuth=azimuth,
+                  altitude=float(meta.get("elevation_m", 0.0)))
+    return pv_yield(weather, site, float(meta["utc_offset_hours"]))

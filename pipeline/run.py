@@ -30,6 +30,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     build.add_argument("--no-prefect", action="store_true", help="run the steps in-process, without Prefect")
     build.add_argument("--dask", nargs="?", const="local", metavar="ADDRESS",
                        help="run the flow's tasks on Dask: a local cluster, or the scheduler at ADDRESS")
+    build.add_argument("--cache-dir", type=Path, metavar="DIR",
+                       help="surrogate cache root (default: the configuration's cache_dir, else "
+                            "$DISTRICTGEN_CACHE_DIR, else ~/.cache/districtgen)")
     build.set_defaults(func=build_command)
 
     paper = subparsers.add_parser("paper", help="run the SimBuild 2024 paper's 17 benchmarks on a district")
@@ -75,6 +78,8 @@ def build_command(args: argparse.Namespace) -> int:
     from pipeline.config import read_build_config
 
     config = read_build_config(args.config)
+    if args.cache_dir is not None:
+        config = config.model_copy(update={"cache_dir": args.cache_dir.resolve()})
     if args.no_prefect:
         from pipeline.build import build_district_local
 

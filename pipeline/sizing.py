@@ -1,97 +1,29 @@
-"""Device sizing as pure functions (the SimBuild 2024 recipe; see reference/paper_application.md).
-
-Inputs are hourly series over the sizing period (kWh per hour, degC); outputs are CityLearn device
-attributes. Heat pump and DHW heater: peak *electric input* = max over hours of thermal load / COP (or
-efficiency) x safety factor. DHW tank: half the peak hourly DHW demand, charged and discharged at most at the
-heater's nominal power. Battery: a catalogue product. PV: sized so that its yield covers a given fraction of
-the building's estimated consumption (zero-net-energy fraction, 21.5 % in the paper).
-"""
+"""Device sizing for the pipeline: the pure rules live in :mod:`citylearn_env.sizing` (re-exported here, so
+``pipeline.sizing.SizingRules``, ``heat_pump_power``, ``dhw_heater_power``, ``dhw_tank``, ``battery``,
+``pv_power`` and ``BATTERIES`` keep working); this module adds the DataFrame entry point."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
-from citylearn_env.devices import carnot_cop_cooling
-from pipeline.errors import InputError
+from citylearn_env.sizing import (
+    BATTERIES,
+    SizingRules,
+    battery,
+    dhw_heater_power,
+    dhw_tank,
+    heat_pump_power,
+    pv_power,
+    size_devices,
+)
 
-#: (capacity kWh, nominal power kW, round-trip efficiency, depth of discharge) of catalogue batteries
-BATTERIES = {
-    "BYD LVS": (4.0, 3.32, 0.95, 0.8),
-    "PowerPlus LiFe2433P": (3.3, 1.61, 0.96, 0.8),
-    "Tesla Powerwall 2": (13.5, 3.3, 0.90, 1.0),
-    "Enphase IQ Battery 10": (10.5, 3.84, 0.96, 0.96),
-    "SolarEdge Home Battery": (9.7, 5.0, 0.945, 1.0),
-}
-
-
-@dataclass(frozen=True)
-class SizingRules:
-    """Sizing parameters (the defaults are the paper's)."""
-
-    heat_pump_efficiency: float = 0.25
-    target_cooling_temperature: float = 8.0
-    target_heating_temperature: float = 45.0
-    heat_pump_safety_factor: float = 1.0
-    dhw_heater_efficiency: float = 0.9
-    dhw_heater_safety_factor: float = 1.0
-    dhw_tank_fraction: float = 0.5
-    dhw_tank_loss_coefficient: float = 0.004
-    battery: str = "BYD LVS"
-    pv_zne_fraction: float = 0.215
-
-
-def heat_pump_power(cooling_kwh: np.ndarray, outdoor_c: np.ndarray, rules: SizingRules) -> float:
-    """Nominal electric power [kW] = max_t cooling(t) / COP_c(t) x safety factor."""
-    cop = carnot_cop_cooling(outdoor_c, rules.target_cooling_temperature, rules.heat_pump_efficiency)
-    return float(np.max(cooling_kwh / cop) * rules.heat_pump_safety_factor)
-
-
-def dhw_heater_power(dhw_kwh: np.ndarray, rules: SizingRules) -> float:
-    """Nominal electric power [kW] = max_t DHW demand(t) / efficiency x safety factor."""
-    return float(np.max(dhw_kwh) / rules.dhw_heater_efficiency * rules.dhw_heater_safety_factor)
-
-
-def dhw_tank(dhw_kwh: np.ndarray, heater_kw: float, rules: SizingRules) -> dict[str, float]:
-    """DHW tank attributes: capacity [kWh] = fraction x peak hourly demand; rates capped at the heater power."""
-    return {"capacity": float(np.max(dhw_kwh) * rules.dhw_tank_fraction),
-            "loss_coefficient": rules.dhw_tank_loss_coefficient,
-            "max_input_power": heater_kw, "max_output_power": heater_kw}
-
-
-def battery(rules: SizingRules) -> dict[str, object]:
-    """Battery attributes of the catalogue product ``rules.battery`` (CityLearn 2023-style curves)."""
-    if rules.battery not in BATTERIES:
-        raise InputError(f"unknown battery {rules.battery!r}; known: {', '.join(BATTERIES)}", column="battery")
-    capacity, power, eff, dod = BATTERIES[rules.battery]
-    curve = [[0.0, eff - 0.07], [0.3, eff - 0.07], [0.7, eff], [0.8, eff], [1.0, eff - 0.05]]
-    return {"capacity": capacity, "nominal_power": power, "efficiency": eff, "depth_of_discharge": dod,
-            "capacity_loss_coefficient": 1e-5, "loss_coefficient": 1e-4, "power_efficiency_curve": curve}
-
-
-def pv_power(consumption_kwh: float, yield_w_per_kw: np.ndarray, rules: SizingRules) -> float:
-    """PV nominal power [kW] whose generation over the period is ``pv_zne_fraction`` of the consumption [kWh]."""
-    specific = float(np.sum(yield_w_per_kw)) / 1000.0  # kWh per kW over the period
-    if specific <= 0:
-        raise InputError("PV yield is zero over the sizing period", column="solar_generation")
-    return round(rules.pv_zne_fraction * consumption_kwh / specific, 2)
+__all__ = ["BATTERIES", "SizingRules", "battery", "dhw_heater_power", "dhw_tank", "heat_pump_power", "pv_power",
+           "size_building", "size_devices"]
 
 
 def size_building(frame, outdoor_c: np.ndarray, rules: SizingRules) -> dict[str, dict]:
-    """All device attributes of one building from its CityLearn frame (cooling/dhw/NSL/solar columns)."""
-    cooling, dhw = frame["cooling_demand"].to_numpy(), frame["dhw_demand"].to_numpy()
-    hp = heat_pump_power(cooling, outdoor_c, rules)
-    heater = dhw_heater_power(dhw, rules)
-    cop = carnot_cop_cooling(outdoor_c, rules.target_cooling_temperature, rules.heat_pump_efficiency)
-    consumption = float(np.sum(cooling / cop) + np.sum(dhw) / rules.dhw_heater_efficiency
-                        + frame["non_shiftable_load"].sum())
-    return {
-        "cooling_device": {"nominal_power": round(hp, 4), "efficiency": rules.heat_pump_efficiency,
-                           "target_cooling_temperature": rules.target_cooling_temperature,
-                           "target_heating_temperature": rules.target_heating_temperature},
-        "dhw_device": {"nominal_power": round(heater, 4), "efficiency": rules.dhw_heater_efficiency},
-        "dhw_storage": dhw_tank(dhw, round(heater, 4), rules),
-        "electrical_storage": battery(rules),
-        "pv": {"nominal_power": pv_power(consumption, frame["solar_generation"].to_numpy(), rules)},
-    }
+    """All device attributes of one building from its CityLearn frame (cooling/dhw/NSL/solar columns);
+    see :func:`citylearn_env.sizing.size_devices`."""
+    return size_devices({c: frame[c].to_numpy(dtype=float) for c in
+                         ("cooling_demand", "dhw_demand", "non_shiftable_load", "solar_generation")},
+                        outdoor_c, rules)

@@ -22,23 +22,22 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from citylearn_env.errors import InputError
+from citylearn_env.dataset import DynamicsBlock
+from citylearn_env.errors import InputError, SchemaError
 from surrogates.evaluate import write_json
 from surrogates.model import LSTMModel, Normalization
 from surrogates.train import Trained
 
-DYNAMICS_TYPE = "citylearn.dynamics.LSTMDynamics"
 
-
-def dynamics_block(trained: Trained, filename: str) -> dict:
-    """The schema ``dynamics`` object of a trained surrogate (plain JSON types)."""
+def dynamics_block(trained: Trained, filename: str) -> DynamicsBlock:
+    """The :class:`~citylearn_env.dataset.DynamicsBlock` of a trained surrogate; ``.to_schema()`` gives the
+    schema ``dynamics`` object (plain JSON types)."""
     model = trained.model
-    return {"type": DYNAMICS_TYPE, "attributes": {
-        "input_size": model.input_size, "hidden_size": model.hidden_size, "num_layers": model.num_layers,
-        "lookback": trained.config.lookback, "filename": filename,
-        "input_observation_names": list(trained.inputs),
-        "input_normalization_minimum": [float(v) for v in trained.normalization.minimum],
-        "input_normalization_maximum": [float(v) for v in trained.normalization.maximum]}}
+    return DynamicsBlock(
+        filename=filename, input_observation_names=tuple(trained.inputs),
+        input_normalization_minimum=tuple(float(v) for v in trained.normalization.minimum),
+        input_normalization_maximum=tuple(float(v) for v in trained.normalization.maximum),
+        hidden_size=int(model.hidden_size), num_layers=int(model.num_layers), lookback=int(trained.config.lookback))
 
 
 def save_checkpoint(trained: Trained, path: str | os.PathLike) -> Path:
@@ -61,7 +60,7 @@ def export_surrogate(trained: Trained, out_dir: str | os.PathLike, name: str) ->
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     pth = save_checkpoint(trained, out_dir / f"{name}.pth")
-    block = write_json(dynamics_block(trained, pth.name), out_dir / f"{name}.dynamics.json")
+    block = write_json(dynamics_block(trained, pth.name).to_schema(), out_dir / f"{name}.dynamics.json")
     return {"pth": pth, "dynamics": block}
 
 
@@ -82,29 +81,24 @@ def load_surrogate(pth: str | os.PathLike, dynamics: dict | str | os.PathLike | 
             dynamics = json.loads(block_path.read_text())
         except json.JSONDecodeError as error:
             raise InputError(f"not valid JSON: {error}", file=block_path) from None
-    attributes = dynamics.get("attributes", dynamics)
-    for key in ("input_observation_names", "input_normalization_minimum", "input_normalization_maximum",
-                "hidden_size", "num_layers", "lookback"):
-        if key not in attributes:
-            raise InputError("missing key in the dynamics block", file=pth, column=key)
-    names = list(attributes["input_observation_names"])
-    lows, highs = attributes["input_normalization_minimum"], attributes["input_normalization_maximum"]
-    if not len(names) == len(lows) == len(highs):
-        raise InputError("input names and min/max lists differ in length", file=pth,
-                         column="input_normalization_minimum")
+    try:
+        block = DynamicsBlock.from_schema(dynamics)
+    except SchemaError as error:
+        raise InputError(f"bad dynamics block: {error}", file=pth, column=error.column) from None
     try:
         checkpoint = torch.load(pth, map_location="cpu", weights_only=True)
     except Exception as error:  # torch raises many types for a corrupt archive
         raise InputError(f"cannot read the model: {error}", file=pth) from None
     state = checkpoint.get("model_state_dict", checkpoint)
-    model = LSTMModel(len(names), int(attributes["hidden_size"]), int(attributes["num_layers"]))
+    model = LSTMModel(block.input_size, block.hidden_size, block.num_layers)
     try:
         model.load_state_dict(state)
     except RuntimeError as error:
         raise InputError(f"weights do not match the dynamics block: {error}", file=pth) from None
     model.eval()
-    norm = Normalization(np.asarray(lows, dtype=float), np.asarray(highs, dtype=float))
-    return model, norm, names, int(attributes["lookback"])
+    norm = Normalization(np.asarray(block.input_normalization_minimum, dtype=float),
+                         np.asarray(block.input_normalization_maximum, dtype=float))
+    return model, norm, list(block.input_observation_names), block.lookback
 
 
 def train_and_export(table, out_dir: str | os.PathLike, name: str, config=None,

@@ -31,8 +31,11 @@ import pandas as pd
 import torch
 from torch import nn
 
+from citylearn_env.dataset import PERIODS as _PERIODS
+from citylearn_env.dataset import periodic_encoding, split_periodic_name
+
 TARGET = "indoor_dry_bulb_temperature"
-PERIODS = {"month": 12, "hour": 24, "day_type": 7}
+PERIODS = dict(_PERIODS)  # month 12, hour 24, day_type 7 (the trained models' periods)
 #: default inputs, upstream order with both loads (a mixed-climate house needs heating and cooling)
 DEFAULT_INPUTS: tuple[str, ...] = (
     "direct_solar_irradiance", "diffuse_solar_irradiance", "outdoor_dry_bulb_temperature",
@@ -54,17 +57,16 @@ def torch_threads(n: int = 1) -> Iterator[None]:
 
 
 def periodic(values: np.ndarray, period: float) -> tuple[np.ndarray, np.ndarray]:
-    """(sin, cos) of ``2 pi values / period``."""
-    angle = 2.0 * np.pi * np.asarray(values, dtype=float) / period
-    return np.sin(angle), np.cos(angle)
+    """(sin, cos) of ``2 pi values / period`` (:func:`citylearn_env.dataset.periodic_encoding`)."""
+    return periodic_encoding(values, period)
 
 
 def feature_matrix(table: pd.DataFrame, names: Sequence[str]) -> np.ndarray:
     """Raw (un-normalised) inputs, shape (rows, len(names)), in the order of ``names``."""
     columns = []
     for name in names:
-        base, _, kind = name.rpartition("_")
-        if kind in ("sin", "cos") and base in PERIODS:
+        base, kind = split_periodic_name(name, PERIODS)
+        if kind is not None:
             sin, cos = periodic(table[base].to_numpy(dtype=float), PERIODS[base])
             columns.append(sin if kind == "sin" else cos)
         else:
@@ -75,8 +77,8 @@ def feature_matrix(table: pd.DataFrame, names: Sequence[str]) -> np.ndarray:
 def available_inputs(table: pd.DataFrame, names: Sequence[str] = DEFAULT_INPUTS) -> list[str]:
     """``names`` without the columns the table lacks (e.g. the optional set point)."""
     def present(name: str) -> bool:
-        base, _, kind = name.rpartition("_")
-        return name in table.columns or (kind in ("sin", "cos") and base in table.columns and base in PERIODS)
+        base, kind = split_periodic_name(name, PERIODS)
+        return name in table.columns or (kind is not None and base in table.columns)
 
     return [n for n in names if present(n)]
 

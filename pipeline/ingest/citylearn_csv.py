@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from citylearn_env.layout import header
+from citylearn_env.dataset import header
 
 #: columns written as integers (calendar and mode flags); everything else as floats
 INTEGER_COLUMNS = frozenset({"month", "hour", "day_type", "daylight_savings_status", "hvac_mode", "power_outage"})
@@ -29,7 +29,7 @@ def write_citylearn_csv(
     frame
         One row per time step; columns named by our internal (v2.2) names, i.e. keys of ``columns``.
     columns
-        A column table from :mod:`citylearn_env.layout` (internal name -> v2.1 header, in file order).
+        A column table from :mod:`citylearn_env.dataset` (internal name -> v2.1 header, in file order).
     path
         Output file.
     layout

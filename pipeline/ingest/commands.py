@@ -14,16 +14,8 @@ from pathlib import Path
 
 import pandas as pd
 
-from citylearn_env.layout import (
-    BUILDING_COLUMNS,
-    BUILDING_REQUIRED,
-    CARBON_COLUMNS,
-    LAYOUTS,
-    PRICING_COLUMNS,
-    WEATHER_COLUMNS,
-)
+from citylearn_env.dataset import LAYOUTS, write_table
 from pipeline.errors import InputError
-from pipeline.ingest.citylearn_csv import write_citylearn_csv
 from pipeline.ingest.timeindex import period_index, select_period
 
 DEFAULT_CACHE = Path(".cache") / "districtgen"
@@ -47,7 +39,7 @@ def write_weather(path: PathLike, start: DateLike, end: DateLike, output: PathLi
     index = period_index(start, end)
     frame, _ = read_weather_file(path, tmy_year=index[0].year)
     table = citylearn_weather(frame, index, ForecastSpec(mode=forecast, seed=seed), file=path)
-    return write_citylearn_csv(table, WEATHER_COLUMNS, output, layout)
+    return _write(output, "weather", table, layout)
 
 
 def write_pricing(path: PathLike, start: DateLike, end: DateLike, output: PathLike, *,
@@ -56,7 +48,7 @@ def write_pricing(path: PathLike, start: DateLike, end: DateLike, output: PathLi
     from pipeline.ingest.tariff import citylearn_pricing, read_tariff
 
     table = citylearn_pricing(read_tariff(path), period_index(start, end))
-    return write_citylearn_csv(table, PRICING_COLUMNS, output, layout)
+    return _write(output, "pricing", table, layout)
 
 
 def write_carbon(path: PathLike, start: DateLike, end: DateLike, output: PathLike, *, layout: str = "v2.2",
@@ -74,7 +66,7 @@ def write_carbon(path: PathLike, start: DateLike, end: DateLike, output: PathLik
         generation, _ = read_fuel_mix_csv(path, clock=clock, timezone=timezone)
     generation = select_period(generation, index, file=path)
     table = carbon_intensity(generation, read_emission_factors(factors)).to_frame()
-    return write_citylearn_csv(table, CARBON_COLUMNS, output, layout)
+    return _write(output, "carbon", table, layout)
 
 
 def write_building(source: PathLike, building: int, start: DateLike, end: DateLike, output: PathLike, *,
@@ -112,7 +104,12 @@ def write_building(source: PathLike, building: int, start: DateLike, end: DateLi
         _warn_if_shifted(series, meta["longitude"], meta["utc_offset_hours"])
     table = citylearn_building(loads, index, holidays=holidays, timezone=timezone, solar_generation=solar,
                                file=series_path)
-    return write_citylearn_csv(table, BUILDING_COLUMNS, output, layout, required=BUILDING_REQUIRED)
+    return _write(output, "building", table, layout)
+
+
+def _write(output: PathLike, kind: str, table: pd.DataFrame, layout: str) -> Path:
+    """Write a frame of internal-name columns through :func:`citylearn_env.dataset.write_table`."""
+    return write_table(output, kind, {name: table[name].to_numpy(dtype=float) for name in table.columns}, layout)
 
 
 def _warn_if_shifted(series, longitude: float, utc_offset_hours: float) -> None:

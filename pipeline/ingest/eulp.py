@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from citylearn_env.layout import BUILDING_COLUMNS
+from citylearn_env.dataset import BUILDING_COLUMNS, calendar
 from pipeline.errors import InputError
 from pipeline.ingest import fetch
 from pipeline.ingest.calendar import calendar_columns
@@ -172,7 +172,13 @@ def citylearn_building(loads: pd.DataFrame, index: pd.DatetimeIndex, *, holidays
     hour exceeds its cooling demand (2); ``power_outage`` 0.
     """
     part = select_period(loads, index, file=file)
-    out = calendar_columns(index, holidays=holidays, timezone=timezone)
+    index = pd.DatetimeIndex(index)
+    if len(index) and not index.equals(pd.date_range(index[0], periods=len(index), freq="h")):
+        raise InputError("the period index must be hourly and contiguous", file=file, column="timestamp")
+    start = index[0].to_datetime64() if len(index) else np.datetime64("2000-01-01T00")
+    out = pd.DataFrame(calendar(start, len(index), holidays), index=index)
+    if timezone is not None:  # daylight_savings_status from the zone's rules; 0 (standard time) otherwise
+        out["daylight_savings_status"] = calendar_columns(index, timezone=timezone)["daylight_savings_status"]
     out["indoor_dry_bulb_temperature"] = part["indoor_dry_bulb_temperature_c"].to_numpy()
     out["average_unmet_cooling_setpoint_difference"] = (part["indoor_dry_bulb_temperature_c"]
                                                         - part["set_point_c"]).to_numpy()
@@ -276,11 +282,13 @@ def _metadata_number(metadata: pd.Series, column: str, file: object) -> float:
 
 
 def _setpoint_c(metadata: pd.Series, column: str, file: object) -> float:
-    """ResStock set point strings such as ``"76F"`` -> degC."""
+    """A ResStock set point cell (``"76F"``, bare numbers are degF) -> degC, via the one shared parser
+    :func:`surrogates.energyplus.metadata.parse_setpoint`."""
+    from surrogates.energyplus.metadata import parse_setpoint
+
     if column not in metadata.index:
         raise InputError("missing metadata column", file=file, column=column, row=f"bldg_id {metadata.name}")
-    match = re.fullmatch(r"\s*(-?\d+(?:\.\d+)?)\s*F\s*", str(metadata[column]))
-    if not match:
-        raise InputError(f"expected a set point like '76F', got {metadata[column]!r}", file=file, column=column,
-                         row=f"bldg_id {metadata.name}")
-    return (float(match.group(1)) - 32.0) * 5.0 / 9.0
+    try:
+        return parse_setpoint(metadata[column])
+    except ValueError as error:
+        raise InputError(str(error), file=file, column=column, row=f"bldg_id {metadata.name}") from None

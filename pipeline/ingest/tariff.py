@@ -27,7 +27,7 @@ from zoneinfo import ZoneInfo, ZoneInfoNotFoundError
 import numpy as np
 import pandas as pd
 
-from citylearn_env.layout import PRICING_COLUMNS
+from citylearn_env.dataset import PRICING_COLUMNS
 from pipeline.errors import InputError
 from pipeline.ingest.messages import one_line
 

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from citylearn_env.layout import WEATHER_COLUMNS
+from citylearn_env.dataset import WEATHER_COLUMNS
 from pipeline.errors import InputError
 from pipeline.ingest.messages import one_line
 from pipeline.ingest.timeindex import HOUR, check_regular, select_period

@@ -2,8 +2,8 @@
 
 Modules: :mod:`.metadata` (EULP ``in.*`` fields -> :class:`HouseParameters`), :mod:`.house` (the epJSON
 house model), :mod:`.runner` (engine lookup, runs, ``.err`` excerpts), :mod:`.sqlite` (SQLite output),
-:mod:`.ilv` (ideal pass + replays -> ILV table), :mod:`.eulp_export` (15-min EULP-layout timeseries),
-:mod:`.synthetic_fuel_mix` (the synthetic ERCOT workbook of raw/), :mod:`.make_raw` (regenerates raw/).
+:mod:`.ilv` (ideal pass + replays -> ILV table). The scripts that regenerate raw/ live in the top-level
+``tools`` package (``python -m tools.make_raw``).
 """
 
 from surrogates.energyplus.ilv import ILVCheckError, ILVConfig, ILVResult, generate_ilv

@@ -129,15 +129,34 @@ def parse_orientation(text: str) -> float:
     return ORIENTATIONS[key]
 
 
+#: plausible thermostat set points [degC]; a value outside is a unit mistake (bare numbers are degF)
+SETPOINT_RANGE_C = (0.0, 40.0)
+
+
 def parse_setpoint(text: object) -> float:
-    """Set point in degC from ``'76F'``, ``'24C'`` or a bare number (> 40 is read as Fahrenheit)."""
-    match = re.fullmatch(r"\s*(-?\d+(?:\.\d+)?)\s*([FC]?)\s*", str(text), re.IGNORECASE)
-    if not match:
-        raise ValueError(f"expected e.g. '76F', got {text!r}")
-    value, unit = float(match.group(1)), match.group(2).upper()
-    if unit == "F" or (unit == "" and value > 40):
-        return (value - 32.0) * 5.0 / 9.0
-    return value
+    """ResStock/EULP set point -> degC. The one parser for ``in.cooling_setpoint`` / ``in.heating_setpoint``.
+
+    Accepted spellings: ``"76F"`` (what ResStock writes; also ``"76 F"``, ``"76°F"``, ``"76.5F"``),
+    ``"24C"`` (explicit Celsius), and bare numbers ``76``, ``"76"``, ``"76.0"``, which are **degF** as in the
+    ResStock set-point columns. Offsets live in their own columns (``*_setpoint_offset_magnitude``) and are
+    not part of this value. Raises ValueError for anything else and for a result outside
+    :data:`SETPOINT_RANGE_C` (e.g. a Celsius number written without its unit).
+    """
+    if isinstance(text, bool):
+        raise ValueError(f"expected a set point like '76F', got {text!r}")
+    if isinstance(text, (int, float)):
+        value, unit = float(text), "F"
+    else:
+        match = re.fullmatch(r"\s*(-?\d+(?:\.\d+)?)\s*(?:°|deg)?\s*([FC]?)\s*", str(text), re.IGNORECASE)
+        if not match:
+            raise ValueError(f"expected a set point like '76F', got {text!r}")
+        value, unit = float(match.group(1)), (match.group(2).upper() or "F")
+    celsius = (value - 32.0) * 5.0 / 9.0 if unit == "F" else value
+    low, high = SETPOINT_RANGE_C
+    if not (math.isfinite(celsius) and low <= celsius <= high):
+        raise ValueError(f"set point {text!r} is {celsius:.1f} degC, outside {low:g}..{high:g} degC "
+                         "(bare numbers are degF; write e.g. '24C' for Celsius)")
+    return celsius
 
 
 def parse_leading_number(text: object) -> float:

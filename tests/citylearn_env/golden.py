@@ -8,6 +8,7 @@ import numpy as np
 import pandas as pd
 
 from citylearn_env import CityLearnEnv
+from citylearn_env.settings import CITYLEARN_2_1, Behaviour
 from tests.conftest import DATASET, GOLDEN, need_shared
 
 
@@ -18,17 +19,19 @@ def golden_schema(scenario: str) -> dict:
     return schema
 
 
-def run_scenario(scenario: str, *, compat: bool = True, schema: dict | str | None = None) -> CityLearnEnv:
-    """Run the scenario's exact action table through a fresh env; return the env at the episode end."""
-    env = CityLearnEnv(schema if schema is not None else golden_schema(scenario), compat=compat)
+def run_scenario(scenario: str, *, settings: Behaviour = CITYLEARN_2_1,
+                 schema: dict | str | None = None) -> CityLearnEnv:
+    """Run the scenario's exact action table through a fresh env with ``settings`` (default: the CityLearn
+    2.1 preset, for golden-trace parity); return the env at the episode end."""
+    env = CityLearnEnv(schema if schema is not None else golden_schema(scenario), settings=settings)
     actions = pd.read_csv(GOLDEN / scenario / "actions.csv")
     columns = [f"{env.building_names[b]}__{name}" for name, b in env.action_pairs]
     table = actions[columns].to_numpy() if columns else np.zeros((len(actions), 0))
     env.reset()
-    observations = [env._last_flat[env.layout.central_index].copy()]
+    observations = [env.flat_observations()[env.layout.central_index].copy()]
     for row in table:
         obs, *_ = env.step(row)
-        observations.append(env._last_flat[env.layout.central_index].copy())
+        observations.append(env.flat_observations()[env.layout.central_index].copy())
     env.recorded_observations = np.array(observations)
     return env
 

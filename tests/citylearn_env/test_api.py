@@ -91,7 +91,7 @@ def test_normalized_wrappers(schema):
     # action 0.5 in [0, 1] is the middle of the battery's symmetric range: no battery flow requested
     env.reset(seed=0)
     env.step(np.full(env.action_space.shape, 0.5))
-    assert np.allclose(env.unwrapped.district.rec["electrical_storage_energy_balance"][:, 1], 0.0)
+    assert np.allclose(env.unwrapped.series()["electrical_storage_energy_balance"][:, 1], 0.0)
 
 
 def test_pettingzoo_parallel_api(schema):

@@ -5,14 +5,17 @@ from __future__ import annotations
 import json
 import os
 import zipfile
+from dataclasses import replace
 
 import numpy as np
 import pandas as pd
 import pytest
 import torch
 
+from citylearn_env.dataset import DynamicsBlock
 from citylearn_env.dynamics import LSTMBank, LSTMSpec, read_pth_state_dict
 from citylearn_env.errors import SchemaError
+from citylearn_env.settings import CITYLEARN_2_1, CORRECTED
 from tests.conftest import DATASET, GOLDEN, need_shared
 
 PTH = [DATASET / f"Building_{i}.pth" for i in range(1, 7)]
@@ -109,9 +112,8 @@ def test_reader_rejects_non_zip_and_tensorless_files(tmp_path):
 # --------------------------------------------------------------------------------- bank against golden
 def _spec(block: dict) -> LSTMSpec:
     a = block["attributes"]
-    return LSTMSpec(read_pth_state_dict(DATASET / a["filename"]), tuple(a["input_observation_names"]),
-                    tuple(a["input_normalization_minimum"]), tuple(a["input_normalization_maximum"]),
-                    a["hidden_size"], a["num_layers"], a["lookback"], source=a["filename"])
+    return LSTMSpec(read_pth_state_dict(DATASET / a["filename"]), DynamicsBlock.from_schema(block),
+                    source=a["filename"])
 
 
 def _golden(scenario: str):
@@ -142,7 +144,7 @@ def _golden(scenario: str):
                                                    ("full_random", "numba")])
 def test_bank_reproduces_citylearn_indoor_temperature(scenario, backend):
     cooling, heating, inputs, hvac, expected = _golden(scenario)
-    bank = LSTMBank(cooling, heating, compat=True, backend=backend)
+    bank = LSTMBank(cooling, heating, settings=CITYLEARN_2_1, backend=backend)
     assert set(bank.input_names) == set(inputs)
     predicted = np.full(expected.shape, np.nan)
     warm = []
@@ -157,7 +159,7 @@ def test_bank_reproduces_citylearn_indoor_temperature(scenario, backend):
 
 # ------------------------------------------------------------------------ bank against a torch reference
 def _torch_reference(spec: LSTMSpec, raw_rows: list[dict], day_type_period: float) -> np.ndarray:
-    """Stateful sliding-window prediction with torch.nn.LSTM in float64 (corrected, non-compat rules)."""
+    """Stateful sliding-window prediction with torch.nn.LSTM in float64 (the corrected rules)."""
     n_in, hid = len(spec.input_observation_names), spec.hidden_size
     lstm = torch.nn.LSTM(n_in, hid, spec.num_layers, batch_first=True).double()
     head = torch.nn.Linear(hid, 1).double()
@@ -207,8 +209,9 @@ def _permuted(spec: LSTMSpec, order: list[int]) -> LSTMSpec:
     state = dict(spec.state_dict)
     state["l_lstm.weight_ih_l0"] = spec.state_dict["l_lstm.weight_ih_l0"][:, order]
     pick = lambda seq: tuple(seq[i] for i in order)  # noqa: E731
-    return LSTMSpec(state, pick(spec.input_observation_names), pick(spec.input_normalization_minimum),
-                    pick(spec.input_normalization_maximum), spec.hidden_size, spec.num_layers, spec.lookback)
+    return LSTMSpec(state, replace(spec.block, input_observation_names=pick(spec.input_observation_names),
+                                   input_normalization_minimum=pick(spec.input_normalization_minimum),
+                                   input_normalization_maximum=pick(spec.input_normalization_maximum)))
 
 
 @pytest.mark.parametrize("backend", BACKENDS)
@@ -219,25 +222,26 @@ def test_bank_matches_torch_lstm_with_carried_state(backend):
     # temperature moved to the front: the corrected mode de-normalises with the temperature's own bounds
     moved = _permuted(spec, [12, *range(12)])
     for s in (spec, moved):
-        ours = _feed(LSTMBank([s], compat=False, backend=backend), rows, [1.0] * len(rows))
+        ours = _feed(LSTMBank([s], settings=CORRECTED, backend=backend), rows, [1.0] * len(rows))
         ref = _torch_reference(s, rows, day_type_period=7.0)
         assert np.isnan(ours[:12]).all() and np.isnan(ref[:12]).all()
         np.testing.assert_allclose(ours[12:], ref[12:], rtol=0, atol=1e-9)
-    # compat de-normalises with the LAST bound pair: for the moved spec that is the last exogenous input
-    compat = _feed(LSTMBank([moved], compat=True, backend=backend), rows, [1.0] * len(rows))
-    assert not np.allclose(compat[12:], ref[12:], atol=0.5)
+    # lstm_output_uses_last_input_bounds de-normalises with the LAST bound pair: for the moved spec that is the
+    # last exogenous input
+    last_bounds = replace(CORRECTED, lstm_output_uses_last_input_bounds=True)
+    upstream = _feed(LSTMBank([moved], settings=last_bounds, backend=backend), rows, [1.0] * len(rows))
+    assert not np.allclose(upstream[12:], ref[12:], atol=0.5)
 
 
 @pytest.mark.parametrize("backend", BACKENDS)
 def test_mode_switch_selects_the_heating_model_and_restarts_its_warm_up(backend):
     cooling, heating, inputs, _, _ = _golden("no_control")
     cool, other = cooling[0], heating[3]  # Building_4's network as "heating" model (input heating_demand)
-    heat = LSTMSpec(other.state_dict, other.input_observation_names, other.input_normalization_minimum,
-                    other.input_normalization_maximum, 16, 2, 12)
+    heat = LSTMSpec(other.state_dict, replace(other.block, hidden_size=16, num_layers=2, lookback=12))
     assert not np.array_equal(cool.state_dict["l_linear.weight"], heat.state_dict["l_linear.weight"])
     rows = _rows(inputs, 0, range(1, 51))
     hvac = [1.0] * 20 + [2.0] * 30
-    bank = LSTMBank([cool], [heat], compat=False, backend=backend)
+    bank = LSTMBank([cool], [heat], backend=backend)
     out, warm_before = [], []
     for row, mode in zip(rows, hvac, strict=True):
         warm_before.append(bool(bank.warm(np.array([mode]))[0]))
@@ -255,16 +259,15 @@ def test_bank_rejects_inconsistent_specs():
     need_shared(PTH[0])
     state = read_pth_state_dict(PTH[0])
     names = ("a", "b", "c", "d", "e", "f", "g", "h", "i", "j", "k", "l", "indoor_dry_bulb_temperature")
-    good = dict(state_dict=state, input_observation_names=names, input_normalization_minimum=(0.0,) * 13,
-                input_normalization_maximum=(1.0,) * 13, hidden_size=16, num_layers=2, lookback=12)
+    block = DynamicsBlock("model.pth", names, (0.0,) * 13, (1.0,) * 13, hidden_size=16, num_layers=2, lookback=12)
     missing = {k: v for k, v in state.items() if k != "l_lstm.bias_hh_l1"}
     with pytest.raises(SchemaError, match="'l_lstm.bias_hh_l1'.*missing"):
-        LSTMBank([LSTMSpec(**good | {"state_dict": missing})])
+        LSTMBank([LSTMSpec(missing, block)])
     with pytest.raises(SchemaError, match=r"'l_lstm.weight_ih_l0'.*shape \(64, 13\), expected \(32, 13\)"):
-        LSTMBank([LSTMSpec(**good | {"hidden_size": 8})])
+        LSTMBank([LSTMSpec(state, replace(block, hidden_size=8))])
     with pytest.raises(SchemaError, match="'c'.*maximum equals minimum"):
-        LSTMBank([LSTMSpec(**good | {"input_normalization_maximum": (1.0, 1.0, 0.0) + (1.0,) * 10})])
-    bank = LSTMBank([LSTMSpec(**good)])
+        LSTMBank([LSTMSpec(state, replace(block, input_normalization_maximum=(1.0, 1.0, 0.0) + (1.0,) * 10))])
+    bank = LSTMBank([LSTMSpec(state, block)])
     with pytest.raises(SchemaError, match="'a' missing"):
         bank.step({}, np.array([1.0]))
 

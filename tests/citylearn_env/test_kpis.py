@@ -1,4 +1,4 @@
-"""KPIs: CityLearn 2.1.2's ``evaluate`` and challenge score on the golden traces, the corrected (non-compat)
+"""KPIs: CityLearn 2.1.2's ``evaluate`` and challenge score on the golden traces, the corrected default
 behaviours, and the SimBuild paper objectives against hand computations."""
 
 from __future__ import annotations
@@ -11,6 +11,7 @@ import pytest
 
 from citylearn_env import kpis
 from citylearn_env.errors import SchemaError
+from citylearn_env.settings import CITYLEARN_2_1
 from tests.conftest import GOLDEN, need_shared
 
 SCENARIOS = ("no_control", "storage_pv_random", "full_random", "full_random_outage")
@@ -41,7 +42,7 @@ def golden():
 @pytest.mark.parametrize("scenario", SCENARIOS)
 def test_evaluate_matches_citylearn_212(golden, scenario):
     series, names = golden[scenario]
-    ours = kpis.evaluate(series, names, dynamics=[True] * len(names), compat=True)
+    ours = kpis.evaluate(series, names, dynamics=[True] * len(names), settings=CITYLEARN_2_1)
     assert list(ours.columns) == ["cost_function", "value", "name", "level"]
     reference = pd.read_csv(GOLDEN / scenario / "kpis.csv")
     assert len(ours) == len(reference) == 6 * 13 + 18
@@ -56,7 +57,7 @@ def test_evaluate_matches_citylearn_212(golden, scenario):
 @pytest.mark.parametrize("scenario", SCENARIOS)
 def test_challenge_score_matches_citylearn_212(golden, scenario):
     series, names = golden[scenario]
-    ours = kpis.evaluate_challenge(series, names, dynamics=[True] * len(names), compat=True)
+    ours = kpis.evaluate_challenge(series, names, dynamics=[True] * len(names), settings=CITYLEARN_2_1)
     reference = pd.read_csv(GOLDEN / scenario / "kpis_challenge.csv")
     assert list(ours["kpi"]) == list(reference["kpi"])
     assert list(ours["display_name"]) == list(reference["display_name"])
@@ -70,11 +71,11 @@ def test_headline_numbers_of_the_readme(golden):
                 "full_random": (2.0350, 0.9372, 0.9318), "full_random_outage": (2.0242, 0.9268, 1.1772)}
     for scenario, (cost, comfort, score) in headline.items():
         series, names = golden[scenario]
-        table = kpis.evaluate(series, names, dynamics=[True] * 6, compat=True)
+        table = kpis.evaluate(series, names, dynamics=[True] * 6, settings=CITYLEARN_2_1)
         district = table[table["name"] == "District"].set_index("cost_function")["value"]
         assert district["cost_total"] == pytest.approx(cost, abs=5e-5)
         assert district["discomfort_proportion"] == pytest.approx(comfort, abs=5e-5)
-        challenge = kpis.evaluate_challenge(series, names, dynamics=[True] * 6, compat=True)
+        challenge = kpis.evaluate_challenge(series, names, dynamics=[True] * 6, settings=CITYLEARN_2_1)
         assert challenge["value"].iloc[-1] == pytest.approx(score, abs=5e-5)
 
 
@@ -88,19 +89,19 @@ def test_window_equals_evaluating_the_sliced_series(golden):
     assert not np.allclose(a["value"], whole["value"], equal_nan=True)
 
 
-def test_non_compat_discomfort_deltas_ignore_unoccupied_steps(golden):
-    """§12 #11: compat averages T - S with zeros on unoccupied steps; the fix averages occupied steps only."""
+def test_corrected_discomfort_deltas_ignore_unoccupied_steps(golden):
+    """§12 #11: CityLearn 2.1 averages T - S with zeros on unoccupied steps; the fix averages occupied steps only."""
     series, names = golden["no_control"]
     occupied = series["occupant_count"][0] > 0
     assert 0 < occupied.sum() < occupied.size
     delta = (series["indoor_dry_bulb_temperature"] - series["indoor_dry_bulb_temperature_set_point"])[0]
     fixed = kpis.evaluate(series, names, dynamics=[True] * 6).set_index(["name", "cost_function"])["value"]
-    compat = kpis.evaluate(series, names, dynamics=[True] * 6, compat=True).set_index(
+    upstream = kpis.evaluate(series, names, dynamics=[True] * 6, settings=CITYLEARN_2_1).set_index(
         ["name", "cost_function"])["value"]
     b1 = names[0]
     assert fixed[(b1, "discomfort_delta_average")] == pytest.approx(delta[occupied].mean())
-    assert compat[(b1, "discomfort_delta_average")] == pytest.approx(delta[occupied].sum() / delta.size)
-    assert fixed[(b1, "discomfort_proportion")] == compat[(b1, "discomfort_proportion")]
+    assert upstream[(b1, "discomfort_delta_average")] == pytest.approx(delta[occupied].sum() / delta.size)
+    assert fixed[(b1, "discomfort_proportion")] == upstream[(b1, "discomfort_proportion")]
 
 
 # ---------------------------------------------------------------------------------------- hand-made inputs
@@ -115,9 +116,9 @@ def test_primitives_by_hand():
     assert math.isnan(kpis.normalized_unserved_energy(np.ones(3), np.ones(3), np.zeros(3)))
 
 
-def test_division_compat_and_safe():
-    assert kpis.divide(1.0, 0.0, compat=True) == math.inf
-    assert math.isnan(kpis.divide(0.0, 0.0, compat=True))
+def test_division_plain_and_safe():
+    assert kpis.divide(1.0, 0.0, plain=True) == math.inf
+    assert math.isnan(kpis.divide(0.0, 0.0, plain=True))
     assert kpis.divide(0.0, 0.0) == 1.0
     assert math.isnan(kpis.divide(1.0, 0.0))
     assert kpis.divide(3.0, 4.0) == 0.75
@@ -134,8 +135,8 @@ def test_discomfort_by_hand():
     assert stats["discomfort_too_hot_proportion"] == pytest.approx(2 / 5)
     assert stats["discomfort_delta_minimum"] == -5.0 and stats["discomfort_delta_maximum"] == 7.0
     assert stats["discomfort_delta_average"] == pytest.approx(-0.5 / 5)
-    compat = kpis.discomfort(temperature, set_point, 2.0, occupants, compat=True)
-    assert compat["discomfort_delta_average"] == pytest.approx(-0.5 / 6)
+    all_steps = kpis.discomfort(temperature, set_point, 2.0, occupants, over_all_steps=True)
+    assert all_steps["discomfort_delta_average"] == pytest.approx(-0.5 / 6)
     empty = kpis.discomfort(temperature, set_point, 2.0, np.zeros(6))
     assert math.isnan(empty["discomfort_proportion"]) and math.isnan(empty["discomfort_delta_average"])
 
@@ -171,7 +172,7 @@ def test_objectives_window_aligns_days_to_its_start():
     assert out["cost"] == pytest.approx(0.45 + 0.80)
 
 
-def test_compat_takes_the_first_buildings_condition():
+def test_citylearn_2_1_takes_the_first_buildings_condition():
     """CityLearn 2.1 fixes the baseline on the first building; the fix uses each building's own."""
     ones = np.ones((2, 4))
     series = {k: ones.copy() for k in ("indoor_dry_bulb_temperature", "indoor_dry_bulb_temperature_set_point",
@@ -184,9 +185,9 @@ def test_compat_takes_the_first_buildings_condition():
         series[f"net_electricity_consumption{kind}_without_storage"] = np.full((2, 4), 4.0)
         series[f"net_electricity_consumption{kind}_without_storage_and_partial_load"] = np.full((2, 4), 1.0)
     fixed = kpis.building_kpis(series, ["a", "b"], dynamics=[False, True])
-    compat = kpis.building_kpis(series, ["a", "b"], dynamics=[False, True], compat=True)
+    upstream = kpis.building_kpis(series, ["a", "b"], dynamics=[False, True], settings=CITYLEARN_2_1)
     assert [r["cost_total"] for r in fixed] == [0.5, 2.0]
-    assert [r["cost_total"] for r in compat] == [0.5, 0.5]
+    assert [r["cost_total"] for r in upstream] == [0.5, 0.5]
 
 
 def test_missing_series_is_named():
@@ -196,12 +197,12 @@ def test_missing_series_is_named():
         kpis.objectives(series)
 
 
-def test_non_compat_agrees_with_compat_where_no_correction_applies(golden):
+def test_corrected_agrees_with_citylearn_2_1_where_no_correction_applies(golden):
     """On the outage scenario no division is by zero, so only the delta statistics (#11) may differ."""
     series, names = golden["full_random_outage"]
     key = ["name", "cost_function"]
     fixed = kpis.evaluate(series, names, dynamics=[True] * 6).set_index(key)["value"]
-    compat = kpis.evaluate(series, names, dynamics=[True] * 6, compat=True).set_index(key)["value"]
+    upstream = kpis.evaluate(series, names, dynamics=[True] * 6, settings=CITYLEARN_2_1).set_index(key)["value"]
     deltas = fixed.index.get_level_values("cost_function").str.startswith("discomfort_delta")
-    assert all(close(a, b, 1e-12) for a, b in zip(fixed[~deltas], compat[~deltas], strict=True))
-    assert not np.allclose(fixed[deltas], compat[deltas])
+    assert all(close(a, b, 1e-12) for a, b in zip(fixed[~deltas], upstream[~deltas], strict=True))
+    assert not np.allclose(fixed[deltas], upstream[deltas])

@@ -24,27 +24,27 @@ def _runs(signal: np.ndarray) -> list[tuple[int, int]]:
     (65647, 720, []),  # the shipped schema seed: no outage in June
     (65647, 2208, [(1327, 1341), (1457, 1484)]),  # ... but two over the full 2208 h range
 ])
-def test_compat_reproduces_citylearn_vectors(seed, n, expected):
-    signal = reliability_outage_signal(n, seed=seed, compat=True)
+def test_legacy_reproduces_citylearn_vectors(seed, n, expected):
+    signal = reliability_outage_signal(n, seed=seed, legacy=True)
     assert signal.shape == (n,)
     assert _runs(signal) == expected
 
 
-def test_compat_full_year_outage_days():
-    runs = _runs(reliability_outage_signal(8760, seed=73055, compat=True))
+def test_legacy_full_year_outage_days():
+    runs = _runs(reliability_outage_signal(8760, seed=73055, legacy=True))
     assert sorted({first // 24 for first, _ in runs}) == [16, 320]
 
 
-def test_compat_matches_golden_outage_trace():
+def test_legacy_matches_golden_outage_trace():
     path = GOLDEN / "full_random_outage" / "trace.parquet"
     need_shared(path)
     trace = pd.read_parquet(path, columns=["building", "time_step", "power_outage"])
-    signal = reliability_outage_signal(720, saifi=1.436, caidi=331.2, seed=65701, compat=True)
+    signal = reliability_outage_signal(720, saifi=1.436, caidi=331.2, seed=65701, legacy=True)
     for _, rows in trace.groupby("building"):
         np.testing.assert_array_equal(rows.sort_values("time_step")["power_outage"].to_numpy(), signal)
 
 
-def test_compat_day_zero_is_skipped_and_shifts_the_draws():
+def test_legacy_day_zero_is_skipped_and_shifts_the_draws():
     # p = 0.5 per day; derive the CityLearn 2.1 signal by hand from the legacy stream (spec §6.1 order)
     seed, n_days = 3, 6
     rs = np.random.RandomState(seed)
@@ -55,7 +55,7 @@ def test_compat_day_zero_is_skipped_and_shifts_the_draws():
     expected = np.zeros(n_days * 24, dtype=np.int8)
     for k, day in enumerate(np.flatnonzero(drawn[1:]) + 1):  # day k+... takes draw k (meant for the previous day)
         expected[int(day * 24 + starts[k]):int(day * 24 + starts[k] + hours[k])] = 1
-    signal = reliability_outage_signal(n_days * 24, saifi=365 * 0.5, caidi=240.0, seed=seed, compat=True)
+    signal = reliability_outage_signal(n_days * 24, saifi=365 * 0.5, caidi=240.0, seed=seed, legacy=True)
     np.testing.assert_array_equal(signal, expected)
     assert not signal[:24].any()
 
@@ -68,24 +68,24 @@ def test_corrected_model_every_day_eligible_including_a_partial_last_day():
     assert signal.shape == (n,)
     assert [first for first, _ in _runs(signal)] == [2, 1442, 2882, 4322, 5762]
     with pytest.raises(SchemaError, match="whole number of days"):
-        reliability_outage_signal(100, saifi=365.0, seed=1, compat=True)
+        reliability_outage_signal(100, saifi=365.0, seed=1, legacy=True)
 
 
-def test_durations_rounded_in_corrected_model_truncated_in_compat():
+def test_durations_rounded_in_corrected_model_truncated_in_legacy():
     # p = 1, start at midnight, mean duration 2 h: runs never merge (a 22 h gap), so run length = duration.
     # E[rint(X)] = e^-0.25 / (1 - e^-0.5) = 1.979 h and E[floor(X)] = e^-0.5 / (1 - e^-0.5) = 1.541 h for X ~ Exp(2 h)
     n = 24 * 3650
     corrected = reliability_outage_signal(n, saifi=365.0, caidi=120.0, seed=7, start_time_steps=[0])
-    compat = reliability_outage_signal(n, saifi=365.0, caidi=120.0, seed=7, start_time_steps=[0], compat=True)
+    legacy = reliability_outage_signal(n, saifi=365.0, caidi=120.0, seed=7, start_time_steps=[0], legacy=True)
     assert corrected.sum() / 3650 == pytest.approx(1.979, abs=0.15)
-    assert compat.sum() / 3649 == pytest.approx(1.541, abs=0.15)  # day 0 never has an outage
-    assert not compat[:24].any()
+    assert legacy.sum() / 3649 == pytest.approx(1.541, abs=0.15)  # day 0 never has an outage
+    assert not legacy[:24].any()
 
 
 def test_sub_hourly_steps_scale_durations():
     # 15-min steps: 96 steps per day; the 2.1 generator converts minutes with 60 / 900 steps per minute
-    hourly = _runs(reliability_outage_signal(720, seed=73055, compat=True))
-    quarter = _runs(reliability_outage_signal(720 * 4, seed=73055, seconds_per_time_step=900.0, compat=True))
+    hourly = _runs(reliability_outage_signal(720, seed=73055, legacy=True))
+    quarter = _runs(reliability_outage_signal(720 * 4, seed=73055, seconds_per_time_step=900.0, legacy=True))
     assert len(quarter) == len(hourly) == 1
     assert quarter[0][0] // 96 == hourly[0][0] // 24 == 16
     length = quarter[0][1] - quarter[0][0] + 1
@@ -100,7 +100,7 @@ def test_bad_settings_are_refused():
     with pytest.raises(SchemaError, match="start_time_steps"):
         reliability_outage_signal(720, seed=1, start_time_steps=[2.5])
     with pytest.raises(SchemaError, match="random seed"):
-        reliability_outage_signal(720, seed=-1, compat=True)
+        reliability_outage_signal(720, seed=-1, legacy=True)
     # integral floats (as read from JSON) are accepted
     np.testing.assert_array_equal(reliability_outage_signal(720, seed=5, start_time_steps=[3.0]),
                                   reliability_outage_signal(720, seed=5, start_time_steps=[3]))

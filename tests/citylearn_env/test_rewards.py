@@ -11,6 +11,7 @@ import pytest
 
 from citylearn_env import rewards as R
 from citylearn_env.errors import SchemaError
+from citylearn_env.settings import CITYLEARN_2_1, CORRECTED
 from tests.conftest import GOLDEN, need_shared
 
 SCENARIOS = ("no_control", "storage_pv_random", "full_random", "full_random_outage")
@@ -61,7 +62,7 @@ def test_citylearn_rewards_match_golden(golden, scenario):
     for column, spec in specs.items():
         for central in (True, False):
             context = R.RewardContext(central_agent=central, building_names=g["names"], capacity=g["capacity"])
-            ours = run(R.make_reward(spec, context, compat=True), g["obs"])
+            ours = run(R.make_reward(spec, context, settings=CITYLEARN_2_1), g["obs"])
             if central:
                 # district.csv prints 9 significant digits: allow that rounding on top of 1e-5
                 reference = g["district"][f"reward_{column}"].to_numpy()[1:]
@@ -74,12 +75,12 @@ def test_citylearn_rewards_match_golden(golden, scenario):
                                g["district"]["reward_schema_ComfortReward"].to_numpy()[1:], rtol=0, atol=0)
 
 
-def test_non_compat_comfort_differs_only_by_float32_rounding(golden):
+def test_corrected_comfort_differs_only_by_float32_rounding(golden):
     g = golden["full_random"]
     context = R.RewardContext(central_agent=False, building_names=g["names"], capacity=g["capacity"])
     fixed = run(R.make_reward("comfort", context), g["obs"][:200])
-    compat = run(R.make_reward("comfort", context, compat=True), g["obs"][:200])
-    np.testing.assert_allclose(fixed, compat, rtol=1e-6)
+    upstream = run(R.make_reward("comfort", context, settings=CITYLEARN_2_1), g["obs"][:200])
+    np.testing.assert_allclose(fixed, upstream, rtol=1e-6)
 
 
 # ---------------------------------------------------------------------------------------- hand-made inputs
@@ -103,7 +104,7 @@ def test_default_marl_and_independent_sac():
     np.testing.assert_allclose(call("marl", False, o), [-0.04, 0.01])
     assert call("marl", True, o) == pytest.approx(-0.03)
     assert list(call("independent_sac", False, o)) == [-8.0, 0.0]
-    assert list(R.make_reward("independent_sac", ctx(False), compat=True)(o)[0]) == [-2.0, 0.0]
+    assert list(R.make_reward("independent_sac", ctx(False), settings=CITYLEARN_2_1)(o)[0]) == [-2.0, 0.0]
 
 
 def test_solar_penalty_by_hand():
@@ -145,11 +146,11 @@ def test_storage_signal_reward_by_hand_and_upstream_quirk():
                  dhw_storage_soc=[0.25, 0.5], electrical_storage_soc=[0.25, 0.0])]
     spec = {"type": "src.reward_function.StorageSignalReward",
             "attributes": {"signal": "electricity_pricing", "exponent": 1.0}}
-    for compat, second in ((False, [0.05, 0.0]), (True, [0.025, 0.0])):
-        reward = R.make_reward(spec, ctx(False, capacity=capacity), compat=compat)
+    for settings, second in ((CORRECTED, [0.05, 0.0]), (CITYLEARN_2_1, [0.025, 0.0])):
+        reward = R.make_reward(spec, ctx(False, capacity=capacity), settings=settings)
         # step 1: B0 stores .5 * 2 + .25 * 4 = 2 kWh while importing -> -(2 * .1); B1 exports -> 0
         np.testing.assert_allclose(reward(steps[0])[0], [-0.2, 0.0])
-        # step 2: B0 releases .5 kWh while importing -> +.05 (compat: -(.05) * (-.5) = +.025); B1 unchanged
+        # step 2: B0 releases .5 kWh while importing -> +.05 (CityLearn 2.1: -(.05) * (-.5) = +.025); B1 unchanged
         np.testing.assert_allclose(reward(steps[1])[0], second)
 
 

@@ -47,7 +47,7 @@ def test_extra_column_positional_layout(tmp_path):
     schema = write_example_district(tmp_path, n_buildings=1, hours=48, file_layout="v2.1")
     weather = tmp_path / "weather.csv"
     _edit_csv(weather, lambda rows: [r.append("Extra" if i == 0 else "1") for i, r in enumerate(rows)])
-    with pytest.raises(SchemaError, match=r"weather.csv.*'Extra'.*17 columns, the v2.1 layout has 16"):
+    with pytest.raises(SchemaError, match=r"weather.csv.*'Extra'.*unexpected column 17 of 17.*v2.1 weather layout has 16 columns"):
         load_schema(schema)
 
 

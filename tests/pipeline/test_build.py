@@ -84,6 +84,9 @@ def test_local_build_is_complete_verifiable_and_loads(short_config, tmp_path):
                  "report/district_net.png"):
         assert (folder / name).is_file(), name
     assert [p.name for p in tmp_path.iterdir()] == ["default"]   # no temporary folder left behind
+    # one site, one PV yield: every building's solar_generation column is the same series
+    solar = [np.loadtxt(folder / f"Building_{i}.csv", delimiter=",", skiprows=1)[:, 11] for i in (1, 2)]
+    assert np.array_equal(solar[0], solar[1]) and solar[0].max() > 0
     assert build.verify_district(folder) == []
     summary = (folder / "report" / "summary.md").read_text()
     schema = json.loads((folder / "schema.json").read_text())
@@ -124,7 +127,8 @@ def test_build_with_surrogates_emits_lstm_buildings(tmp_path):
     """csv ILV tables -> training (tiny budget) -> .pth next to the schema -> the env runs the LSTM."""
     path = _short_config(tmp_path, source="csv", epochs=1, max_seconds=3.0)
     try:
-        folder = build.build_district_local(read_build_config(path), tmp_path)
+        config = read_build_config(path).model_copy(update={"cache_dir": tmp_path / "cache"})
+        folder = build.build_district_local(config, tmp_path / "out")
     finally:
         path.unlink(missing_ok=True)
     schema = json.loads((folder / "schema.json").read_text())
@@ -155,3 +159,15 @@ def test_dask_task_runner_builds_the_same_district(short_config, tmp_path):
     local = build.build_district_local(short_config, tmp_path / "local")
     for name in ("schema.json", "Building_2.csv", "pricing.csv"):
         assert (folder / name).read_bytes() == (local / name).read_bytes(), name
+
+
+def test_pipeline_imports_no_private_name_of_another_package():
+    """pipeline/ uses the public APIs of citylearn_env and surrogates (no ``from x import _y``)."""
+    import ast
+
+    offenders = []
+    for path in sorted((ROOT / "pipeline").rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.ImportFrom) and node.module and not node.module.startswith("pipeline"):
+                offenders += [f"{path.name}: {node.module}.{a.name}" for a in node.names if a.name.startswith("_")]
+    assert offenders == []

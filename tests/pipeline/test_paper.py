@@ -7,7 +7,7 @@ import json
 import numpy as np
 import pytest
 
-from citylearn_env import CityLearnEnv
+from citylearn_env import CityLearnEnv, load_schema
 from citylearn_env.example import write_example_district
 from pipeline.paper import BENCHMARKS, benchmark_schema, run_all
 
@@ -30,16 +30,24 @@ def test_the_17_configurations():
 
 
 def test_schema_edits_follow_the_configuration(district):
-    _, schema = district
+    path, _ = district
+    config = load_schema(path)
     b = {x.id: x for x in BENCHMARKS}
-    env = CityLearnEnv(benchmark_schema(schema, b["rlc-b1-c-bess_pv"], (312, 719)))
+    edited = benchmark_schema(config, b["rlc-b1-c-bess_pv"], (312, 719))
+    env = CityLearnEnv(edited)
     assert env.building_names == ("Building_1",)
     assert env.action_names == ["electrical_storage"]
     assert env.observation_names == ["hour", "day_type", "net_electricity_consumption", "electricity_pricing",
                                      "solar_generation", "electrical_storage_soc"]
-    assert env.reset()[0].shape == (6,) and env.district.length == 408
-    bare = CityLearnEnv(benchmark_schema(schema, b["x-b1_b2-x-x"], (312, 719)))
+    # 719 - 312 + 1 = 408 time steps; 6 observations, 3 of them shared (hour, day_type, pricing)
+    assert env.reset()[0].shape == (6,) and env.episode_length == 408
+    assert edited.shared_observations == ("hour", "day_type", "electricity_pricing")
+    assert edited.central_agent and edited.episode_time_steps == ((312, 719),)
+    assert edited.buildings[0].dhw_storage.capacity == 0.0 and edited.buildings[0].electrical_storage.capacity > 0
+    bare = CityLearnEnv(benchmark_schema(config, b["x-b1_b2-x-x"], (312, 719)))
     assert bare.district.pv_nominal_power.tolist() == [0.0, 0.0] and bare.action_names == []
+    # the loaded district itself is unchanged (typed edits return copies)
+    assert len(config.buildings) == 2 and config.buildings[0].pv_nominal_power > 0
 
 
 def test_runs_report_test_period_objectives(district, tmp_path):

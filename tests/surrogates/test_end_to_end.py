@@ -27,7 +27,7 @@ NOMINAL_KW, EFFICIENCY, TARGET_C = 4.0, 0.3, 45.0
 
 
 def write_district(folder, loads: pd.DataFrame, ideal_temperature: np.ndarray, block: dict) -> dict:
-    from citylearn_env import layout
+    from citylearn_env import dataset
     from citylearn_env.example import write_example_district
 
     schema = json.loads(write_example_district(folder, n_buildings=1, hours=len(loads)).read_text())
@@ -42,7 +42,7 @@ def write_district(folder, loads: pd.DataFrame, ideal_temperature: np.ndarray, b
         "indoor_dry_bulb_temperature_set_point": loads["indoor_dry_bulb_temperature_set_point"].to_numpy(),
         "hvac_mode": 2, "power_outage": 0,
     }
-    pd.DataFrame({k: building[k] for k in layout.BUILDING_COLUMNS}).to_csv(folder / "Building_1.csv", index=False)
+    pd.DataFrame({k: building[k] for k in dataset.BUILDING_COLUMNS}).to_csv(folder / "Building_1.csv", index=False)
     weather = pd.read_csv(folder / "weather.csv")
     for column in ("outdoor_dry_bulb_temperature", "direct_solar_irradiance", "diffuse_solar_irradiance"):
         weather[column] = loads[column].to_numpy()

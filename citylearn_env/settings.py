@@ -1,0 +1,118 @@
+"""Upstream behaviour as one frozen settings object: one named field per CityLearn quirk.
+
+Every place where CityLearn 2.1 (the version behind the SimBuild 2024 results) behaves differently from the
+documented or physically consistent behaviour is one field here, read where it acts and nowhere else.
+Presets:
+
+* :data:`CORRECTED` -- the default: every quirk corrected;
+* :data:`CITYLEARN_2_1` -- CityLearn 2.1.2 number for number, bugs included (golden-trace parity).
+
+``CityLearnEnv(schema, compat=True)`` is shorthand for ``settings=CITYLEARN_2_1``. Change one field with
+``dataclasses.replace(CORRECTED, lstm_day_type_period=8.0)``. Each field's effect is in its comment; the
+measured effect of each correction on the data sets is in docs/environment.md.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+
+
+@dataclass(frozen=True)
+class Behaviour:
+    """Which upstream quirks the environment reproduces (the defaults are the corrected behaviour)."""
+
+    # ---------------------------------------------------------------- data sets
+    #: a building file without an ``hvac_mode`` column: True = mode 0 ("off", CityLearn 2.1), False = mode 1
+    #: (cooling, as its documentation and later versions say)
+    missing_hvac_mode_is_off: bool = False
+
+    # ---------------------------------------------------------------- devices
+    #: battery efficiency and capacity-power curves beyond their last point: True = extrapolate the first
+    #: segment (CityLearn 2.1), False = hold the last y
+    battery_curve_extrapolates_first_segment: bool = False
+
+    # ---------------------------------------------------------------- LSTM temperature model
+    #: period of the day_type sin/cos model inputs [days]: 8 (CityLearn 2.1: holidays as day 8) or 7
+    lstm_day_type_period: float = 7.0
+    #: de-normalise the predicted temperature with the *last* input's min-max bounds (CityLearn 2.1) instead
+    #: of the indoor temperature's own bounds
+    lstm_output_uses_last_input_bounds: bool = False
+    #: round the input window and the prediction to float32, as CityLearn 2.1's torch model does
+    lstm_float32: bool = False
+
+    # ---------------------------------------------------------------- episodes and outages
+    #: random episode split drawn with legacy ``RandomState(random_seed * (episode + 1))``, never the last
+    #: split (CityLearn 2.1), instead of the env's seeded generator over all splits
+    legacy_random_episode_split: bool = False
+    #: stochastic outages drawn as CityLearn 2.1's ReliabilityMetricsPowerOutage (day 0 never out but its
+    #: draw shifts later days; int truncation; whole days only) instead of the corrected per-day draw
+    legacy_outage_draws: bool = False
+
+    # ---------------------------------------------------------------- rewards
+    #: IndependentSACReward: -max(e, 0) (CityLearn's operator-precedence bug) instead of -max(e, 0)^3
+    independent_sac_reward_precedence_bug: bool = False
+    #: ComfortReward / SolarPenaltyAndComfortReward: float32 subtraction and rounding of the parts
+    comfort_reward_float32: bool = False
+    #: StorageSignalReward with stored energy D <= 0: multiply by D itself instead of its sign
+    storage_signal_reward_multiplies_by_delta: bool = False
+
+    # ---------------------------------------------------------------- KPIs
+    #: KPI ratios by plain IEEE division (x/0 = inf, 0/0 = NaN) instead of 0/0 = 1 and x/0 = NaN
+    kpi_plain_division: bool = False
+    #: discomfort statistics over all steps with unoccupied deltas as 0 instead of over occupied steps
+    kpi_discomfort_over_all_steps: bool = False
+    #: the first building's dynamics decide every building's KPI baseline (CityLearn 2.1)
+    kpi_baseline_from_first_building: bool = False
+    #: the 2023 challenge score summed in float32
+    kpi_float32_score: bool = False
+
+    # ---------------------------------------------------------------- observation wrapper
+    #: period of day_type in NormalizedObservationWrapper's cos/sin encoding [days]: 8 or 7
+    wrapper_day_type_period: float = 7.0
+
+    @classmethod
+    def field_names(cls) -> tuple[str, ...]:
+        return tuple(f.name for f in fields(cls))
+
+
+#: every quirk corrected (the default)
+CORRECTED = Behaviour()
+
+#: CityLearn 2.1.2 exactly, bugs included
+CITYLEARN_2_1 = Behaviour(
+    missing_hvac_mode_is_off=True,
+    battery_curve_extrapolates_first_segment=True,
+    lstm_day_type_period=8.0,
+    lstm_output_uses_last_input_bounds=True,
+    lstm_float32=True,
+    legacy_random_episode_split=True,
+    legacy_outage_draws=True,
+    independent_sac_reward_precedence_bug=True,
+    comfort_reward_float32=True,
+    storage_signal_reward_multiplies_by_delta=True,
+    kpi_plain_division=True,
+    kpi_discomfort_over_all_steps=True,
+    kpi_baseline_from_first_building=True,
+    kpi_float32_score=True,
+    wrapper_day_type_period=8.0,
+)
+
+PRESETS: dict[str, Behaviour] = {"corrected": CORRECTED, "citylearn-2.1": CITYLEARN_2_1}
+
+
+def resolve(settings: Behaviour | str | None = None, compat: bool = False) -> Behaviour:
+    """The settings to run with: ``settings`` (an object or a preset name), else the 2.1 preset when
+    ``compat`` (the documented shorthand), else :data:`CORRECTED`."""
+    if isinstance(settings, Behaviour):
+        return settings
+    if isinstance(settings, str):
+        try:
+            return PRESETS[settings]
+        except KeyError:
+            from citylearn_env.errors import SchemaError
+
+            raise SchemaError(f"unknown behaviour preset {settings!r}; known: {', '.join(PRESETS)}",
+                              column="settings") from None
+    if settings is not None:
+        raise TypeError(f"settings must be a Behaviour or a preset name, not {type(settings).__name__}")
+    return CITYLEARN_2_1 if compat else CORRECTED

@@ -1,0 +1,166 @@
+"""The typed running state of a district: parameters (B,), data series (B, N) and the episode record (B, T).
+
+B buildings, N time steps of the simulation range, T time steps of the current episode. Parameters and data are
+read-only after construction; records are written by :class:`citylearn_env.district.District` one step at a time.
+The flat CityLearn names of recorded quantities (``cooling_storage_soc``, ``energy_from_dhw_device`` ...) are
+generated in one place, :func:`recorded_names`, from the field names here. Units: energies kWh per step, powers
+kW, temperatures degC, states of charge and efficiencies as fractions.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, fields
+from types import MappingProxyType
+
+import numpy as np
+
+END_USES = ("cooling", "heating", "dhw")
+#: end use -> (device slot, storage slot, demand column, storage action) in the schema and data sets
+END_USE_SLOTS = {
+    "cooling": ("cooling_device", "cooling_storage", "cooling_demand", "cooling_storage"),
+    "heating": ("heating_device", "heating_storage", "heating_demand", "heating_storage"),
+    "dhw": ("dhw_device", "dhw_storage", "dhw_demand", "dhw_storage"),
+}
+
+
+class Record:
+    """Base of the episode records: every field a (B, T) float array."""
+
+    @classmethod
+    def zeros(cls, n: int, length: int):
+        """A record of ``n`` buildings and ``length`` time steps, all zeros."""
+        return cls(*(np.zeros((n, length)) for _ in fields(cls)))
+
+
+@dataclass(frozen=True, eq=False)
+class TankParams:
+    """Thermal storage tanks of one end use, (B,): ``capacity`` [kWh thermal], standby ``loss_coefficient``
+    [fraction per step], ``one_way_efficiency`` [-] (sqrt of round trip), ``initial_soc`` [-], charge and
+    discharge limits ``max_input_power`` / ``max_output_power`` [kWh per step]."""
+
+    capacity: np.ndarray
+    loss_coefficient: np.ndarray
+    one_way_efficiency: np.ndarray
+    initial_soc: np.ndarray
+    max_input_power: np.ndarray
+    max_output_power: np.ndarray
+
+
+@dataclass(frozen=True, eq=False)
+class EndUseParams:
+    """One end use (cooling, heating or DHW) of every building: its device's ``nominal_power`` (B,) [kW
+    electric] and ``cop`` (B, N) [-] (Carnot heat pump or heater efficiency), the data set's ``demand`` (B, N)
+    [kWh thermal] and the storage ``tank``. ``live``: some building can ever use it (otherwise the step skips
+    it); ``has_storage``: some building has a tank."""
+
+    name: str
+    nominal_power: np.ndarray
+    cop: np.ndarray
+    demand: np.ndarray
+    tank: TankParams
+    live: bool
+    has_storage: bool
+
+
+@dataclass(eq=False)
+class EndUseRecord(Record):
+    """What one end use did over an episode, (B, T) each. ``demand`` is the demand served (the data set's,
+    or for LSTM buildings the heat pump's output chosen by the device action)."""
+
+    demand: np.ndarray
+    electricity_consumption: np.ndarray
+    storage_electricity_consumption: np.ndarray
+    energy_from_device: np.ndarray
+    energy_from_storage: np.ndarray
+    energy_from_device_to_storage: np.ndarray
+    storage_soc: np.ndarray
+    storage_energy_balance: np.ndarray
+
+
+@dataclass(eq=False)
+class BatteryRecord(Record):
+    """The batteries over an episode, (B, T): ``soc`` [-], ``energy_balance`` [kWh, > 0 charging],
+    round-trip ``efficiency`` [-] of the step and degraded ``capacity`` [kWh]."""
+
+    soc: np.ndarray
+    energy_balance: np.ndarray
+    efficiency: np.ndarray
+    capacity: np.ndarray
+
+
+@dataclass(eq=False)
+class BuildingRecord(Record):
+    """Whole-building quantities over an episode, (B, T): ``net_electricity_consumption`` [kWh, 0 during an
+    outage], ``non_shiftable_load_served`` [kWh] and ``indoor_dry_bulb_temperature`` [degC]."""
+
+    net_electricity_consumption: np.ndarray
+    non_shiftable_load_served: np.ndarray
+    indoor_dry_bulb_temperature: np.ndarray
+
+
+@dataclass(frozen=True, eq=False)
+class Signals:
+    """Data series of every building, (B, N) or an episode's (B, T) window of them.
+
+    ``columns`` holds every data-set column by its v2.2 name (calendar, weather, prices, carbon intensity, loads,
+    set points ...); ``pv_generation`` [kWh per step] is derived from ``solar_generation`` and the PV size;
+    ``outage`` [0/1] is the outage signal of the episode (the data set's column, or drawn at reset).
+    """
+
+    columns: Mapping[str, np.ndarray]
+    pv_generation: np.ndarray
+    outage: np.ndarray
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        return self.columns[name]
+
+    def window(self, start: int, length: int, outage: np.ndarray) -> Signals:
+        """Views of time steps ``start .. start + length - 1`` with the episode's ``outage`` signal."""
+        stop = start + length
+        return Signals(MappingProxyType({k: v[:, start:stop] for k, v in self.columns.items()}),
+                       self.pv_generation[:, start:stop], outage)
+
+
+#: recorded end-use fields and their CityLearn name patterns ("{}" = cooling, heating or dhw)
+END_USE_NAMES = (
+    ("{}_demand", "demand"),
+    ("{}_electricity_consumption", "electricity_consumption"),
+    ("{}_storage_electricity_consumption", "storage_electricity_consumption"),
+    ("energy_from_{}_device", "energy_from_device"),
+    ("energy_from_{}_storage", "energy_from_storage"),
+    ("energy_from_{0}_device_to_{0}_storage", "energy_from_device_to_storage"),
+    ("{}_storage_soc", "storage_soc"),
+    ("{}_storage_energy_balance", "storage_energy_balance"),
+)
+#: recorded battery fields and their CityLearn names
+BATTERY_NAMES = (
+    ("electrical_storage_soc", "soc"),
+    ("electrical_storage_energy_balance", "energy_balance"),
+    ("electrical_storage_electricity_consumption", "energy_balance"),
+    ("electrical_storage_efficiency", "efficiency"),
+    ("electrical_storage_capacity", "capacity"),
+)
+#: recorded whole-building fields and their CityLearn names
+BUILDING_NAMES = (
+    ("net_electricity_consumption", "net_electricity_consumption"),
+    ("non_shiftable_load_electricity_consumption", "non_shiftable_load_served"),
+    ("energy_to_non_shiftable_load", "non_shiftable_load_served"),
+    ("indoor_dry_bulb_temperature", "indoor_dry_bulb_temperature"),
+)
+
+
+def recorded_names(end_uses: Mapping[str, EndUseRecord], battery: BatteryRecord,
+                   building: BuildingRecord) -> dict[str, np.ndarray]:
+    """Every recorded (B, T) array under its CityLearn building-property name (arrays shared, not copied)."""
+    out: dict[str, np.ndarray] = {}
+    for end_use, record in end_uses.items():
+        for pattern, attr in END_USE_NAMES:
+            if attr == "demand" and end_use == "dhw":
+                continue  # the DHW demand is never changed by control: it stays a data column
+            out[pattern.format(end_use)] = getattr(record, attr)
+    for name, attr in BATTERY_NAMES:
+        out[name] = getattr(battery, attr)
+    for name, attr in BUILDING_NAMES:
+        out[name] = getattr(building, attr)
+    return out

@@ -1,0 +1,341 @@
+"""One test per field of :class:`citylearn_env.settings.Behaviour`: flip that field alone from CORRECTED to its
+CITYLEARN_2_1 value and check the hand-predicted effect at the function that reads it.
+
+``test_every_field_has_a_test`` fails when a field is added without a ``test_<field>`` function here.
+Needs nothing outside the repository (small inputs are made in the tests or written to ``tmp_path``).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import replace
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from citylearn_env import kpis
+from citylearn_env import rewards as R
+from citylearn_env.dataset import DynamicsBlock
+from citylearn_env.devices import Curve, interpolate_curve
+from citylearn_env.dynamics import LSTMBank, LSTMSpec
+from citylearn_env.errors import SchemaError
+from citylearn_env.outages import reliability_outage_signal
+from citylearn_env.schema import load_schema
+from citylearn_env.settings import CITYLEARN_2_1, CORRECTED, PRESETS, Behaviour, resolve
+from tests.citylearn_env.test_kpi_units import HAND_A, hand_series
+
+
+def flipped(field: str) -> Behaviour:
+    """CORRECTED with ``field`` alone set to its CityLearn 2.1 value."""
+    return replace(CORRECTED, **{field: getattr(CITYLEARN_2_1, field)})
+
+
+# ------------------------------------------------------------------------------------------ the presets
+@pytest.mark.parametrize("field", Behaviour.field_names())
+def test_every_field_has_a_test(field):
+    assert callable(globals().get(f"test_{field}")), f"Behaviour.{field} has no test_{field} in {__name__}"
+
+
+@pytest.mark.parametrize("field", Behaviour.field_names())
+def test_every_field_differs_between_the_presets(field):
+    assert getattr(CORRECTED, field) != getattr(CITYLEARN_2_1, field)
+    assert flipped(field) != CORRECTED and replace(flipped(field), **{field: getattr(CORRECTED, field)}) == CORRECTED
+
+
+def test_resolve():
+    assert resolve() is CORRECTED and resolve(None, True) is CITYLEARN_2_1
+    assert resolve("citylearn-2.1") is CITYLEARN_2_1 and resolve("corrected") is CORRECTED
+    custom = flipped("lstm_float32")
+    assert resolve(custom, True) is custom  # an explicit object wins over the shorthand
+    assert set(PRESETS) == {"corrected", "citylearn-2.1"}
+    with pytest.raises(SchemaError, match="unknown behaviour preset"):
+        resolve("citylearn-2.2")
+    with pytest.raises(TypeError):
+        resolve(8.0)
+
+
+# ------------------------------------------------------------------------------------------ data sets
+def _district_without_hvac_mode(tmp_path) -> str:
+    """A one-building, 24-step schema in tmp_path whose building file has no hvac_mode column."""
+    for name, frame in (("building.csv", pd.DataFrame({
+            "month": [6] * 24, "hour": list(range(1, 25)), "day_type": [3] * 24,
+            "indoor_dry_bulb_temperature": [24.0] * 24, "non_shiftable_load": [1.0] * 24,
+            "dhw_demand": [0.0] * 24, "cooling_demand": [2.0] * 24, "heating_demand": [0.0] * 24,
+            "solar_generation": [0.0] * 24}).assign(daylight_savings_status=0,
+                                                    average_unmet_cooling_setpoint_difference=0.0,
+                                                    indoor_relative_humidity=50.0)),
+                        ("weather.csv", pd.DataFrame({c: [20.0] * 24 for c in (
+                            "outdoor_dry_bulb_temperature", "outdoor_relative_humidity",
+                            "diffuse_solar_irradiance", "direct_solar_irradiance",
+                            *(f"{base}_predicted_{h}" for base in (
+                                "outdoor_dry_bulb_temperature", "outdoor_relative_humidity",
+                                "diffuse_solar_irradiance", "direct_solar_irradiance")
+                              for h in ("6h", "12h", "24h")))}))):
+        frame.to_csv(tmp_path / name, index=False)
+    schema = {
+        "root_directory": str(tmp_path), "central_agent": True,
+        "simulation_start_time_step": 0, "simulation_end_time_step": 23, "seconds_per_time_step": 3600,
+        "observations": {"hour": {"active": True, "shared_in_central_agent": True}},
+        "actions": {},
+        "buildings": {"B": {"include": True, "energy_simulation": "building.csv", "weather": "weather.csv"}},
+    }
+    path = tmp_path / "schema.json"
+    path.write_text(json.dumps(schema))
+    return str(path)
+
+
+def test_missing_hvac_mode_is_off(tmp_path):
+    path = _district_without_hvac_mode(tmp_path)
+    corrected = load_schema(path).buildings[0].series["hvac_mode"]
+    upstream = load_schema(path, settings=flipped("missing_hvac_mode_is_off")).buildings[0].series["hvac_mode"]
+    np.testing.assert_array_equal(corrected, np.ones(24))  # 1 = cooling, as documented
+    np.testing.assert_array_equal(upstream, np.zeros(24))  # 0 = off, as CityLearn 2.1 reads it
+    # compat=True is shorthand for the whole 2.1 preset
+    np.testing.assert_array_equal(load_schema(path, compat=True).buildings[0].series["hvac_mode"], np.zeros(24))
+
+
+# ------------------------------------------------------------------------------------------ devices
+def test_battery_curve_extrapolates_first_segment():
+    # one curve (0, 1) - (1, .5) - (2, .5): segment 0 has slope -.5
+    curve = Curve.from_points([[(0.0, 1.0), (1.0, 0.5), (2.0, 0.5)]])
+    field = flipped("battery_curve_extrapolates_first_segment").battery_curve_extrapolates_first_segment
+    x = np.array([3.0])
+    # beyond the last point: held at .5, or segment 0 continued: 1 + (3 - 0) * -.5 = -.5
+    assert interpolate_curve(x, curve, extrapolate_first_segment=CORRECTED.battery_curve_extrapolates_first_segment)[0] \
+        == 0.5
+    assert interpolate_curve(x, curve, extrapolate_first_segment=field)[0] == pytest.approx(-0.5)
+    # inside the curve both agree: x = 1.5 on the flat segment
+    for flag in (False, True):
+        assert interpolate_curve(np.array([1.5]), curve, extrapolate_first_segment=flag)[0] == pytest.approx(0.5)
+
+
+# ------------------------------------------------------------------------------------------ LSTM bank
+S30 = 1.0 / (1.0 + math.exp(-30.0))  # an input/output gate biased fully open
+
+
+def tiny_spec() -> LSTMSpec:
+    """One hidden unit, one layer, lookback 1; inputs (temperature [10, 30] degC, day_type_sin [-1, 1]).
+
+    Only the cell gate g sees an input (day_type_sin, weight 1); the input and output gates have bias 30,
+    the forget gate acts on a zero cell. From a zero state: c = S30 * tanh(x), h = S30 * tanh(c), y = h
+    (head weight 1, bias 0), with x the normalised day_type_sin = (sin(2 pi d / P) + 1) / 2.
+    """
+    w_ih = np.zeros((4, 2))
+    w_ih[2, 1] = 1.0
+    state = {"l_lstm.weight_ih_l0": w_ih, "l_lstm.weight_hh_l0": np.zeros((4, 1)),
+             "l_lstm.bias_ih_l0": np.array([30.0, 0.0, 0.0, 30.0]), "l_lstm.bias_hh_l0": np.zeros(4),
+             "l_linear.weight": np.ones((1, 1)), "l_linear.bias": np.zeros(1)}
+    block = DynamicsBlock("tiny.pth", input_observation_names=("indoor_dry_bulb_temperature", "day_type_sin"),
+                          input_normalization_minimum=(10.0, -1.0), input_normalization_maximum=(30.0, 1.0),
+                          hidden_size=1, num_layers=1, lookback=1)
+    return LSTMSpec(state, block)
+
+
+def predict(settings: Behaviour, day_type: float = 7.0) -> float:
+    """The tiny bank's prediction at its second step (the first fills the buffer)."""
+    bank = LSTMBank([tiny_spec()], settings=settings, backend="numpy")
+    inputs = {"indoor_dry_bulb_temperature": np.array([23.0]), "day_type": np.array([day_type])}
+    assert math.isnan(bank.step(inputs, np.array([1.0]))[0])
+    return float(bank.step(inputs, np.array([1.0]))[0])
+
+
+def hand_y(x: float) -> float:
+    return S30 * math.tanh(S30 * math.tanh(x))
+
+
+def test_lstm_day_type_period():
+    # Sunday (7): period 7 -> sin(2 pi) = 0 -> x = .5; period 8 -> sin(7 pi / 4) = -sqrt(2)/2
+    x7, x8 = (0.0 + 1) / 2, (-math.sqrt(2) / 2 + 1) / 2
+    assert predict(CORRECTED) == pytest.approx(10 + 20 * hand_y(x7), abs=1e-12)
+    assert predict(flipped("lstm_day_type_period")) == pytest.approx(10 + 20 * hand_y(x8), abs=1e-12)
+    # 18.64 vs 12.89 degC
+    assert predict(CORRECTED) - predict(flipped("lstm_day_type_period")) > 5.0
+
+
+def test_lstm_output_uses_last_input_bounds():
+    y = hand_y(0.5)
+    # de-normalised with the temperature's bounds 10 + 20 y, or the last input's (day_type_sin) -1 + 2 y
+    assert predict(CORRECTED) == pytest.approx(10 + 20 * y, abs=1e-12)
+    assert predict(flipped("lstm_output_uses_last_input_bounds")) == pytest.approx(-1 + 2 * y, abs=1e-12)
+
+
+def test_lstm_float32():
+    x = (math.sin(2 * math.pi * 7 / 7) + 1) / 2
+    x32 = float(np.float32(x))  # the window input rounded to float32, then the output arithmetic in float32
+    expected = float(np.float32(np.float32(hand_y(x32)) * np.float32(20.0) + np.float32(10.0)))
+    ours = predict(flipped("lstm_float32"))
+    assert ours == pytest.approx(expected, abs=2e-6)
+    assert ours == float(np.float32(ours))  # a float32 value
+    corrected = predict(CORRECTED)
+    assert corrected != ours and abs(corrected - ours) < 1e-5
+
+
+# ------------------------------------------------------------------------------------------ outages
+def test_legacy_outage_draws():
+    # an outage every day (saifi 365), starting at midnight, lasting ~100 h on average: 3 hourly days
+    kwargs = dict(saifi=365.0, caidi=6000.0, seed=11, start_time_steps=[0])
+    corrected = reliability_outage_signal(72, **kwargs, legacy=CORRECTED.legacy_outage_draws)
+    legacy = reliability_outage_signal(72, **kwargs, legacy=flipped("legacy_outage_draws").legacy_outage_draws)
+    assert corrected[0] == 1  # day 0 is eligible
+    assert not legacy[:24].any() and legacy[24] == 1  # CityLearn 2.1 never starts an outage on day 0
+    # a trailing partial day: fine corrected, refused by the 2.1 generator
+    assert reliability_outage_signal(30, **kwargs).shape == (30,)
+    with pytest.raises(SchemaError, match="whole number of days"):
+        reliability_outage_signal(30, **kwargs, legacy=True)
+
+
+# ------------------------------------------------------------------------------------------ rewards
+def test_independent_sac_reward_precedence_bug():
+    observation = {"net_electricity_consumption": np.array([2.0])}
+    context = R.RewardContext(central_agent=False, building_names=["a"])
+    assert R.make_reward("independent_sac", context)(observation)[0][0] == -(2.0 ** 3)
+    bug = R.make_reward("independent_sac", context, settings=flipped("independent_sac_reward_precedence_bug"))
+    assert bug(observation)[0][0] == -2.0
+
+
+def test_comfort_reward_float32():
+    # cooling at 22.9 degC, set point 23, band 2: inside the band below the set point -> -(S - T)
+    observation = {"net_electricity_consumption": np.array([0.0]), "cooling_demand": np.array([1.0]),
+                   "indoor_dry_bulb_temperature": np.array([22.9]),
+                   "indoor_dry_bulb_temperature_set_point": np.array([23.0])}
+    context = R.RewardContext(central_agent=False, building_names=["a"])
+    assert R.make_reward("comfort", context)(observation)[0][0] == -(23.0 - 22.9)
+    upstream = R.make_reward("comfort", context, settings=flipped("comfort_reward_float32"))(observation)[0][0]
+    assert upstream == -(23.0 - float(np.float32(22.9)))  # float32(22.9) = 22.899999618530273
+    assert upstream == pytest.approx(-0.100000381, abs=1e-9)
+    # the combined reward rounds each (central) part to float32: 2 x float32(-0.1000000000000014)
+    combined = {"type": "solar_penalty_and_comfort", "attributes": {"coefficients": [1.0, 2.0]}}
+    central = R.RewardContext(central_agent=True, building_names=["a"])
+    part = -(23.0 - 22.9)
+    assert R.make_reward(combined, central)(observation)[0] == 2 * part
+    assert R.make_reward(combined, central, settings=replace(CORRECTED, comfort_reward_float32=True))(
+        observation)[0] == 2 * float(np.float32(-(23.0 - float(np.float32(22.9)))))
+
+
+def test_storage_signal_reward_multiplies_by_delta():
+    # a battery of 4 kWh goes from soc .5 to .375 (D = -.5 kWh) while importing at .1 $/kWh
+    context = R.RewardContext(central_agent=False, building_names=["a"],
+                              capacity={"electrical_storage": np.array([4.0])},
+                              initial_soc={"electrical_storage": np.array([0.5])})
+    observation = {"net_electricity_consumption": np.array([1.0]), "electricity_pricing": np.array([0.1]),
+                   "electrical_storage_soc": np.array([0.375])}
+    spec = {"type": "storage_signal", "attributes": {"signal": "electricity_pricing"}}
+    # -(|D| * s) * sign(D) = -(.05) * -1; the quirk multiplies by D: -(.05) * -.5
+    assert R.make_reward(spec, context)(observation)[0][0] == pytest.approx(0.05)
+    quirk = R.make_reward(spec, context, settings=flipped("storage_signal_reward_multiplies_by_delta"))
+    assert quirk(observation)[0][0] == pytest.approx(0.025)
+
+
+# ------------------------------------------------------------------------------------------ KPIs
+def test_kpi_plain_division():
+    # a flat baseline: no ramping and no load-factor loss to compare against
+    series = {"net_electricity_consumption": np.array([[1.0, 3.0, 1.0, 3.0]]),
+              "net_electricity_consumption_without_storage_and_partial_load": np.full((1, 4), 2.0)}
+    corrected = kpis.district_kpis(series, dynamics=[True])
+    plain = kpis.district_kpis(series, dynamics=[True], settings=flipped("kpi_plain_division"))
+    # ramping 6 / 0 and 1-LF (1 - 2/3) / (1 - 2/2): NaN corrected, +inf plain
+    assert math.isnan(corrected["ramping_average"]) and plain["ramping_average"] == math.inf
+    assert math.isnan(corrected["daily_one_minus_load_factor_average"])
+    assert plain["daily_one_minus_load_factor_average"] == math.inf
+    # the peaks divide fine either way: 3 / 2
+    assert corrected["daily_peak_average"] == plain["daily_peak_average"] == 1.5
+
+
+def test_kpi_discomfort_over_all_steps():
+    names = ["a", "b"]
+    corrected = kpis.building_kpis(hand_series(), names, dynamics=[True, False])
+    upstream = kpis.building_kpis(hand_series(), names, dynamics=[True, False],
+                                  settings=flipped("kpi_discomfort_over_all_steps"))
+    # a: six +3 degC deltas over its 24 occupied steps, or over all 48 steps
+    assert corrected[0]["discomfort_delta_average"] == pytest.approx(HAND_A["discomfort_delta_average"])
+    assert corrected[0]["discomfort_delta_average"] == pytest.approx(18 / 24)
+    assert upstream[0]["discomfort_delta_average"] == pytest.approx(18 / 48)
+    assert upstream[0]["discomfort_proportion"] == corrected[0]["discomfort_proportion"] == pytest.approx(6 / 24)
+
+
+def test_kpi_baseline_from_first_building():
+    series = hand_series()
+    for kind in ("", "_cost", "_emission"):  # the without-storage baseline: twice the partial-load one
+        series[f"net_electricity_consumption{kind}_without_storage"] = \
+            2 * series[f"net_electricity_consumption{kind}_without_storage_and_partial_load"]
+    upstream_settings = flipped("kpi_baseline_from_first_building")
+    corrected = kpis.building_kpis(series, ["a", "b"], dynamics=[True, False])
+    upstream = kpis.building_kpis(series, ["a", "b"], dynamics=[True, False], settings=upstream_settings)
+    # b has no dynamics: its own baseline (without storage) imports 2 x 96 = 192 kWh; a's condition: 96
+    assert corrected[1]["electricity_consumption_total"] == pytest.approx(48 / 192)
+    assert upstream[1]["electricity_consumption_total"] == pytest.approx(48 / 96)
+    # district: the partial-load baseline (ramping 4 per step) unless the first building has no dynamics,
+    # in which case CityLearn 2.1 takes the without-storage one (ramping 8 per step); control ramps 1
+    assert kpis.district_kpis(series, dynamics=[False, True])["ramping_average"] == pytest.approx(1 / 4)
+    assert kpis.district_kpis(series, dynamics=[False, True], settings=upstream_settings)["ramping_average"] \
+        == pytest.approx(1 / 8)
+
+
+def test_kpi_float32_score():
+    score = (0.10 * 0.65 + 0.30 * 0.25 + 0.075 * (0.25 + 13 / 24 + 6 / 13 + 6 / 13) + 0.15 * 1.0 + 0.15 * 0.75)
+    corrected = kpis.evaluate_challenge(hand_series(), ["a", "b"], dynamics=[True, False])
+    upstream = kpis.evaluate_challenge(hand_series(), ["a", "b"], dynamics=[True, False],
+                                       settings=flipped("kpi_float32_score"))
+    ours = corrected.set_index("kpi")["value"]["average_score"]
+    single = upstream.set_index("kpi")["value"]["average_score"]
+    assert ours == pytest.approx(score, rel=1e-14)
+    assert single == float(np.float32(single)) and single != ours  # a float32 sum ...
+    assert single == pytest.approx(score, rel=1e-6)  # ... within float32 round-off
+    # the KPI rows themselves are the same
+    pd.testing.assert_series_equal(corrected["value"][:-1], upstream["value"][:-1])
+
+
+# ------------------------------------------------------------------------------------------ environment
+def _example(tmp_path, **schema_changes) -> str:
+    from citylearn_env.example import write_example_district
+
+    path = write_example_district(tmp_path, n_buildings=2, hours=48)
+    schema = json.loads(path.read_text())
+    schema.update(schema_changes)
+    path.write_text(json.dumps(schema))
+    return str(path)
+
+
+def test_wrapper_day_type_period(tmp_path):
+    from citylearn_env import CityLearnEnv
+    from citylearn_env.wrappers import NormalizedObservationWrapper
+
+    path = _example(tmp_path)
+    values = {}
+    for settings in (CORRECTED, flipped("wrapper_day_type_period")):
+        wrapper = NormalizedObservationWrapper(CityLearnEnv(path, settings=settings))
+        observation, _ = wrapper.reset(seed=0)
+        raw = wrapper.unwrapped.observation_names.index("day_type")
+        day = float(wrapper.unwrapped._observation()[raw])
+        names = wrapper.observation_names
+        values[settings.wrapper_day_type_period] = (day, observation[names.index("day_type_cos")],
+                                                    observation[names.index("day_type_sin")])
+    for period, (day, cos, sin) in values.items():
+        # (cos, sin) of 2 pi d / P scaled from [-1, 1] to [0, 1]
+        assert cos == pytest.approx((math.cos(2 * math.pi * day / period) + 1) / 2, abs=1e-6)
+        assert sin == pytest.approx((math.sin(2 * math.pi * day / period) + 1) / 2, abs=1e-6)
+    assert values[7.0][1] != pytest.approx(values[8.0][1], abs=1e-3)
+
+
+def test_legacy_random_episode_split(tmp_path):
+    from citylearn_env import CityLearnEnv
+
+    # 48 steps in four 12-step splits starting at 0, 12, 24, 36
+    path = _example(tmp_path, episode_time_steps=12, random_episode_split=True, random_seed=5)
+    legacy = CityLearnEnv(path, settings=flipped("legacy_random_episode_split"))
+    starts = []
+    for episode in range(12):
+        legacy.reset()
+        starts.append(legacy.episode_start)
+        # CityLearn 2.1: RandomState(seed * (episode + 1)) chooses among all splits but the last
+        assert legacy.episode_start == 12 * int(np.random.RandomState(5 * (episode + 1)).choice(3))
+    assert 36 not in starts
+    corrected = CityLearnEnv(path, settings=CORRECTED)
+    corrected.reset(seed=0)
+    seen = {corrected.episode_start}
+    for _ in range(40):
+        corrected.reset()
+        seen.add(corrected.episode_start)
+    assert seen == {0, 12, 24, 36}  # the env's seeded generator reaches the last split too

@@ -1,0 +1,133 @@
+"""The surrogate cache: plain files checked by sha256, keyed only on what training uses."""
+
+from __future__ import annotations
+
+import json
+from datetime import date
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+from pipeline import build
+from pipeline.cache import CACHE_ENV, FileCache, cache_key, cache_root, table_digest
+from pipeline.config import read_build_config
+
+ROOT = Path(__file__).resolve().parents[2]
+RAW_CONFIG = ROOT / "raw" / "district.toml"
+SHA256_ABC = "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad"  # FIPS 180-2 example
+
+
+def test_entry_round_trip_lists_sha256_and_refuses_tampering(tmp_path):
+    cache = FileCache(tmp_path / "surrogates")
+    key = "k" * 64
+    assert cache.get(key) is None
+    folder = cache.put(key, {"a.pth": b"abc", "surrogates/a.dynamics.json": b"{}"}, inputs={"why": "test"})
+    entry = json.loads((folder / "entry.json").read_text())
+    assert entry["key"] == key and entry["files"]["a.pth"] == {"sha256": SHA256_ABC, "bytes": 3}
+    assert cache.get(key) == {"a.pth": b"abc", "surrogates/a.dynamics.json": b"{}"}
+    (folder / "a.pth").write_bytes(b"abd")                        # tampered: a miss
+    assert cache.get(key) is None
+    cache.put(key, {"a.pth": b"abc"})                             # rebuilt in place
+    assert cache.get(key) == {"a.pth": b"abc"}
+    (folder / "a.pth").unlink()                                   # missing file: a miss
+    assert cache.get(key) is None
+    assert [p.name for p in (tmp_path / "surrogates").iterdir()] == [key]   # no temporary folder left
+
+
+def test_entry_cannot_point_outside_its_folder(tmp_path):
+    cache = FileCache(tmp_path / "surrogates")
+    with pytest.raises(ValueError, match="relative paths"):
+        cache.put("k", {"../escape": b"x"})
+    (tmp_path / "outside").write_bytes(b"abc")
+    folder = cache.put("k", {"a": b"abc"})
+    listing = json.loads((folder / "entry.json").read_text())
+    listing["files"] = {"../../outside": {"sha256": SHA256_ABC, "bytes": 3}}
+    (folder / "entry.json").write_text(json.dumps(listing))
+    assert cache.get("k") is None
+
+
+def test_cache_root_order(tmp_path, monkeypatch):
+    monkeypatch.setenv(CACHE_ENV, str(tmp_path / "env"))
+    assert cache_root(tmp_path / "explicit") == tmp_path / "explicit"
+    assert cache_root() == tmp_path / "env"
+    monkeypatch.delenv(CACHE_ENV)
+    assert cache_root() == Path.home() / ".cache" / "districtgen"
+
+
+def test_table_digest_is_of_the_content_not_the_file(tmp_path):
+    table = pd.DataFrame({"reference": [0, 0], "timestamp": pd.to_datetime(["2018-01-01 00:00", "2018-01-01 01:00"]),
+                          "cooling_demand": [0.5, 0.25]})
+    table.to_csv(tmp_path / "t.csv", index=False)
+    table.to_parquet(tmp_path / "t.parquet", index=False)
+    from_csv = pd.read_csv(tmp_path / "t.csv", parse_dates=["timestamp"])
+    assert table_digest(from_csv) == table_digest(pd.read_parquet(tmp_path / "t.parquet")) == table_digest(table)
+    changed = table.assign(cooling_demand=[0.5, 0.26])
+    assert table_digest(changed) != table_digest(table)
+    # the key is order-independent in its parts and changes with any part
+    assert cache_key({"a": 1, "b": [1, 2]}) == cache_key({"b": [1, 2], "a": 1}) != cache_key({"a": 2, "b": [1, 2]})
+
+
+# ------------------------------------------------------------------------------------------ through builds
+@pytest.fixture()
+def one_building(tmp_path):
+    """raw/district.toml for 3 days, Building_1 = 900001, trained (1 epoch) on January of its ILV table."""
+    from surrogates.ilv import read_ilv
+
+    config = read_build_config(RAW_CONFIG)
+    ilv = tmp_path / "ilv"
+    ilv.mkdir()
+    table = read_ilv(ROOT / "raw" / "ilv" / "900001.parquet")
+    table[table["timestamp"] < pd.Timestamp("2018-02-01")].to_csv(ilv / "900001.csv", index=False)
+    return config.model_copy(update={
+        "period": config.period.model_copy(update={"end": date(2018, 6, 3)}),
+        "inputs": config.inputs.model_copy(update={"buildings": [900001], "ilv": ilv}),
+        "surrogate": config.surrogate.model_copy(update={"source": "csv", "epochs": 1}),
+        "cache_dir": tmp_path / "cache"})
+
+
+def _cache_use(folder: Path) -> dict:
+    return json.loads((folder / "manifest.json").read_text())["surrogate_cache"]["Building_1"]
+
+
+def test_the_key_ignores_what_training_does_not_use(one_building):
+    other_battery = one_building.model_copy(update={"sizing": one_building.sizing.model_copy(
+        update={"battery": "Tesla Powerwall 2"}), "seed": 7})
+    key = cache_key(build.surrogate_cache_parts(one_building, 900001, "Building_1")[0])
+    assert cache_key(build.surrogate_cache_parts(other_battery, 900001, "Building_1")[0]) == key
+    more_epochs = one_building.model_copy(update={"surrogate": one_building.surrogate.model_copy(
+        update={"epochs": 2})})
+    assert cache_key(build.surrogate_cache_parts(more_epochs, 900001, "Building_1")[0]) != key
+
+
+def test_battery_change_reuses_ilv_change_and_tampering_retrain(one_building, tmp_path):
+    first = build.build_district_local(one_building, tmp_path / "a")
+    use = _cache_use(first)
+    assert use["hit"] is False
+    pth = (first / "Building_1.pth").read_bytes()
+
+    # another battery: the same surrogate from the cache, no training
+    tesla = one_building.model_copy(update={"sizing": one_building.sizing.model_copy(
+        update={"battery": "Tesla Powerwall 2"})})
+    second = build.build_district_local(tesla, tmp_path / "b")
+    assert _cache_use(second) == {"key": use["key"], "hit": True}
+    assert (second / "Building_1.pth").read_bytes() == pth
+    battery = json.loads((second / "schema.json").read_text())["buildings"]["Building_1"]["electrical_storage"]
+    assert battery["attributes"]["capacity"] == 13.5
+    assert build.verify_district(second) == []
+
+    # a tampered cached file: the entry fails its sha256 check, the surrogate is retrained and stored again
+    entry = one_building.cache_dir / "surrogates" / use["key"]
+    (entry / "Building_1.pth").write_bytes(b"not a model")
+    third = build.build_district_local(tesla, tmp_path / "c")
+    assert _cache_use(third) == {"key": use["key"], "hit": False}
+    assert FileCache(one_building.cache_dir / "surrogates").get(use["key"]) is not None
+
+    # one changed value in the ILV table: another key, trained again
+    csv = one_building.inputs.ilv / "900001.csv"
+    table = pd.read_csv(csv)
+    table.loc[5, "outdoor_dry_bulb_temperature"] += 0.01
+    table.to_csv(csv, index=False)
+    fourth = build.build_district_local(tesla, tmp_path / "d")
+    changed = _cache_use(fourth)
+    assert changed["hit"] is False and changed["key"] != use["key"]
