@@ -30,10 +30,10 @@ from __future__ import annotations
 import datetime as dt
 import os
 import tempfile
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, TextIO
 
 import numpy as np
 
@@ -396,11 +396,19 @@ def write_table(path: str | Path, kind: str, data: Mapping[str, np.ndarray], lay
             raise SchemaError(f"NaN or infinite value {values[i]}", file=path, column=name, row=_row(i))
     head = header({n: TABLES[kind][n] for n in names}, layout)
     matrix = np.column_stack(arrays) if rows else np.zeros((0, len(names)))
+    return write_atomically(path, lambda stream: np.savetxt(stream, matrix, fmt="%.10g", delimiter=",",
+                                                           header=",".join(head), comments=""))
+
+
+def write_atomically(path: str | Path, write: Callable[[TextIO], object]) -> Path:
+    """Create ``path`` with ``write(stream)`` (a text stream) atomically: a temporary file in the same folder,
+    mode 0o644, then ``os.replace``; nothing is left behind if ``write`` fails. Returns ``path``."""
+    path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     handle, temp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     try:
         with os.fdopen(handle, "w", newline="") as stream:
-            np.savetxt(stream, matrix, fmt="%.10g", delimiter=",", header=",".join(head), comments="")
+            write(stream)
         os.chmod(temp, 0o644)
         os.replace(temp, path)
     except BaseException:

@@ -11,15 +11,13 @@ and heaters), capacities in kWh, temperatures in degC, efficiencies and coeffici
 from __future__ import annotations
 
 import json
-import os
-import tempfile
 from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from citylearn_env.config import ACTION_NAMES
-from citylearn_env.dataset import DynamicsBlock, dynamics_entry
+from citylearn_env.dataset import DynamicsBlock, dynamics_entry, write_atomically
 
 #: schema slots in the order they are written, with the upstream device type used when none is given
 DEVICE_SLOTS: dict[str, str] = {
@@ -134,20 +132,9 @@ def schema_document(buildings: Sequence[BuildingEntry], *, hours: int, observati
 
 
 def write_schema(path: str | Path, schema: Mapping[str, Any]) -> Path:
-    """Write ``schema`` as indented JSON, atomically (temporary file in the same folder, mode 0o644, then
-    ``os.replace``). Returns ``path``."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    handle, temp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(handle, "w") as stream:
-            json.dump(schema, stream, indent=2)
-        os.chmod(temp, 0o644)
-        os.replace(temp, path)
-    except BaseException:
-        Path(temp).unlink(missing_ok=True)
-        raise
-    return path
+    """Write ``schema`` as indented JSON, atomically (:func:`citylearn_env.dataset.write_atomically`).
+    Returns ``path``."""
+    return write_atomically(path, lambda stream: json.dump(schema, stream, indent=2))
 
 
 def _plain(attributes: Mapping[str, Any]) -> dict[str, Any]:

@@ -32,17 +32,17 @@ from citylearn_env.registry import SLOT_CLASSES, resolve_type
 from citylearn_env.settings import Behaviour, resolve
 
 
-def load_schema(schema: str | Path | Mapping[str, Any], *, settings: Behaviour | str | None = None,
-                compat: bool = False) -> DistrictConfig:
+def load_schema(schema: str | Path | Mapping[str, Any], *,
+                settings: Behaviour | str | None = None) -> DistrictConfig:
     """Validate ``schema`` (a schema.json path or an already parsed dict) and read its data files.
 
-    ``settings`` (a :class:`~citylearn_env.settings.Behaviour` or preset name; ``compat=True`` is shorthand for
-    the CityLearn 2.1 preset) decides the data-set defaults that differ between CityLearn 2.1 and its
+    ``settings`` (a :class:`~citylearn_env.settings.Behaviour` or a preset name such as "citylearn-2.1")
+    decides the data-set defaults that differ between CityLearn 2.1 and its
     documentation: ``missing_hvac_mode_is_off`` (a building file without ``hvac_mode`` runs mode 0 "off"
     instead of 1 "cooling"). Relative file names resolve against ``root_directory``, or the schema file's
     folder when that is null.
     """
-    settings = resolve(settings, compat)
+    settings = resolve(settings)
     if isinstance(schema, (str, Path)):
         path = Path(schema)
         try:

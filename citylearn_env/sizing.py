@@ -34,20 +34,30 @@ BATTERIES = {
 }
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class SizingRules:
-    """Sizing parameters (the defaults are the paper's). Temperatures in degC, efficiencies as fractions."""
+    """Sizing parameters, named on construction (the defaults are the paper's)."""
 
     heat_pump_efficiency: float = 0.25
+    """Carnot fraction of the heat pump's COP [-]."""
     target_cooling_temperature: float = 8.0
+    """Supply temperature of cooling [degC]."""
     target_heating_temperature: float = 45.0
+    """Supply temperature of heating [degC]."""
     heat_pump_safety_factor: float = 1.0
+    """Multiplier on the peak electric input [-]."""
     dhw_heater_efficiency: float = 0.9
+    """Thermal efficiency of the electric DHW heater [-]."""
     dhw_heater_safety_factor: float = 1.0
+    """Multiplier on the heater's peak electric input [-]."""
     dhw_tank_fraction: float = 0.5
+    """DHW tank capacity as a fraction of the peak hourly DHW demand [h]."""
     dhw_tank_loss_coefficient: float = 0.004
+    """Standby loss of the DHW tank [fraction per step]."""
     battery: str = "BYD LVS"
+    """Catalogue battery (a key of ``BATTERIES``)."""
     pv_zne_fraction: float = 0.215
+    """Share of the estimated yearly consumption the PV covers [-]."""
 
 
 def heat_pump_power(cooling_kwh: np.ndarray, outdoor_c: np.ndarray, rules: SizingRules) -> float:

@@ -48,8 +48,8 @@ class CityLearnVectorEnv(VectorEnv):
     metadata = {"autoreset_mode": AutoresetMode.NEXT_STEP, "render_modes": []}
 
     def __init__(self, schema: str | Path | Mapping[str, Any] | DistrictConfig, num_envs: int, *,
-                 settings: Behaviour | str | None = None, compat: bool = False, reward_function: Any = None):
-        settings = resolve(settings, compat)
+                 settings: Behaviour | str | None = None, reward_function: Any = None):
+        settings = resolve(settings)
         config = schema if isinstance(schema, DistrictConfig) else load_schema(schema, settings=settings)
         self.single = CityLearnEnv(config, settings=settings, reward_function=reward_function, central_agent=True)
         self.num_envs = num_envs

@@ -33,22 +33,23 @@ def cost_rbc(hour: int, day_type: int) -> float:
     return -0.5 / (24 - len(OFF_PEAK) - len(ON_PEAK))
 
 
+def _charge_then_discharge(hour: int, charge_until: int, discharge_from: int) -> float:
+    """Charge evenly over hours ending 1..``charge_until``, discharge evenly over ``discharge_from``..23."""
+    if hour <= charge_until:
+        return 1.0 / charge_until
+    if discharge_from <= hour <= 23:
+        return -1.0 / (24 - discharge_from)
+    return 0.0
+
+
 def emission_rbc(hour: int, day_type: int) -> float:
     """Charge fully before 8 AM (hours ending 1-8); discharge at a constant rate 12 PM - 11 PM (13-23)."""
-    if hour <= 8:
-        return 1.0 / 8.0
-    if 13 <= hour <= 23:
-        return -1.0 / 11.0
-    return 0.0
+    return _charge_then_discharge(hour, 8, 13)
 
 
 def peak_rbc(hour: int, day_type: int) -> float:
     """Charge fully before 6 AM (hours ending 1-6); discharge steadily 6 AM - 11 PM (hours ending 7-23)."""
-    if hour <= 6:
-        return 1.0 / 6.0
-    if 7 <= hour <= 23:
-        return -1.0 / 17.0
-    return 0.0
+    return _charge_then_discharge(hour, 6, 7)
 
 
 RULES = {"cost_rbc": cost_rbc, "emission_rbc": emission_rbc, "peak_rbc": peak_rbc}
@@ -78,22 +79,23 @@ def without_device_actions(config: DistrictConfig) -> DistrictConfig:
 
 
 def run_policy(schema: str | Path | Mapping[str, Any] | DistrictConfig, policy: str, *, seed: int = 0,
-               ideal_cooling: bool = True, compat: bool = False):
+               ideal_cooling: bool = True, settings: str | None = None):
     """Run one episode with ``policy`` (no_control, random, cost_rbc, emission_rbc, peak_rbc); return the env.
 
     ``schema``: a loaded :class:`DistrictConfig` (loaded once by the caller) or a schema path/dict (loaded
     here). ``ideal_cooling`` deactivates heat-pump actions so the heat pump serves the ideal load (the paper's
     storage benchmarks); all actions are 0 under no_control; ``random`` samples the action space (seeded).
+    ``settings``: the environment's upstream behaviour (a preset name or Behaviour; default corrected).
     """
     from citylearn_env import CityLearnEnv, load_schema
 
     rule = RULES.get(policy)
     if rule is None and policy not in ("no_control", "random"):
         raise ValueError(f"unknown policy {policy!r}; known: no_control, random, {', '.join(RULES)}")
-    config = schema if isinstance(schema, DistrictConfig) else load_schema(schema, compat=compat)
+    config = schema if isinstance(schema, DistrictConfig) else load_schema(schema, settings=settings)
     if ideal_cooling:
         config = without_device_actions(config)
-    env = CityLearnEnv(config, compat=compat)
+    env = CityLearnEnv(config, settings=settings)
     env.reset(seed=seed)
     env.action_space.seed(seed)
     terminated = False

@@ -140,8 +140,8 @@ def run_benchmark(district: DistrictConfig, b: Benchmark, *, sac_episodes: int =
     series = env.series()
     delta = series["indoor_dry_bulb_temperature"][0] - series["indoor_dry_bulb_temperature_set_point"][0]
     over, under = -delta[delta < 0], delta[delta > 0]  # over-cooling: colder than the set point
-    first |= {"overcooling_mean": _mean(over), "overcooling_std": _std(over),
-              "undercooling_mean": _mean(under), "undercooling_std": _std(under)}
+    first |= {"overcooling_mean": mean_or_zero(over), "overcooling_std": std_or_zero(over),
+              "undercooling_mean": mean_or_zero(under), "undercooling_std": std_or_zero(under)}
     return {"id": b.id, **first, "average_daily_peak": result["average_daily_peak"],
             "steps": int(env.t), "mean_abs_action": float(np.mean(np.abs(actions))) if env.action_names else 0.0}
 
@@ -197,11 +197,11 @@ def run_all(schema_path: str | Path, out_dir: str | Path, *, only: list[str] | N
     return results
 
 
-def _mean(x: np.ndarray) -> float:
+def mean_or_zero(x: np.ndarray) -> float:
     return float(x.mean()) if x.size else 0.0
 
 
-def _std(x: np.ndarray) -> float:
+def std_or_zero(x: np.ndarray) -> float:
     return float(x.std()) if x.size else 0.0
 
 

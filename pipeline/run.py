@@ -60,7 +60,7 @@ def run_command(args: argparse.Namespace) -> int:
     from pipeline.controllers import run_policy
 
     policy = "no_control" if args.policy == "zero" else "random"
-    env = run_policy(schema, policy, seed=args.seed, ideal_cooling=False, compat=args.compat)
+    env = run_policy(schema, policy, seed=args.seed, ideal_cooling=False, settings="citylearn-2.1" if args.compat else None)
     kpis = env.evaluate()
     table = kpis.pivot_table(index="cost_function", columns="name", values="value", dropna=False)
     with pd.option_context("display.width", 160, "display.max_columns", 20, "display.precision", 4):

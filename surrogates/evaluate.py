@@ -17,25 +17,19 @@ import pandas as pd
 import torch
 
 from citylearn_env.errors import InputError
-from surrogates.model import (
-    LSTMModel,
-    Normalization,
-    available_inputs,
-    feature_matrix,
-    rollout,
-    torch_threads,
-)
+from surrogates import model as lstm
+from surrogates.model import LSTMModel, Normalization
 from surrogates.train import Segment
 
 
 def predict_segment(model: LSTMModel, normalization: Normalization, inputs: Sequence[str], lookback: int,
                     table: pd.DataFrame, segment: Segment, closed_loop: bool = True) -> np.ndarray:
     """Predicted indoor temperature (degC) of hours ``lookback ..`` of ``segment``."""
-    raw = feature_matrix(table.iloc[segment.start:segment.stop], inputs)
+    raw = lstm.feature_matrix(table.iloc[segment.start:segment.stop], inputs)
     x = torch.from_numpy(normalization.apply(raw).astype(np.float32)).unsqueeze(0)
     model.eval()
-    with torch.no_grad(), torch_threads(1):
-        y = rollout(model, x, lookback, closed_loop=closed_loop)[0].numpy().astype(float)
+    with torch.no_grad(), lstm.torch_threads(1):
+        y = lstm.rollout(model, x, lookback, closed_loop=closed_loop)[0].numpy().astype(float)
     return normalization.target_to_celsius(y)
 
 
@@ -50,7 +44,7 @@ def evaluate_segments(model: LSTMModel, normalization: Normalization, inputs: Se
 
     Monthly metrics group the hours by (reference, calendar month); MAPE is in % of the simulated degC.
     """
-    missing = [n for n in inputs if n not in available_inputs(table, inputs)]
+    missing = [n for n in inputs if n not in lstm.available_inputs(table, inputs)]
     if missing:
         raise InputError("the model needs this input but the ILV table has no such column", column=missing[0])
     frames = []

@@ -147,8 +147,8 @@ def building_loads(timeseries: pd.DataFrame, metadata: pd.Series, *, file: objec
     smaller_cooling = both & (out["cooling_demand_kwh"] < out["heating_demand_kwh"])
     out.loc[smaller_cooling, "cooling_demand_kwh"] = 0.0
     out.loc[both & ~smaller_cooling, "heating_demand_kwh"] = 0.0
-    cooling_sp = _setpoint_c(metadata, "in.cooling_setpoint", file)
-    heating_sp = _setpoint_c(metadata, "in.heating_setpoint", file)
+    cooling_sp = metadata_set_point_c(metadata, "in.cooling_setpoint", file)
+    heating_sp = metadata_set_point_c(metadata, "in.heating_setpoint", file)
     out["cooling_set_point_c"] = cooling_sp
     out["heating_set_point_c"] = heating_sp
     set_point = np.where(out["heating_demand_kwh"] > out["cooling_demand_kwh"], heating_sp, cooling_sp)
@@ -281,7 +281,7 @@ def _metadata_number(metadata: pd.Series, column: str, file: object) -> float:
                          row=f"bldg_id {metadata.name}") from None
 
 
-def _setpoint_c(metadata: pd.Series, column: str, file: object) -> float:
+def metadata_set_point_c(metadata: pd.Series, column: str, file: object) -> float:
     """A ResStock set point cell (``"76F"``, bare numbers are degF) -> degC, via the one shared parser
     :func:`surrogates.energyplus.metadata.parse_setpoint`."""
     from surrogates.energyplus.metadata import parse_setpoint

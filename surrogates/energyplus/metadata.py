@@ -91,6 +91,15 @@ def _missing(value: object) -> bool:
     return value is None or (isinstance(value, float) and math.isnan(value)) or str(value).strip() == ""
 
 
+def _number(pattern: str, text: object, expected: str, *, whole: bool = False) -> float:
+    """The number in group 1 of ``pattern`` matched in ``text`` (the whole text if ``whole``, else the first
+    occurrence); ValueError "``expected``, got ..." otherwise."""
+    match = (re.fullmatch if whole else re.search)(pattern, str(text), re.IGNORECASE)
+    if not match:
+        raise ValueError(f"{expected}, got {text!r}")
+    return float(match.group(1))
+
+
 def parse_r_value(text: str) -> float:
     """Nominal insulation R value in US units (h*ft2*F/Btu) from strings like ``R-30``,
     ``Wood Stud, R-11``, ``2ft R10 Under, Horizontal``; ``None``/``Uninsulated`` -> 0."""
@@ -105,10 +114,7 @@ def parse_r_value(text: str) -> float:
 
 def parse_ach50(text: str) -> float:
     """Air changes per hour at 50 Pa from ``'7 ACH50'`` (or a bare number)."""
-    match = re.fullmatch(r"\s*(\d+(?:\.\d+)?)\s*(ACH50)?\s*", str(text), re.IGNORECASE)
-    if not match:
-        raise ValueError(f"expected e.g. '7 ACH50', got {text!r}")
-    return float(match.group(1))
+    return _number(r"\s*(\d+(?:\.\d+)?)\s*(ACH50)?\s*", text, "expected e.g. '7 ACH50'", whole=True)
 
 
 def parse_vintage(text: str) -> int:
@@ -161,10 +167,7 @@ def parse_setpoint(text: object) -> float:
 
 def parse_leading_number(text: object) -> float:
     """First number in ``'3'``, ``'10+'``, ``'1500-1999'`` style strings."""
-    match = re.search(r"\d+(?:\.\d+)?", str(text))
-    if not match:
-        raise ValueError(f"no number in {text!r}")
-    return float(match.group(0))
+    return _number(r"(\d+(?:\.\d+)?)", text, "expected a number")
 
 
 def parse_floor_area_bin(text: str) -> float:

@@ -58,27 +58,17 @@ def test_too_few_rows(district):
         load_schema(district)
 
 
-def test_nan_value(district):
-    b2 = district.parent / "Building_2.csv"
-    j = _col(b2, "non_shiftable_load")
-    _edit_csv(b2, lambda rows: rows[6].__setitem__(j, "nan"))
-    with pytest.raises(SchemaError, match=r"Building_2.csv.*'non_shiftable_load'.*row 5 \(file line 7\).*NaN"):
-        load_schema(district)
-
-
-def test_empty_cell(district):
-    b2 = district.parent / "Building_2.csv"
-    j = _col(b2, "hour")
-    _edit_csv(b2, lambda rows: rows[3].__setitem__(j, ""))
-    with pytest.raises(SchemaError, match=r"Building_2.csv.*'hour'.*row 2 .*not a number"):
-        load_schema(district)
-
-
-def test_negative_load(district):
-    b1 = district.parent / "Building_1.csv"
-    j = _col(b1, "cooling_demand")
-    _edit_csv(b1, lambda rows: rows[11].__setitem__(j, "-0.5"))
-    with pytest.raises(SchemaError, match=r"Building_1.csv.*'cooling_demand'.*row 10 .*negative value -0.5"):
+@pytest.mark.parametrize("file, column, line, cell, message", [
+    ("Building_2.csv", "non_shiftable_load", 6, "nan", r"Building_2.csv.*'non_shiftable_load'.*row 5 \(file line 7\).*NaN"),
+    ("Building_2.csv", "hour", 3, "", r"Building_2.csv.*'hour'.*row 2 .*not a number"),
+    ("Building_1.csv", "cooling_demand", 11, "-0.5", r"Building_1.csv.*'cooling_demand'.*row 10 .*negative value -0.5"),
+])
+def test_bad_cell(district, file, column, line, cell, message):
+    """A NaN, an empty cell and a negative load: one error naming file, column and row."""
+    path = district.parent / file
+    j = _col(path, column)
+    _edit_csv(path, lambda rows: rows[line].__setitem__(j, cell))
+    with pytest.raises(SchemaError, match=message):
         load_schema(district)
 
 

@@ -93,7 +93,7 @@ def test_missing_hvac_mode_is_off(tmp_path):
     np.testing.assert_array_equal(corrected, np.ones(24))  # 1 = cooling, as documented
     np.testing.assert_array_equal(upstream, np.zeros(24))  # 0 = off, as CityLearn 2.1 reads it
     # compat=True is shorthand for the whole 2.1 preset
-    np.testing.assert_array_equal(load_schema(path, compat=True).buildings[0].series["hvac_mode"], np.zeros(24))
+    np.testing.assert_array_equal(load_schema(path, settings="citylearn-2.1").buildings[0].series["hvac_mode"], np.zeros(24))
 
 
 # ------------------------------------------------------------------------------------------ devices

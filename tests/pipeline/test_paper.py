@@ -70,13 +70,13 @@ def test_unknown_benchmark_id(district, tmp_path):
 
 def test_overcooling_statistics_by_hand(tmp_path):
     """Over-/under-cooling statistics of a run: mean and std of the set-point deviation on each side."""
-    from pipeline.paper import _mean, _std
+    from pipeline.paper import mean_or_zero, std_or_zero
 
     delta = np.array([-1.0, -3.0, 0.5, 0.0, 1.5])
     over, under = -delta[delta < 0], delta[delta > 0]
-    assert (_mean(over), _std(over)) == (2.0, 1.0)
-    assert (_mean(under), _std(under)) == (1.0, 0.5)
-    assert _mean(np.array([])) == 0.0
+    assert (mean_or_zero(over), std_or_zero(over)) == (2.0, 1.0)
+    assert (mean_or_zero(under), std_or_zero(under)) == (1.0, 0.5)
+    assert mean_or_zero(np.array([])) == 0.0
 
 
 def test_multiplier_sweep_on_lstm_district(tmp_path):

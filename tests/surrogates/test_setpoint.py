@@ -40,9 +40,9 @@ def test_every_real_resstock_spelling():
 
 def test_pipeline_ingest_uses_the_same_parser():
     from pipeline.errors import InputError
-    from pipeline.ingest.eulp import _setpoint_c
+    from pipeline.ingest.eulp import metadata_set_point_c
 
     row = pd.Series({"in.cooling_setpoint": "78", "in.heating_setpoint": "24"}, name=1001)
-    assert _setpoint_c(row, "in.cooling_setpoint", "meta.csv") == pytest.approx(46 / 1.8)
+    assert metadata_set_point_c(row, "in.cooling_setpoint", "meta.csv") == pytest.approx(46 / 1.8)
     with pytest.raises(InputError, match=r"meta.csv, column/key 'in.heating_setpoint', row bldg_id 1001"):
-        _setpoint_c(row, "in.heating_setpoint", "meta.csv")
+        metadata_set_point_c(row, "in.heating_setpoint", "meta.csv")
