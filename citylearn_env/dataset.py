@@ -121,11 +121,11 @@ def _v21_spellings() -> dict[str, str]:
                        ("outdoor_relative_humidity", "Relative Humidity [%]"),
                        ("diffuse_solar_irradiance", "Diffuse Solar Radiation [W/m2]"),
                        ("direct_solar_irradiance", "Direct Solar Radiation [W/m2]")):
-        for h in ("6h", "12h", "24h"):
-            table[f"{h} Prediction {text}"] = f"{base}_predicted_{h}"
+        table.update({h + " Prediction " + text: base + "_predicted_" + h for h in ("6h", "12h", "24h")})
     table["Relative Humidity [%]"] = "outdoor_relative_humidity"
-    for i, h in ((1, "6h"), (2, "12h"), (3, "24h")):
-        table[f"{i}h Prediction Electricity Pricing [$/kWh]"] = f"electricity_pricing_predicted_{h}"
+    # baeda_3dem's 1h/2h/3h price forecasts stand in the 6h/12h/24h slots (CityLearn 2.1 reads by position)
+    table.update({slot + " Prediction Electricity Pricing [$/kWh]": "electricity_pricing_predicted_" + h
+                  for slot, h in (("1h", "6h"), ("2h", "12h"), ("3h", "24h"))})
     return table
 
 

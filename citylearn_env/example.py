@@ -44,9 +44,8 @@ def synthetic_series(hours: int, seed: int, n_buildings: int) -> tuple[dict, lis
     rh = np.clip(75.0 - 1.5 * (t_out - 27.0) + rng.normal(0, 3, hours), 5.0, 100.0)
     weather = {"outdoor_dry_bulb_temperature": t_out, "outdoor_relative_humidity": rh,
                "diffuse_solar_irradiance": diffuse, "direct_solar_irradiance": direct}
-    for base in list(weather):
-        for lag, suffix in ((6, "6h"), (12, "12h"), (24, "24h")):
-            weather[f"{base}_predicted_{suffix}"] = np.roll(weather[base], -lag)
+    weather |= {base + "_predicted_" + suffix: np.roll(values, -lag) for base, values in list(weather.items())
+                for lag, suffix in ((6, "6h"), (12, "12h"), (24, "24h"))}
     weekday = cal["day_type"] <= 5
     on_peak = weekday & (cal["hour"] >= 16) & (cal["hour"] <= 18)
     mid = weekday & (cal["hour"] >= 8) & ~on_peak & (cal["hour"] <= 22)

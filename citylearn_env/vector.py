@@ -81,6 +81,11 @@ class CityLearnVectorEnv(VectorEnv):
         self._parts = [slice(i * self.n_buildings, (i + 1) * self.n_buildings) for i in range(num_envs)]
         self._needs_reset = False
 
+    @property
+    def batched_reward(self) -> bool:
+        """True when the reward is computed in one call over all copies' buildings (sum-decomposable)."""
+        return self._batched is not None
+
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         self.inner.reset(seed=seed, options=options)
         for reward in self._rewards:

@@ -297,44 +297,19 @@ def write_surrogate_files(out: Path, files: Mapping[str, bytes]) -> dict:
 # ---------------------------------------------------------------------------------------------- emit
 def schema_dict(config: BuildConfig, names: list[str], sizes: dict[str, dict],
                 dynamics: dict[str, dict] | None) -> dict:
-    """The CityLearn schema of the district (file names relative to the schema's folder)."""
-    observations = {n: {"active": True, "shared_in_central_agent": n in OBSERVATIONS_SHARED}
-                    for n in (*OBSERVATIONS_SHARED, *OBSERVATIONS_BUILDING)}
-    buildings = {}
-    for name in names:
-        devices = sizes[name]
-        spec = {
-            "type": "citylearn.building.LSTMDynamicsBuilding" if dynamics else "citylearn.building.Building",
-            "include": True, "energy_simulation": f"{name}.csv", "weather": "weather.csv",
-            "pricing": "pricing.csv", "carbon_intensity": "carbon_intensity.csv",
-            "inactive_observations": [], "inactive_actions": [],
-            "cooling_device": {"type": "citylearn.energy_model.HeatPump", "autosize": False,
-                               "attributes": devices["cooling_device"]},
-            "dhw_device": {"type": "citylearn.energy_model.ElectricHeater", "autosize": False,
-                           "attributes": devices["dhw_device"]},
-            "dhw_storage": {"type": "citylearn.energy_model.StorageTank", "autosize": False,
-                            "attributes": devices["dhw_storage"]},
-            "electrical_storage": {"type": "citylearn.energy_model.Battery", "autosize": False,
-                                   "attributes": devices["electrical_storage"]},
-            "pv": {"type": "citylearn.energy_model.PV", "autosize": False, "attributes": devices["pv"]},
-            "power_outage": {"simulate_power_outage": False, "stochastic_power_outage": False},
-        }
-        if dynamics:  # v2.1 wants a {cooling, heating} pair; one model serves both modes here
-            block = dynamics[name]
-            spec["dynamics"] = {"cooling": block, "heating": block} if config.layout == "v2.1" else block
-        buildings[name] = spec
-    return {
-        "root_directory": None, "central_agent": True,
-        "simulation_start_time_step": 0, "simulation_end_time_step": _hours(config) - 1,
-        "episode_time_steps": None, "rolling_episode_split": False, "random_episode_split": False,
-        "seconds_per_time_step": 3600.0, "random_seed": config.seed,
-        "observations": observations,
-        "actions": {"cooling_storage": {"active": False}, "heating_storage": {"active": False},
-                    "dhw_storage": {"active": True}, "electrical_storage": {"active": True},
-                    "cooling_device": {"active": bool(dynamics)}, "heating_device": {"active": False}},
-        "reward_function": {"type": "citylearn.reward_function.RewardFunction", "attributes": {}},
-        "buildings": buildings,
-    }
+    """The CityLearn schema of the district (file names relative to the schema's folder), written through
+    the one schema writer :func:`citylearn_env.emit.schema_document`."""
+    from citylearn_env.dataset import DynamicsBlock
+    from citylearn_env.emit import BuildingEntry, schema_document
+
+    slots = ("cooling_device", "dhw_device", "dhw_storage", "electrical_storage", "pv")
+    entries = [BuildingEntry(name, {slot: sizes[name][slot] for slot in slots},
+                             dynamics=DynamicsBlock.from_schema(dynamics[name]) if dynamics else None)
+               for name in names]
+    return schema_document(
+        entries, hours=_hours(config), observations=(*OBSERVATIONS_SHARED, *OBSERVATIONS_BUILDING),
+        shared_observations=OBSERVATIONS_SHARED, layout=config.layout, random_seed=config.seed,
+        active_actions={"dhw_storage", "electrical_storage"} | ({"cooling_device"} if dynamics else set()))
 
 
 def write_manifest(out: Path, config: BuildConfig, timings: dict[str, float],

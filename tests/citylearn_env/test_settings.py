@@ -308,7 +308,8 @@ def test_wrapper_day_type_period(tmp_path):
         wrapper = NormalizedObservationWrapper(CityLearnEnv(path, settings=settings))
         observation, _ = wrapper.reset(seed=0)
         raw = wrapper.unwrapped.observation_names.index("day_type")
-        day = float(wrapper.unwrapped._observation()[raw])
+        env = wrapper.unwrapped
+        day = float(env.flat_observations()[env.layout.central_index][raw])
         names = wrapper.observation_names
         values[settings.wrapper_day_type_period] = (day, observation[names.index("day_type_cos")],
                                                     observation[names.index("day_type_sin")])

@@ -52,7 +52,7 @@ def test_batched_rewards_match_single_envs(schema, reward):
     """Sum-decomposable rewards are computed in one call over all copies; same values as separate envs."""
     n = 3
     vec = CityLearnVectorEnv(schema, n, reward_function={"type": reward, "attributes": {}})
-    assert vec._batched is not None
+    assert vec.batched_reward
     singles = [CityLearnEnv(schema, reward_function={"type": reward, "attributes": {}}) for _ in range(n)]
     vec.reset(seed=1)
     for env in singles:
