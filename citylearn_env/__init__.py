@@ -18,17 +18,30 @@ __all__ = ["CityLearnEnv", "SchemaError", "load_schema", "make_example_env"]
 __version__ = "0.1.0"
 
 
-def make_example_env(n_buildings: int = 3, hours: int = 720, seed: int = 0, **kwargs) -> CityLearnEnv:
-    """An environment on the synthetic example district (written to a temporary folder)."""
+def _example_schema(n_buildings: int, hours: int, seed: int):
     import tempfile
 
     from citylearn_env.example import write_example_district
 
     folder = tempfile.mkdtemp(prefix="citylearn_env_example_")
-    return CityLearnEnv(write_example_district(folder, n_buildings=n_buildings, hours=hours, seed=seed), **kwargs)
+    return write_example_district(folder, n_buildings=n_buildings, hours=hours, seed=seed)
 
 
-for _id, _entry in (("citylearn_env/CityLearn-v0", "citylearn_env.env:CityLearnEnv"),
-                    ("citylearn_env/Example-v0", "citylearn_env:make_example_env")):
+def make_example_env(n_buildings: int = 3, hours: int = 720, seed: int = 0, **kwargs) -> CityLearnEnv:
+    """An environment on the synthetic example district (written to a temporary folder)."""
+    return CityLearnEnv(_example_schema(n_buildings, hours, seed), **kwargs)
+
+
+def make_example_vector_env(num_envs: int = 1, n_buildings: int = 3, hours: int = 720, seed: int = 0, **kwargs):
+    """``num_envs`` batched copies of the synthetic example district (:class:`citylearn_env.vector.CityLearnVectorEnv`)."""
+    from citylearn_env.vector import CityLearnVectorEnv
+
+    return CityLearnVectorEnv(_example_schema(n_buildings, hours, seed), num_envs, **kwargs)
+
+
+for _id, _entry, _vector in (
+        ("citylearn_env/CityLearn-v0", "citylearn_env.env:CityLearnEnv", "citylearn_env.vector:CityLearnVectorEnv"),
+        ("citylearn_env/Example-v0", "citylearn_env:make_example_env", "citylearn_env:make_example_vector_env")):
     if _id not in gym.registry:
-        gym.register(id=_id, entry_point=_entry)
+        # gym.make_vec(id, num_envs=N, vectorization_mode="vector_entry_point") gives the batched vector env
+        gym.register(id=_id, entry_point=_entry, vector_entry_point=_vector)

@@ -29,6 +29,7 @@ ACTION_NAMES = (
     "electrical_storage",
     "cooling_device",
     "heating_device",
+    "cooling_or_heating_device",
 )
 
 

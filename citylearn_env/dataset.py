@@ -9,9 +9,9 @@ Layouts
       CityLearn 2.1 expects them, so a dropped, extra, renamed or swapped column is an error instead of a
       silent shift of every later column.
     * ``"v2.2"`` (CityLearn 2.2 and later): snake_case names, read by name in any order. The later aliases
-      ``*_predicted_1/2/3`` (the 6/12/24 h slots) and ``indoor_dry_bulb_temperature_cooling_set_point`` are
-      accepted too; ``minutes``, ``comfort_band`` and ``indoor_dry_bulb_temperature_heating_set_point``
-      are accepted and ignored.
+      ``*_predicted_1/2/3`` (the 6/12/24 h slots) are accepted too; the v2.2+ building columns
+      ``indoor_dry_bulb_temperature_cooling_set_point`` / ``..._heating_set_point`` and ``comfort_band`` are
+      read (see :func:`_set_points`); ``minutes`` is accepted and ignored.
 
 Each column table maps our internal name (the v2.2 header) to the canonical v2.1 header text, in file order.
 
@@ -37,6 +37,7 @@ from typing import Any, TextIO
 
 import numpy as np
 
+from citylearn_env import ranges
 from citylearn_env.errors import SchemaError
 
 LAYOUTS = ("v2.1", "v2.2")
@@ -61,6 +62,10 @@ BUILDING_COLUMNS: dict[str, str] = {
     "indoor_dry_bulb_temperature_set_point": "Temperature Set Point (C)",
     "hvac_mode": "HVAC Mode (Off/Cooling/Heating)",
     "power_outage": "Power Outage",
+    # v2.2+ only (no CityLearn 2.1 file has them; the texts name them if a v2.1-layout file is written)
+    "indoor_dry_bulb_temperature_cooling_set_point": "Cooling Set Point (C)",
+    "indoor_dry_bulb_temperature_heating_set_point": "Heating Set Point (C)",
+    "comfort_band": "Comfort Band (C)",
 }
 #: the first 12 building columns are required; the rest default (occupants 0, set point 0, hvac_mode see
 #: :func:`parse_table`, power_outage 0)
@@ -145,13 +150,18 @@ NAME_ALIASES: dict[str, str] = {
         )
         for i, h in ((1, "6h"), (2, "12h"), (3, "24h"))
     },
-    "indoor_dry_bulb_temperature_cooling_set_point": "indoor_dry_bulb_temperature_set_point",
 }
 #: later-version building columns that are accepted and ignored (v2.2 layout only)
-IGNORED_NAMED_COLUMNS = ("minutes", "comfort_band", "indoor_dry_bulb_temperature_heating_set_point")
+IGNORED_NAMED_COLUMNS = ("minutes",)
 #: building columns a v2.2 file may leave out besides the optional tail (they default to 0)
 NAMED_OPTIONAL = ("daylight_savings_status", "average_unmet_cooling_setpoint_difference",
                   "indoor_relative_humidity")
+#: building columns whose cells may be empty: measured values only observed (and, for the indoor temperature,
+#: compared with the set point in the comfort KPIs), never used by the device physics of a building without
+#: LSTM dynamics. An empty cell is NaN ("not available"), as CityLearn 2.1.2 reads it (its 2022 data sets leave
+#: all three empty); see docs/environment.md "Empty and missing optional columns".
+MAY_BE_EMPTY = ("indoor_dry_bulb_temperature", "average_unmet_cooling_setpoint_difference",
+                "indoor_relative_humidity")
 #: columns (internal names) that must not be negative
 NON_NEGATIVE = ("non_shiftable_load", "dhw_demand", "cooling_demand", "heating_demand", "solar_generation",
                 "occupant_count")
@@ -292,21 +302,26 @@ def parse_table(frame, kind: str, path: object, n_rows: int | None, *,
     mapping = columns_of(frame.columns, kind, path)
     n = len(frame) if n_rows is None else int(n_rows)
     if len(frame) < n:
-        raise SchemaError(f"has {len(frame)} data rows; the schema's simulation range needs {n}",
-                          file=path, row=len(frame))
+        raise SchemaError(f"has {len(frame)} data rows; the schema's simulation range (simulation_end_time_step)"
+                          f" needs {n}", file=path, row=len(frame))
     out: dict[str, np.ndarray] = {}
     for name, col in mapping.items():
         text = frame[col].to_numpy()[:n]
+        if name in MAY_BE_EMPTY and kind == "building":
+            text = np.where(np.char.strip(text.astype(str)) == "", "nan", text)
         try:
             values = np.asarray(text, dtype=np.float64)
         except ValueError:
             bad = _first_bad_number(text)
             raise SchemaError(f"not a number: {text[bad]!r}", file=path, column=col, row=_row(bad)) from None
-        if np.isnan(values).any():
+        if np.isnan(values).any() and not (name in MAY_BE_EMPTY and kind == "building"):
             raise SchemaError("missing value (NaN)", file=path, column=col, row=_row(int(np.isnan(values).argmax())))
         if name in NON_NEGATIVE and (values < 0).any():
             i = int((values < 0).argmax())
             raise SchemaError(f"negative value {values[i]:g}", file=path, column=col, row=_row(i))
+        outside = ranges.first_outside(name, values)  # finite and in range: citylearn_env.ranges
+        if outside is not None:
+            raise SchemaError(outside[1], file=path, column=col, row=_row(outside[0]))
         out[name] = values.astype(np.float32).astype(np.float64)
     if kind == "building":
         both = (out["cooling_demand"] > 0) & (out["heating_demand"] > 0)
@@ -320,6 +335,7 @@ def parse_table(frame, kind: str, path: object, n_rows: int | None, *,
             out.setdefault(name, np.zeros(n))
         # CityLearn 2.1 treats a missing hvac_mode column as 0 (off); its docs and later versions mean cooling.
         out.setdefault("hvac_mode", np.full(n, 0.0 if missing_hvac_mode_is_off else 1.0))
+        _set_points(out, n, given="indoor_dry_bulb_temperature_set_point" in mapping)
         for name in ("hvac_mode", "power_outage"):
             bad = ~np.isin(out[name], (0, 1, 2) if name == "hvac_mode" else (0, 1))
             if bad.any():
@@ -333,6 +349,26 @@ def parse_table(frame, kind: str, path: object, n_rows: int | None, *,
             raise SchemaError(f"relative humidity {rh[i]:g} outside 0..100 %", file=path,
                               column=mapping["outdoor_relative_humidity"], row=_row(i))
     return out
+
+
+def _set_points(out: dict[str, np.ndarray], n: int, *, given: bool) -> None:
+    """The three set-point columns of a building [degC]. A v2.1 file has one set point, which then serves as
+    cooling and heating set point too. A v2.2+ file has ``..._cooling_set_point`` and
+    ``..._heating_set_point``; the single ``indoor_dry_bulb_temperature_set_point`` that comfort is measured
+    against is then the heating set point in heating mode (hvac_mode 2) and the cooling one otherwise (unless
+    the file gives it, ``given``). A missing one defaults to the other. ``comfort_band`` defaults to 2 degC."""
+    single = out["indoor_dry_bulb_temperature_set_point"]
+    cooling = out.get("indoor_dry_bulb_temperature_cooling_set_point")
+    heating = out.get("indoor_dry_bulb_temperature_heating_set_point")
+    if cooling is None and heating is None:
+        cooling = heating = single
+    cooling = heating if cooling is None else cooling
+    heating = cooling if heating is None else heating
+    out["indoor_dry_bulb_temperature_cooling_set_point"] = cooling
+    out["indoor_dry_bulb_temperature_heating_set_point"] = heating
+    if not given:
+        out["indoor_dry_bulb_temperature_set_point"] = np.where(out["hvac_mode"] == 2, heating, cooling)
+    out.setdefault("comfort_band", np.full(n, 2.0))
 
 
 def _first_bad_number(text) -> int:

@@ -25,6 +25,8 @@ from citylearn_env.state import END_USE_SLOTS
 
 STORAGE_ACTIONS = ("cooling_storage", "heating_storage", "dhw_storage", "electrical_storage")
 DEVICE_ACTIONS = ("cooling_device", "heating_device")
+#: the v2.2+ combined heat-pump action in [-1, 1]: a < 0 is a cooling action of -a, a > 0 a heating action of a
+COMBINED_DEVICE_ACTION = "cooling_or_heating_device"
 
 
 class CityLearnEnv(gym.Env):
@@ -85,6 +87,9 @@ class CityLearnEnv(gym.Env):
             if name in DEVICE_ACTIONS:
                 lo.append(0.0), hi.append(1.0)
                 continue
+            if name == COMBINED_DEVICE_ACTION:
+                lo.append(-1.0), hi.append(1.0)
+                continue
             if name == "electrical_storage":
                 cap, power = d.battery.capacity[b], d.battery.nominal_power[b]
                 bound = power / cap if cap > 0 else 1.0
@@ -95,15 +100,20 @@ class CityLearnEnv(gym.Env):
             lo.append(-bound), hi.append(bound)
         self._act_low, self._act_high = np.array(lo), np.array(hi)
         names = (*STORAGE_ACTIONS, *DEVICE_ACTIONS)
-        self._action_table_names = names
         self._action_template = np.zeros((len(names), d.n))
         self._action_template[len(STORAGE_ACTIONS):] = np.nan
-        self._action_rows = np.array([names.index(n) for n, _ in self.action_pairs], dtype=np.intp)
-        self._action_cols = np.array([b for _, b in self.action_pairs], dtype=np.intp)
+        plain = [i for i, (n, _) in enumerate(self.action_pairs) if n != COMBINED_DEVICE_ACTION]
+        self._plain_actions = np.array(plain, dtype=np.intp)
+        self._action_rows = np.array([names.index(self.action_pairs[i][0]) for i in plain], dtype=np.intp)
+        self._action_cols = np.array([self.action_pairs[i][1] for i in plain], dtype=np.intp)
+        combined = [i for i, (n, _) in enumerate(self.action_pairs) if n == COMBINED_DEVICE_ACTION]
+        self._combined_actions = np.array(combined, dtype=np.intp) if combined else None
+        self._combined_cols = np.array([self.action_pairs[i][1] for i in combined], dtype=np.intp)
+        self._device_rows = (names.index("cooling_device"), names.index("heating_device"))
         self._action_index = {
             name: (np.array([i for i, (n, _) in enumerate(self.action_pairs) if n == name], dtype=np.intp),
                    np.array([b for n, b in self.action_pairs if n == name], dtype=np.intp))
-            for name in (*STORAGE_ACTIONS, *DEVICE_ACTIONS)
+            for name in (*STORAGE_ACTIONS, *DEVICE_ACTIONS, COMBINED_DEVICE_ACTION)
         }
 
     def _setup_episodes(self, override: int | None) -> None:
@@ -245,9 +255,17 @@ class CityLearnEnv(gym.Env):
         return self._flat[self.layout.central_index].astype(np.float32)
 
     def _actions(self, a: np.ndarray) -> Actions:
-        """Action vector -> typed per-building actions: inactive storage actions 0, inactive device actions NaN."""
+        """Action vector -> typed per-building actions: inactive storage actions 0, inactive device actions NaN;
+        a combined ``cooling_or_heating_device`` action becomes a cooling and a heating action (one of them 0)."""
         table = self._action_template.copy()
-        table[self._action_rows, self._action_cols] = a
+        if self._combined_actions is None:
+            table[self._action_rows, self._action_cols] = a
+        else:
+            table[self._action_rows, self._action_cols] = a[self._plain_actions]
+            both = a[self._combined_actions]
+            cooling, heating = self._device_rows
+            table[cooling, self._combined_cols] = np.maximum(-both, 0.0)
+            table[heating, self._combined_cols] = np.maximum(both, 0.0)
         return Actions(*table)
 
     def _outage_signal(self, start: int, length: int) -> np.ndarray:
@@ -275,12 +293,17 @@ class CityLearnEnv(gym.Env):
     # ------------------------------------------------------------------ results
     @property
     def observation_names(self) -> list[str]:
-        """Names of the central observation vector's entries."""
-        return self.layout.names(central=True)
+        """Names of the central observation vector's entries: ``"<building>.<observation>"``, and the bare
+        observation name for observations shared in the central agent (they appear once)."""
+        shared = set(self.config.shared_observations)
+        pairs = self.layout.pairs
+        return [name if name in shared else f"{self.building_names[b]}.{name}"
+                for name, b in (pairs[i] for i in self.layout.central_index)]
 
     @property
     def action_names(self) -> list[str]:
-        return [name for name, _ in self.action_pairs]
+        """Names of the action vector's entries: ``"<building>.<action>"``."""
+        return [f"{self.building_names[b]}.{name}" for name, b in self.action_pairs]
 
     def series(self, window: slice | None = None) -> dict[str, np.ndarray]:
         """Recorded and derived episode series, name -> (B, t + 1) arrays (see :mod:`citylearn_env.history`)."""

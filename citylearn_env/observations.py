@@ -11,6 +11,7 @@ from collections.abc import Iterator, Mapping
 
 import numpy as np
 
+from citylearn_env.dataset import NAME_ALIASES
 from citylearn_env.district import District
 from citylearn_env.errors import SchemaError
 from citylearn_env.state import END_USES
@@ -25,14 +26,21 @@ STATIC_ALIASES = {
     "indoor_relative_humidity_without_control": "indoor_relative_humidity",
     "indoor_dry_bulb_temperature_set_point_without_control": "indoor_dry_bulb_temperature_set_point",
 }
-#: observation name -> end use, for the device COP observations (derived from weather and the device)
-COP_OBSERVATIONS = {"cooling_device_cop": "cooling", "heating_device_cop": "heating", "dhw_device_cop": "dhw"}
+#: observation name -> end use, for the device COP observations (derived from weather and the device); the
+#: v2.2+ names ``*_device_efficiency`` mean the same (a heater's efficiency is its "COP")
+COP_OBSERVATIONS = {"cooling_device_cop": "cooling", "heating_device_cop": "heating", "dhw_device_cop": "dhw",
+                    "cooling_device_efficiency": "cooling", "heating_device_efficiency": "heating",
+                    "dhw_device_efficiency": "dhw"}
+#: signed set-point deviations (v2.2+): observation -> the set-point column; value T_indoor - T_set [degC]
+SET_POINT_DELTAS = {"indoor_dry_bulb_temperature_cooling_delta": "indoor_dry_bulb_temperature_cooling_set_point",
+                    "indoor_dry_bulb_temperature_heating_delta": "indoor_dry_bulb_temperature_heating_set_point"}
 #: thermal energy delivered (device + storage) observed as a demand
 DELIVERED_OBSERVATIONS = {"cooling_demand": "cooling", "heating_demand": "heating", "dhw_demand": "dhw"}
 
 DYNAMIC = (
     "indoor_dry_bulb_temperature",
     "indoor_dry_bulb_temperature_delta",
+    *SET_POINT_DELTAS,
     "net_electricity_consumption",
     *DELIVERED_OBSERVATIONS,
     "cooling_storage_soc", "heating_storage_soc", "dhw_storage_soc", "electrical_storage_soc",
@@ -51,6 +59,9 @@ def dynamic_value(district: District, name: str, t: int) -> np.ndarray:
     if name == "indoor_dry_bulb_temperature_delta":
         setpoint = district.episode["indoor_dry_bulb_temperature_set_point"][:, t]
         return np.abs(district.building_record.indoor_dry_bulb_temperature[:, t] - setpoint)
+    column = SET_POINT_DELTAS.get(name)
+    if column is not None:
+        return district.building_record.indoor_dry_bulb_temperature[:, t] - district.episode[column][:, t]
     return district.recorded[name][:, t]
 
 
@@ -62,8 +73,10 @@ def static_series(district: District, name: str, *, full_range: bool = False) ->
     if end_use is not None:
         params = district.end_use_params[END_USES.index(end_use)]
         return params.cop if full_range else district.end_use(end_use).cop
-    signals = district.signals if full_range else district.episode
-    return signals.columns.get(STATIC_ALIASES.get(name, name))
+    columns = (district.signals if full_range else district.episode).columns
+    if name in columns:
+        return columns[name]
+    return columns.get(STATIC_ALIASES.get(name) or NAME_ALIASES.get(name, name))
 
 
 def is_known(district: District, name: str) -> bool:
@@ -191,6 +204,8 @@ def _bound(d: District, name: str, b: int) -> tuple[float, float]:
         return float(t.min()) - 10.0, float(t.max()) + 10.0
     if name == "indoor_dry_bulb_temperature_delta":
         return 0.0, 10.0
+    if name in SET_POINT_DELTAS:
+        return -10.0, 10.0
     if name in DELIVERED_OBSERVATIONS:
         return 0.0, 1.15 * float(uses[DELIVERED_OBSERVATIONS[name]].demand[b].max())
     if name == "electrical_storage_electricity_consumption":

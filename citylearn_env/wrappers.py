@@ -14,23 +14,26 @@ class NormalizedObservationWrapper(gym.ObservationWrapper):
     """Periodic hour/day_type/month as (cos, sin) pairs, then min-max scaling of everything to [0, 1].
 
     The bounds are the environment's observation bounds (estimated over the simulation range); values
-    outside them are not clipped (as upstream). The day_type period is the environment's
+    outside them are not clipped (as upstream) unless ``clip=True``, which clips every value to [0, 1]. The
+    day_type period is the environment's
     ``settings.wrapper_day_type_period`` (8 in CityLearn 2.1, 7 corrected) unless ``day_type_period`` is given.
     """
 
-    def __init__(self, env: gym.Env, *, day_type_period: float | None = None):
+    def __init__(self, env: gym.Env, *, day_type_period: float | None = None, clip: bool = False):
         super().__init__(env)
+        self.clip = bool(clip)
         base = env.unwrapped
         if day_type_period is None:
             day_type_period = base.settings.wrapper_day_type_period
         periods = dict(PERIODS, day_type=float(day_type_period))
+        kinds = base.layout.names(central=True)  # bare observation names, to find the periodic ones
         names = base.observation_names
         low, high = base.observation_space.low.astype(np.float64), base.observation_space.high.astype(np.float64)
         self._plan: list[tuple[int, float | None]] = []
         out_names, lo, hi = [], [], []
-        for i, name in enumerate(names):
-            if name in periods:
-                self._plan.append((i, periods[name]))
+        for i, (kind, name) in enumerate(zip(kinds, names, strict=True)):
+            if kind in periods:
+                self._plan.append((i, periods[kind]))
                 out_names += [f"{name}_cos", f"{name}_sin"]
                 lo += [-1.0, -1.0]
                 hi += [1.0, 1.0]
@@ -54,7 +57,10 @@ class NormalizedObservationWrapper(gym.ObservationWrapper):
             else:
                 sin, cos = periodic_encoding(x, period)
                 values += [float(cos), float(sin)]
-        return ((np.array(values) - self._lo) / self._span).astype(np.float32)
+        scaled = (np.array(values) - self._lo) / self._span
+        if self.clip:
+            scaled = np.clip(scaled, 0.0, 1.0)
+        return scaled.astype(np.float32)
 
 
 class NormalizedActionWrapper(gym.ActionWrapper):

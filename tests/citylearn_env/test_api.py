@@ -76,8 +76,10 @@ def test_central_observation_shares_names_once(schema):
     names = env.observation_names
     for shared in env.config.shared_observations:
         assert names.count(shared) <= 1
-    assert names.count("electrical_storage_soc") == 3
-    assert env.action_names == ["dhw_storage", "electrical_storage"] * 3
+    # building observations and actions name their building; shared ones stay bare, once
+    assert [n for n in names if n.endswith("electrical_storage_soc")] == [
+        f"Building_{b}.electrical_storage_soc" for b in (1, 2, 3)]
+    assert env.action_names == [f"Building_{b}.{a}" for b in (1, 2, 3) for a in ("dhw_storage", "electrical_storage")]
 
 
 def test_normalized_wrappers(schema):

@@ -36,9 +36,10 @@ def test_schema_edits_follow_the_configuration(district):
     edited = benchmark_schema(config, b["rlc-b1-c-bess_pv"], (312, 719))
     env = CityLearnEnv(edited)
     assert env.building_names == ("Building_1",)
-    assert env.action_names == ["electrical_storage"]
-    assert env.observation_names == ["hour", "day_type", "net_electricity_consumption", "electricity_pricing",
-                                     "solar_generation", "electrical_storage_soc"]
+    assert env.action_names == ["Building_1.electrical_storage"]
+    assert env.observation_names == ["hour", "day_type", "Building_1.net_electricity_consumption",
+                                     "electricity_pricing", "Building_1.solar_generation",
+                                     "Building_1.electrical_storage_soc"]
     # 719 - 312 + 1 = 408 time steps; 6 observations, 3 of them shared (hour, day_type, pricing)
     assert env.reset()[0].shape == (6,) and env.episode_length == 408
     assert edited.shared_observations == ("hour", "day_type", "electricity_pricing")

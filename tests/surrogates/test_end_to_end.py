@@ -42,7 +42,8 @@ def write_district(folder, loads: pd.DataFrame, ideal_temperature: np.ndarray, b
         "indoor_dry_bulb_temperature_set_point": loads["indoor_dry_bulb_temperature_set_point"].to_numpy(),
         "hvac_mode": 2, "power_outage": 0,
     }
-    pd.DataFrame({k: building[k] for k in dataset.BUILDING_COLUMNS}).to_csv(folder / "Building_1.csv", index=False)
+    pd.DataFrame({k: building[k] for k in dataset.BUILDING_COLUMNS if k in building}).to_csv(folder / "Building_1.csv",
+                                                                                         index=False)
     weather = pd.read_csv(folder / "weather.csv")
     for column in ("outdoor_dry_bulb_temperature", "direct_solar_irradiance", "diffuse_solar_irradiance"):
         weather[column] = loads[column].to_numpy()
@@ -73,7 +74,7 @@ def run_episode(schema: dict, heating_kwh: np.ndarray) -> tuple[np.ndarray, np.n
     names = env.action_names
     for t in range(len(heating_kwh) - 1):
         action = np.zeros(len(names), dtype=np.float32)
-        action[names.index("heating_device")] = heating_kwh[t + 1] / (NOMINAL_KW * cop[t + 1])
+        action[names.index(f"{env.building_names[0]}.heating_device")] = heating_kwh[t + 1] / (NOMINAL_KW * cop[t + 1])
         *_, terminated, truncated, _ = env.step(action)
         if terminated or truncated:
             break
