@@ -1,7 +1,7 @@
 """Wall time of EnergyPlus ILV generation for one house-year, and the speed-up with 2 worker processes.
 
     .venv/bin/python benchmarks/energyplus_ilv.py [--repeats 3] [--timesteps 1 4]
-    .venv/bin/python benchmarks/energyplus_ilv.py --train     # surrogate accuracy on raw/ilv/*.parquet
+    .venv/bin/python benchmarks/energyplus_ilv.py --train     # surrogate accuracy on the fixture's ILV tables
 
 One house-year = metadata -> epJSON model -> ideal-loads run -> multiplier-1 replay, free float and 4
 partial replays (7 EnergyPlus runs, hourly reporting for the replays) -> SQLite reads -> ILV table in memory.
@@ -56,7 +56,8 @@ def train_on_raw(epochs: int | None, use_free_float: bool = True) -> None:
     from surrogates.train import TrainConfig, train_surrogate
 
     medians = []
-    for path in sorted((Path(__file__).resolve().parents[1] / "raw" / "ilv").glob("*.parquet")):
+    fixture = Path(__file__).resolve().parents[1] / "tests" / "fixtures" / "synthetic_district" / "ilv"
+    for path in sorted(fixture.glob("*.parquet")):
         table = read_ilv(path)
         config = TrainConfig(progress=False, use_free_float=use_free_float,
                              **({} if epochs is None else {"epochs": epochs}))
@@ -72,7 +73,7 @@ def train_on_raw(epochs: int | None, use_free_float: bool = True) -> None:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--train", action="store_true", help="only the surrogate accuracy on raw/ilv")
+    parser.add_argument("--train", action="store_true", help="only the surrogate accuracy on the test fixture ILV tables")
     parser.add_argument("--epochs", type=int, default=None, help="training epochs (default: TrainConfig's)")
     parser.add_argument("--no-free-float", action="store_true", help="leave the free-float run out of training")
     parser.add_argument("--repeats", type=int, default=3)

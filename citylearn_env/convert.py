@@ -1,7 +1,8 @@
 """Rewrite a CityLearn dataset from one file layout to the other (v2.1 positional <-> v2.2 named columns).
 
 Values are copied unchanged (the text of every cell is kept); only headers, the carbon column name and the
-``dynamics`` block change. LSTM weight files are referenced by absolute path, not copied.
+``dynamics`` block change. LSTM weight files are copied next to the new schema (a dataset's files stay
+inside its folder, see :mod:`citylearn_env.paths`).
 """
 
 from __future__ import annotations
@@ -9,6 +10,7 @@ from __future__ import annotations
 import copy
 import json
 import os
+import shutil
 from pathlib import Path
 
 from citylearn_env import dataset
@@ -35,7 +37,7 @@ def convert_dataset(schema_path: str | Path, out_dir: str | Path, *, to_layout: 
                 done.add(name)
         dynamics = spec.get("dynamics")
         if dynamics:
-            spec["dynamics"] = _convert_dynamics(dynamics, root, to_layout)
+            spec["dynamics"] = _convert_dynamics(dynamics, root, to_layout, out)
     path = out / "schema.json"
     path.write_text(json.dumps(new, indent=2))
     return path
@@ -56,12 +58,14 @@ def _convert_file(src: Path, dst: Path, kind: str, to_layout: str) -> None:
     os.replace(tmp, dst)
 
 
-def _convert_dynamics(dynamics: dict, root: Path, to_layout: str) -> dict:
-    def absolute(block: dict) -> dict:
+def _convert_dynamics(dynamics: dict, root: Path, to_layout: str, out: Path) -> dict:
+    def absolute(block: dict) -> dict:  # the weights file copied into ``out``, referenced by its name
         block = copy.deepcopy(block)
         attrs = block.setdefault("attributes", {})
         if "filename" in attrs:
-            attrs["filename"] = str((root / attrs["filename"]).resolve())
+            name = Path(attrs["filename"]).name
+            shutil.copyfile(root / attrs["filename"], out / name)
+            attrs["filename"] = name
         return block
 
     if to_layout == "v2.2":

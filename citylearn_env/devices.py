@@ -156,16 +156,24 @@ def battery_limit(energy: np.ndarray, soc_prev: np.ndarray, booked: np.ndarray, 
 
 def battery_charge(energy: np.ndarray, soc_prev: np.ndarray, booked: np.ndarray, battery: BatteryParams,
                    efficiency_prev: np.ndarray, capacity_prev: np.ndarray, *,
-                   extrapolate_first_segment: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+                   extrapolate_first_segment: bool = False,
+                   efficiency_from_request: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """One battery step. Returns (soc [-], balance [kWh], round-trip efficiency [-], degraded capacity [kWh]).
 
     The request is clipped by :func:`battery_limit`; the step's efficiency comes from the power-efficiency
-    curve at |clipped energy| / nominal power; the storage model is :func:`storage_charge` with one-way
+    curve at |clipped energy| / nominal power (``efficiency_from_request``, CityLearn 2.5: at min(|request|,
+    capacity-power-curve limit) / nominal power); the storage model is :func:`storage_charge` with one-way
     efficiency sqrt(efficiency); capacity fades by capacity_loss_coefficient * C * |balance| / (2 C_prev) [kWh].
     """
     e = battery_limit(energy, soc_prev, booked, battery, efficiency_prev, capacity_prev,
                       extrapolate_first_segment=extrapolate_first_segment)
-    x = np.abs(e) * battery.inverse_nominal_power
+    basis = np.abs(e)
+    if efficiency_from_request:
+        soc0 = np.maximum(0.0, soc_prev * (1.0 - battery.loss_coefficient))
+        p_max = battery.nominal_power * interpolate_curve(soc0, battery.capacity_power,
+                                                          extrapolate_first_segment=extrapolate_first_segment)
+        basis = np.minimum(np.abs(energy), p_max)
+    x = basis * battery.inverse_nominal_power
     efficiency = interpolate_curve(x, battery.power_efficiency, extrapolate_first_segment=extrapolate_first_segment)
     soc, balance = storage_charge(soc_prev, e, battery.capacity, battery.loss_coefficient, np.sqrt(efficiency))
     fade = np.divide(battery.capacity_loss_coefficient * battery.capacity * np.abs(balance), 2.0 * capacity_prev,

@@ -1,6 +1,6 @@
 """LSTM indoor-temperature dynamics: a torch-free ``.pth`` reader and a batched bank of building models.
 
-``read_pth_state_dict`` reads a PyTorch zip checkpoint with a restricted unpickler (tensors and plain
+``read_pth_state_dict`` reads a PyTorch checkpoint (zip or pre-1.6 legacy) with a restricted unpickler (tensors and plain
 containers only, nothing executed). :class:`LSTMBank` advances the LSTM models of all dynamics buildings of a
 district together, one call per environment step, with CityLearn 2.1 semantics (see
 docs/environment_dynamics.md for the window/state rules and the ``lstm_*`` quirks of
@@ -112,20 +112,68 @@ class _WeightsUnpickler(pickle.Unpickler):
         return self._storages[key]
 
 
-def read_pth_state_dict(path: str | Path) -> dict[str, np.ndarray]:
-    """Read the model weights of a PyTorch zip checkpoint (``torch.save``) without torch.
+class _Deferred:
+    """A tensor of a legacy (non-zip) checkpoint, rebuilt once its storage (stored after the pickle) is read."""
 
-    Accepts a ``{'model_state_dict': {...}, ...}`` checkpoint or a bare state dict. The pickle may only
-    reference tensor/storage rebuild helpers and ``collections.OrderedDict``; any other global (code) is
-    refused with :class:`SchemaError` before anything is executed. Returns name -> numpy array (dtype of the
-    stored tensor, C-contiguous copies).
-    """
-    path = Path(path)
-    try:
-        archive = zipfile.ZipFile(path)
-    except (OSError, zipfile.BadZipFile) as exc:
-        raise SchemaError(f"cannot read as a PyTorch zip checkpoint ({exc}); the legacy non-zip torch.save "
-                          "format is not supported", file=path) from None
+    def __init__(self, storage, offset, size, stride, *_):
+        self.storage, self.offset, self.size, self.stride = storage, offset, size, stride
+
+
+class _LegacyUnpickler(pickle.Unpickler):
+    """The object pickle of a pre-1.6 ``torch.save`` file: the same allowed globals as the zip reader, tensors
+    deferred (their storages follow the pickle in the file); persistent id
+    ``('storage', type, key, location, numel, view)`` with no view."""
+
+    def find_class(self, module: str, name: str):
+        if (module, name) == ("torch._utils", "_rebuild_tensor_v2"):
+            return _Deferred
+        return _WeightsUnpickler.find_class(self, module, name)  # type: ignore[arg-type]
+
+    def persistent_load(self, pid):
+        if not (isinstance(pid, tuple) and len(pid) == 6 and pid[0] == "storage"
+                and isinstance(pid[1], _StorageType) and pid[5] is None):
+            raise ValueError(f"unsupported persistent id {pid!r}")
+        return (pid[2], _STORAGE_DTYPES[pid[1].name], int(pid[4]))
+
+
+class _PlainUnpickler(pickle.Unpickler):
+    def find_class(self, module: str, name: str):
+        raise _RefusedGlobal(f"{module}.{name}")
+
+
+def _read_legacy(stream) -> object:
+    """Read a pre-1.6 (non-zip) ``torch.save`` stream: three header pickles (magic number, protocol 1001,
+    system info), the object pickle, the list of storage keys, then per storage an int64 element count and
+    its raw little- or big-endian bytes. Nothing but tensors and plain containers is built."""
+    magic, protocol, info = (_PlainUnpickler(stream).load() for _ in range(3))
+    if magic != 0x1950A86A20F9469CFC6C or protocol != 1001 or not isinstance(info, dict):
+        raise ValueError("not a PyTorch checkpoint (no legacy torch.save header)")
+    order = "<" if info.get("little_endian", True) else ">"
+    obj = _LegacyUnpickler(stream).load()
+    tensors = list(_deferred(obj))
+    codes = {t.storage[0]: t.storage[1] for _, _, t in tensors}
+    storages = {}
+    for key in _PlainUnpickler(stream).load():
+        numel = int(np.frombuffer(stream.read(8), dtype=order + "i8")[0])
+        dtype = np.dtype(codes.get(key, "<f4")).newbyteorder(order)
+        storages[key] = np.frombuffer(stream.read(numel * dtype.itemsize), dtype=dtype).astype(dtype.newbyteorder("="))
+    for parent, name, t in tensors:
+        parent[name] = _rebuild_tensor(storages[t.storage[0]], t.offset, t.size, t.stride)
+    return obj
+
+
+def _deferred(obj: object):
+    """(dict, key, tensor) of every deferred tensor in ``obj``'s (nested) dicts."""
+    if isinstance(obj, dict):
+        for name, value in obj.items():
+            if isinstance(value, _Deferred):
+                yield obj, name, value
+            else:
+                yield from _deferred(value)
+
+
+def _read_zip(archive: zipfile.ZipFile, path: Path) -> object:
+    """The object pickled in a PyTorch zip checkpoint (storages read from the archive)."""
     with archive:
         pickles = [n for n in archive.namelist() if n.endswith("/data.pkl") and n.count("/") == 1]
         if len(pickles) != 1:
@@ -143,6 +191,37 @@ def read_pth_state_dict(path: str | Path) -> dict[str, np.ndarray]:
                               "(only tensors and plain containers)", file=path) from None
         except Exception as exc:  # corrupt pickle / storage: one clear message, no deep traceback
             raise SchemaError(f"cannot unpickle checkpoint: {type(exc).__name__}: {exc}", file=path) from None
+    return obj
+
+
+def read_pth_state_dict(path: str | Path) -> dict[str, np.ndarray]:
+    """Read the model weights of a PyTorch checkpoint (``torch.save``: zip, or the pre-1.6 legacy format of
+    e.g. upstream's baeda_3dem) without torch.
+
+    Accepts a ``{'model_state_dict': {...}, ...}`` checkpoint or a bare state dict. The pickle may only
+    reference tensor/storage rebuild helpers and ``collections.OrderedDict``; any other global (code) is
+    refused with :class:`SchemaError` before anything is executed. Returns name -> numpy array (dtype of the
+    stored tensor, C-contiguous copies).
+    """
+    path = Path(path)
+    try:
+        archive = zipfile.ZipFile(path)
+    except zipfile.BadZipFile:  # the pre-1.6 torch.save format
+        archive = None
+    except OSError as exc:
+        raise SchemaError(f"cannot read as a PyTorch checkpoint ({exc})", file=path) from None
+    if archive is None:
+        try:
+            with open(path, "rb") as stream:
+                obj = _read_legacy(stream)
+        except _RefusedGlobal as exc:
+            raise SchemaError(f"refusing to load: global '{exc}' is not allowed in a weights file "
+                              "(only tensors and plain containers)", file=path) from None
+        except Exception as exc:  # neither a zip nor a legacy checkpoint, or a corrupt one
+            raise SchemaError(f"cannot read as a PyTorch checkpoint (zip or legacy): {type(exc).__name__}: {exc}",
+                              file=path) from None
+    else:
+        obj = _read_zip(archive, path)
     state = obj.get("model_state_dict", obj) if isinstance(obj, dict) else obj
     if not isinstance(state, dict) or not state:
         raise SchemaError("no state dict found (expected a dict of tensors or a 'model_state_dict' entry)",
@@ -223,6 +302,8 @@ class LSTMSpec:
             value = np.asarray(sd[key], dtype=np.float64)
             if value.shape != shape:
                 raise SchemaError(f"shape {value.shape}, expected {shape}", file=where, column=key)
+            if not np.isfinite(value).all():  # NaN/inf weights would silently poison the temperatures
+                raise SchemaError("weights must be finite (found NaN or inf)", file=where, column=key)
             return value
 
         out: dict = {"wih": [], "whh": [], "bias": []}

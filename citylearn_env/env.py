@@ -42,6 +42,7 @@ class CityLearnEnv(gym.Env):
     reward_function: a reward spec (``{"type": ..., "attributes": ...}`` or a registered short name) or a
         reward object; default: the schema's.
     central_agent: override the schema's flag (decides whether the reward is central or per building).
+    allow_outside_paths: let the schema's data files lie outside its folder (refused by default).
     """
 
     metadata = {"render_modes": []}
@@ -55,9 +56,11 @@ class CityLearnEnv(gym.Env):
         reward_function: Any = None,
         central_agent: bool | None = None,
         episode_time_steps: int | None = None,
+        allow_outside_paths: bool = False,
     ):
         self.settings = resolve(settings, compat)
-        config = schema if isinstance(schema, DistrictConfig) else load_schema(schema, settings=self.settings)
+        config = schema if isinstance(schema, DistrictConfig) else load_schema(
+            schema, settings=self.settings, allow_outside_paths=allow_outside_paths)
         self.config = config
         self.central_agent = config.central_agent if central_agent is None else central_agent
         self.district = District(config, settings=self.settings)

@@ -9,14 +9,13 @@ from __future__ import annotations
 
 import copy
 import json
-import math
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from citylearn_env import dataset
+from citylearn_env import autosize, dataset, paths, ranges
 from citylearn_env.config import (
     ACTION_NAMES,
     Battery,
@@ -33,14 +32,15 @@ from citylearn_env.settings import Behaviour, resolve
 
 
 def load_schema(schema: str | Path | Mapping[str, Any], *,
-                settings: Behaviour | str | None = None) -> DistrictConfig:
+                settings: Behaviour | str | None = None, allow_outside_paths: bool = False) -> DistrictConfig:
     """Validate ``schema`` (a schema.json path or an already parsed dict) and read its data files.
 
     ``settings`` (a :class:`~citylearn_env.settings.Behaviour` or a preset name such as "citylearn-2.1")
     decides the data-set defaults that differ between CityLearn 2.1 and its
     documentation: ``missing_hvac_mode_is_off`` (a building file without ``hvac_mode`` runs mode 0 "off"
     instead of 1 "cooling"). Relative file names resolve against ``root_directory``, or the schema file's
-    folder when that is null.
+    folder when that is null. Every file must lie inside the dataset folder (:mod:`citylearn_env.paths`)
+    unless ``allow_outside_paths``; every number within its range (:mod:`citylearn_env.ranges`).
     """
     settings = resolve(settings)
     if isinstance(schema, (str, Path)):
@@ -51,32 +51,31 @@ def load_schema(schema: str | Path | Mapping[str, Any], *,
             raise SchemaError("schema file not found", file=path) from error
         except json.JSONDecodeError as error:
             raise SchemaError(f"not valid JSON: {error.msg}", file=path, row=error.lineno) from error
-        default_root, source = path.resolve().parent, str(path)
+        except (OSError, UnicodeDecodeError) as error:  # a folder, unreadable, not text
+            raise SchemaError(f"cannot read the schema file: {getattr(error, 'strerror', None) or error}",
+                              file=path) from None
+        schema_folder, source = path.resolve().parent, str(path)
     elif isinstance(schema, Mapping):
         raw = copy.deepcopy(dict(schema))
-        default_root, source = Path.cwd(), "<schema dict>"
+        schema_folder, source = None, "<schema dict>"
     else:
         raise SchemaError(f"a schema must be a path or a dict, got {type(schema).__name__}")
-    root = Path(raw.get("root_directory") or default_root)
-    return _parse(raw, root, source, settings.missing_hvac_mode_is_off)
+    try:  # --- hardening hook (citylearn_env.ranges / citylearn_env.paths): shape, keys, confined root
+        ranges.check_schema_shape(raw)
+        root = paths.dataset_folder(raw.get("root_directory"), schema_folder, allow_outside=allow_outside_paths)
+        return _parse(raw, root, source, settings.missing_hvac_mode_is_off)
+    except SchemaError as error:  # name the schema file in key errors
+        if error.file is None and schema_folder is not None:
+            where = str(SchemaError("", column=error.column, row=error.row))   # "column/key 'x': "
+            message = str(error)[len(where):] if str(error).startswith(where) else str(error)
+            raise SchemaError(message, file=source, column=error.column, row=error.row) from None
+        raise
 
 
-def _get(d: Mapping[str, Any], key: str, default: Any, kind: type | tuple[type, ...], where: str) -> Any:
-    value = d.get(key, default)
-    if value is None:
-        return default
-    if kind in (float, int) and isinstance(value, bool):
-        raise SchemaError(f"expected a number, got {value!r}", column=f"{where}.{key}")
-    if kind is float and isinstance(value, int):
-        value = float(value)
-    if not isinstance(value, kind):
-        raise SchemaError(f"expected {getattr(kind, '__name__', kind)}, got {value!r}", column=f"{where}.{key}")
-    return value
-
-
-def _parse(raw: dict[str, Any], root: Path, source: str, missing_hvac_mode_is_off: bool) -> DistrictConfig:
-    start = _get(raw, "simulation_start_time_step", 0, int, "schema")
-    end = _get(raw, "simulation_end_time_step", None, int, "schema")
+def _parse(raw: dict[str, Any], root: paths.DatasetFolder, source: str,
+           missing_hvac_mode_is_off: bool) -> DistrictConfig:
+    start = ranges.check_key(raw, "simulation_start_time_step", 0, where="simulation_start_time_step")
+    end = ranges.check_key(raw, "simulation_end_time_step", None, where="simulation_end_time_step")
     if end is None or end < start:
         raise SchemaError("must be an integer >= simulation_start_time_step", column="simulation_end_time_step")
     observations = raw.get("observations")
@@ -103,12 +102,13 @@ def _parse(raw: dict[str, Any], root: Path, source: str, missing_hvac_mode_is_of
         raise SchemaError("no building has include = true", column="buildings")
     episode = raw.get("episode_time_steps")
     if isinstance(episode, list):
+        if not all(isinstance(p, list) and len(p) == 2 and all(isinstance(v, int) and not isinstance(v, bool)
+                                                                for v in p) for p in episode):
+            raise SchemaError("must be null, an int or a list of [start, end] integer pairs",
+                              column="episode_time_steps")
         episode = tuple((int(a), int(b)) for a, b in episode)
-    elif episode is not None and not isinstance(episode, int):
-        raise SchemaError("must be null, an int or a list of [start, end]", column="episode_time_steps")
-    seconds = float(raw.get("seconds_per_time_step", 3600.0))
-    if not seconds >= 1:
-        raise SchemaError("must be >= 1", column="seconds_per_time_step")
+    seconds = ranges.check_key(raw, "seconds_per_time_step", 3600.0, where="seconds_per_time_step")
+    ranges.check_key(raw, "random_seed", None, where="random_seed")
     return DistrictConfig(
         buildings=tuple(buildings),
         observations=tuple((n, bool(v.get("shared_in_central_agent", False))) for n, v in observations.items()),
@@ -125,30 +125,33 @@ def _parse(raw: dict[str, Any], root: Path, source: str, missing_hvac_mode_is_of
     )
 
 
-def _device(slot: str, spec: Mapping[str, Any] | None, where: str) -> Any:
+def _device(slot: str, spec: Mapping[str, Any] | None, where: str, series: Mapping[str, np.ndarray]) -> Any:
+    """The typed device of ``slot`` (None if absent), autosized from ``series`` (the building's data over the
+    simulation range) when the spec asks for it (:mod:`citylearn_env.autosize`)."""
     if spec is None:
         return None
     cls = resolve_type("device", spec.get("type"), where=f"{where}.type")
     if cls not in SLOT_CLASSES[slot]:
         raise SchemaError(f"a {cls} cannot be used as {slot}; allowed: {', '.join(SLOT_CLASSES[slot])}",
                           column=f"{where}.type")
-    if spec.get("autosize", False):
-        raise SchemaError("autosize is not supported: give the sizes (districtgen's pipeline sizes devices)",
-                          column=f"{where}.autosize")
+    device = _device_attributes(cls, spec, where)
+    if not spec.get("autosize", False):
+        return device
+    sf = autosize.safety_factor(spec.get("autosize_attributes"), where)
+    if cls == "PV":
+        efficiency = (spec.get("attributes") or {}).get("efficiency") or 1.0
+        return autosize.pv_power(device, series["solar_generation"], efficiency=efficiency, safety_factor=sf)
+    return autosize.autosize_device(slot, device, series, sf)
+
+
+def _device_attributes(cls: str, spec: Mapping[str, Any], where: str) -> Any:
     attrs = dict(spec.get("attributes") or {})
     attrs.pop("seconds_per_time_step", None)
     for key, value in attrs.items():
-        if key.endswith("_curve"):
-            try:
-                attrs[key] = tuple((float(x), float(y)) for x, y in value)
-            except (TypeError, ValueError) as error:
-                raise SchemaError("expected a list of [x, y] points", column=f"{where}.attributes.{key}") from error
-        elif value is None:
-            continue
-        elif not isinstance(value, (int, float)) or isinstance(value, bool) or not math.isfinite(value):
-            raise SchemaError(f"expected a finite number, got {value!r}", column=f"{where}.attributes.{key}")
-        elif value < 0:
-            raise SchemaError(f"must not be negative, got {value!r}", column=f"{where}.attributes.{key}")
+        if key.endswith("_curve"):  # ranges: citylearn_env.ranges (finite, physical)
+            attrs[key] = ranges.check_curve(value, where=f"{where}.attributes.{key}")
+        elif value is not None:
+            ranges.check_attribute(cls, key, value, where=f"{where}.attributes.{key}")
     attrs = {k: v for k, v in attrs.items() if v is not None}
     target = {"HeatPump": ConversionDevice, "ElectricHeater": ConversionDevice, "StorageTank": Tank,
               "Battery": Battery, "PV": dict}[cls]
@@ -176,9 +179,15 @@ def _outage(spec: Mapping[str, Any] | None, where: str) -> Outage:
     if stochastic and model:
         resolve_type("power_outage", model.get("type"), where=f"{where}.stochastic_power_outage_model.type")
     starts = attrs.get("start_time_steps")
+    if starts is not None and not (isinstance(starts, list) and all(
+            isinstance(s, int) and not isinstance(s, bool) and s >= 0 for s in starts)):
+        raise SchemaError("expected a list of time steps (integers >= 0)",
+                          column=f"{where}.stochastic_power_outage_model.attributes.start_time_steps")
+    model_where = f"{where}.stochastic_power_outage_model.attributes"
     return Outage(
         simulate=bool(spec.get("simulate_power_outage", False)), stochastic=stochastic,
-        saifi=float(attrs.get("saifi", 1.436)), caidi=float(attrs.get("caidi", 331.2)),
+        saifi=ranges.check_key(attrs, "saifi", 1.436, where=f"{model_where}.saifi"),
+        caidi=ranges.check_key(attrs, "caidi", 331.2, where=f"{model_where}.caidi"),
         random_seed=attrs.get("random_seed"), start_time_steps=tuple(starts) if starts is not None else None,
     )
 
@@ -193,21 +202,24 @@ def _building(name, spec, root, start, end, cache, active_obs, active_actions,
     n = end + 1
     series: dict[str, np.ndarray] = {}
     hvac_off = missing_hvac_mode_is_off
-    series.update(_read(root / spec["energy_simulation"], "building", n, cache, hvac_off))
-    series.update(_read(root / spec["weather"], "weather", n, cache, hvac_off))
+    series.update(_read(root.file(spec["energy_simulation"], where=f"{where}.energy_simulation"), "building", n,
+                        cache, hvac_off))
+    series.update(_read(root.file(spec["weather"], where=f"{where}.weather"), "weather", n, cache, hvac_off))
     for key, kind, cols in (("pricing", "pricing", dataset.PRICING_COLUMNS),
                             ("carbon_intensity", "carbon", dataset.CARBON_COLUMNS)):
         if spec.get(key):
-            series.update(_read(root / spec[key], kind, n, cache, hvac_off))
+            series.update(_read(root.file(spec[key], where=f"{where}.{key}"), kind, n, cache, hvac_off))
         else:
             series.update({c: np.zeros(n) for c in cols})
     series = {k: v[start : end + 1] for k, v in series.items()}
-    devices = {slot: _device(slot, spec.get(slot), f"{where}.{slot}") for slot in SLOT_CLASSES}
+    devices = {slot: _device(slot, spec.get(slot), f"{where}.{slot}", series) for slot in SLOT_CLASSES}
     cooling_model, heating_model = (None, None)
     if btype == "LSTMDynamicsBuilding":
-        cooling_model, heating_model = dataset.parse_dynamics(spec.get("dynamics"), root, where=f"{where}.dynamics")
+        cooling_model, heating_model = _dynamics(spec.get("dynamics"), root, series, f"{where}.dynamics")
     inactive_obs = set(spec.get("inactive_observations") or [])
     inactive_act = set(spec.get("inactive_actions") or [])
+    _refuse_used_empty_columns(series, [o for o in active_obs if o not in inactive_obs],
+                               btype == "LSTMDynamicsBuilding", root.root / spec["energy_simulation"], start)
     kwargs = {slot: dev for slot, dev in devices.items() if dev is not None and slot != "pv"}
     return BuildingConfig(
         name=name, series=frozen_series(series), **kwargs,
@@ -217,6 +229,47 @@ def _building(name, spec, root, start, end, cache, active_obs, active_actions,
         active_observations=tuple(o for o in active_obs if o not in inactive_obs),
         active_actions=tuple(a for a in active_actions if a not in inactive_act),
     )
+
+
+# --- hardening hook (citylearn_env.ranges / citylearn_env.paths): LSTM attributes, weights file, input names
+def _dynamics(spec: Any, root: paths.DatasetFolder, series: Mapping[str, np.ndarray], where: str) -> tuple:
+    """``(cooling, heating)`` LSTM blocks: attributes typed and in range, weights inside the dataset folder and
+    present, every input name an observation the building has."""
+    single = isinstance(spec, Mapping) and "type" in spec
+    entries = {where: spec} if single else {f"{where}.{mode}": entry for mode, entry in (spec or {}).items()
+                                              if mode in ("cooling", "heating") and entry is not None}
+    for at, entry in entries.items():
+        if isinstance(entry, Mapping):
+            ranges.check_dynamics_attributes(entry.get("attributes", entry), where=f"{at}.attributes")
+    blocks = dataset.parse_dynamics(spec, root.root, where=where, check_files=False)
+    for at, block in zip((where,) if single else (f"{where}.cooling", f"{where}.heating"), blocks, strict=False):
+        if block is None:
+            continue
+        if not root.check(block.filename, where=f"{at}.attributes.filename").is_file():
+            raise SchemaError("LSTM weights file not found", file=block.filename, column=f"{at}.attributes.filename")
+        from citylearn_env.observations import COP_OBSERVATIONS, DYNAMIC, STATIC_ALIASES
+
+        known = {*series, *DYNAMIC, *STATIC_ALIASES, *COP_OBSERVATIONS, *dataset.NAME_ALIASES}
+        for i, name in enumerate(block.input_observation_names):
+            if dataset.split_periodic_name(name)[0] not in known:
+                raise SchemaError(f"unknown LSTM input {name!r}{ranges.closest_key(name, known)}",
+                                  column=f"{at}.attributes.input_observation_names[{i}]")
+    return blocks
+
+
+def _refuse_used_empty_columns(series: Mapping[str, np.ndarray], observed: list[str], dynamics: bool,
+                               path: Path, start: int) -> None:
+    """Empty cells (NaN, :data:`citylearn_env.dataset.MAY_BE_EMPTY`) are allowed only in columns nothing
+    uses: not an active observation, and not the indoor temperature of a building with LSTM dynamics."""
+    used = [c for c in dataset.MAY_BE_EMPTY if c in observed
+            or (dynamics and c == "indoor_dry_bulb_temperature")]
+    for column in used:
+        empty = np.isnan(series[column])
+        if empty.any():
+            i = start + int(empty.argmax())
+            why = "an active observation" if column in observed else "the LSTM dynamics' start temperature"
+            raise SchemaError(f"empty cell in a column used as {why}", file=path, column=column,
+                              row=f"{i} (file line {i + 2})")
 
 
 def _read(path: Path, kind: str, n_rows: int, cache: dict, missing_hvac_mode_is_off: bool) -> dict[str, np.ndarray]:

@@ -5,7 +5,9 @@ both size devices the same way. Inputs are hourly series over the sizing period 
 outputs are CityLearn device attributes (kW electric, kWh, fractions).
 
 * Heat pump and DHW heater: peak *electric input* = max over hours of thermal load / COP (or efficiency)
-  x safety factor, rounded to 4 decimals (kW).
+  x safety factor, rounded to 4 decimals (kW). A heat pump that also heats is sized on the peak over hours
+  of cooling / COP_c + heating / COP_h (Carnot COPs of the hour's outdoor temperature), so in no hour does
+  either demand exceed what it delivers; a resistance heater on the peak of heating / efficiency.
 * DHW tank: ``dhw_tank_fraction`` (one half) of the peak hourly DHW demand (kWh), charged and discharged at
   most at the heater's nominal power.
 * Battery: a catalogue product of :data:`BATTERIES`.
@@ -21,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from citylearn_env.devices import carnot_cop_cooling
+from citylearn_env.devices import carnot_cop_cooling, carnot_cop_heating
 from citylearn_env.errors import InputError
 
 #: (capacity kWh, nominal power kW, round-trip efficiency, depth of discharge) of catalogue batteries
@@ -46,6 +48,8 @@ class SizingRules:
     """Supply temperature of heating [degC]."""
     heat_pump_safety_factor: float = 1.0
     """Multiplier on the peak electric input [-]."""
+    electric_heater_efficiency: float = 1.0
+    """Thermal efficiency of a resistance space heater [-] (also sized with ``heat_pump_safety_factor``)."""
     dhw_heater_efficiency: float = 0.9
     """Thermal efficiency of the electric DHW heater [-]."""
     dhw_heater_safety_factor: float = 1.0
@@ -60,11 +64,35 @@ class SizingRules:
     """Share of the estimated yearly consumption the PV covers [-]."""
 
 
-def heat_pump_power(cooling_kwh: np.ndarray, outdoor_c: np.ndarray, rules: SizingRules) -> float:
-    """Nominal electric power [kW] = max_t cooling(t) / COP_c(t) x safety factor."""
-    cop = carnot_cop_cooling(np.asarray(outdoor_c, dtype=float), rules.target_cooling_temperature,
-                             rules.heat_pump_efficiency)
-    return float(np.max(np.asarray(cooling_kwh, dtype=float) / cop) * rules.heat_pump_safety_factor)
+#: what serves a building's space heating: nothing, the (cooling) heat pump, or a resistance heater
+HEATING_DEVICES = (None, "heat_pump", "electric_heater")
+
+
+def heat_pump_electricity(cooling_kwh: np.ndarray, outdoor_c: np.ndarray, rules: SizingRules,
+                          heating_kwh: np.ndarray | None = None) -> np.ndarray:
+    """Hourly electric input [kWh] of a heat pump serving ``cooling_kwh`` (and ``heating_kwh`` when given):
+    cooling(t) / COP_c(t) + heating(t) / COP_h(t), Carnot COPs of :mod:`citylearn_env.devices`."""
+    outdoor = np.asarray(outdoor_c, dtype=float)
+    electric = np.asarray(cooling_kwh, dtype=float) / carnot_cop_cooling(
+        outdoor, rules.target_cooling_temperature, rules.heat_pump_efficiency)
+    if heating_kwh is not None:
+        electric = electric + np.asarray(heating_kwh, dtype=float) / carnot_cop_heating(
+            outdoor, rules.target_heating_temperature, rules.heat_pump_efficiency)
+    return electric
+
+
+def heat_pump_power(cooling_kwh: np.ndarray, outdoor_c: np.ndarray, rules: SizingRules,
+                    heating_kwh: np.ndarray | None = None) -> float:
+    """Nominal electric power [kW] = max_t [cooling(t) / COP_c(t) + heating(t) / COP_h(t)] x safety factor
+    (the heating term only when ``heating_kwh`` is given: a heat pump that also heats)."""
+    electric = heat_pump_electricity(cooling_kwh, outdoor_c, rules, heating_kwh)
+    return float(np.max(electric, initial=0.0) * rules.heat_pump_safety_factor)
+
+
+def electric_heater_power(heating_kwh: np.ndarray, rules: SizingRules) -> float:
+    """Nominal electric power [kW] of a resistance space heater = max_t heating(t) / efficiency x safety factor."""
+    return float(np.max(np.asarray(heating_kwh, dtype=float), initial=0.0) / rules.electric_heater_efficiency
+                 * rules.heat_pump_safety_factor)
 
 
 def dhw_heater_power(dhw_kwh: np.ndarray, rules: SizingRules) -> float:
@@ -97,26 +125,43 @@ def pv_power(consumption_kwh: float, yield_w_per_kw: np.ndarray, rules: SizingRu
     return round(rules.pv_zne_fraction * consumption_kwh / specific, 2)
 
 
-def size_devices(series: Mapping[str, Any], outdoor_c: np.ndarray, rules: SizingRules) -> dict[str, dict]:
+def size_devices(series: Mapping[str, Any], outdoor_c: np.ndarray, rules: SizingRules, *,
+                 heating_device: str | None = None) -> dict[str, dict]:
     """All device attributes of one building, by schema slot, from its building columns.
 
-    ``series`` maps ``cooling_demand``, ``dhw_demand``, ``non_shiftable_load`` [kWh per hour] and
-    ``solar_generation`` [W/kW] to hourly arrays (a dict of arrays or a DataFrame); ``outdoor_c`` is the
-    outdoor dry-bulb temperature [degC] of the same hours. Returns ``{"cooling_device": ...,
-    "dhw_device": ..., "dhw_storage": ..., "electrical_storage": ..., "pv": ...}`` attribute dicts.
+    ``series`` maps ``cooling_demand``, ``dhw_demand``, ``non_shiftable_load`` [kWh per hour],
+    ``solar_generation`` [W/kW] (and ``heating_demand`` [kWh per hour] when ``heating_device`` is given) to
+    hourly arrays (a dict of arrays or a DataFrame); ``outdoor_c`` is the outdoor dry-bulb temperature [degC]
+    of the same hours. ``heating_device``: None (heating not served), ``"heat_pump"`` (the heat pump heats
+    too: one device, sized on cooling and heating, in both slots) or ``"electric_heater"`` (a resistance
+    heater in ``heating_device``). Returns ``{"cooling_device": ..., ["heating_device": ...,] "dhw_device": ...,
+    "dhw_storage": ..., "electrical_storage": ..., "pv": ...}`` attribute dicts.
     """
+    if heating_device not in HEATING_DEVICES:
+        raise InputError(f"heating_device must be one of {HEATING_DEVICES}, got {heating_device!r}",
+                         column="heating_device")
     cooling = np.asarray(series["cooling_demand"], dtype=float)
     dhw = np.asarray(series["dhw_demand"], dtype=float)
-    hp = heat_pump_power(cooling, outdoor_c, rules)
+    heating = np.asarray(series["heating_demand"], dtype=float) if heating_device else np.zeros_like(cooling)
+    hp_heating = heating if heating_device == "heat_pump" else None
+    hp = heat_pump_power(cooling, outdoor_c, rules, hp_heating)
     heater = dhw_heater_power(dhw, rules)
-    cop = carnot_cop_cooling(np.asarray(outdoor_c, dtype=float), rules.target_cooling_temperature,
-                             rules.heat_pump_efficiency)
-    consumption = float(np.sum(cooling / cop) + np.sum(dhw) / rules.dhw_heater_efficiency
+    space = np.sum(heat_pump_electricity(cooling, outdoor_c, rules, hp_heating))
+    if heating_device == "electric_heater":
+        space += np.sum(heating) / rules.electric_heater_efficiency
+    consumption = float(space + np.sum(dhw) / rules.dhw_heater_efficiency
                         + np.sum(np.asarray(series["non_shiftable_load"], dtype=float)))
+    heat_pump = {"nominal_power": round(hp, 4), "efficiency": rules.heat_pump_efficiency,
+                 "target_cooling_temperature": rules.target_cooling_temperature,
+                 "target_heating_temperature": rules.target_heating_temperature}
+    heating_slot = {}
+    if heating_device == "heat_pump":
+        heating_slot = {"heating_device": dict(heat_pump)}
+    elif heating_device == "electric_heater":
+        heating_slot = {"heating_device": {"nominal_power": round(electric_heater_power(heating, rules), 4),
+                                           "efficiency": rules.electric_heater_efficiency}}
     return {
-        "cooling_device": {"nominal_power": round(hp, 4), "efficiency": rules.heat_pump_efficiency,
-                           "target_cooling_temperature": rules.target_cooling_temperature,
-                           "target_heating_temperature": rules.target_heating_temperature},
+        "cooling_device": heat_pump, **heating_slot,
         "dhw_device": {"nominal_power": round(heater, 4), "efficiency": rules.dhw_heater_efficiency},
         "dhw_storage": dhw_tank(dhw, round(heater, 4), rules),
         "electrical_storage": battery(rules),

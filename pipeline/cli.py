@@ -2,7 +2,7 @@
 
 Each feature area registers its own sub-commands through a ``register(subparsers)`` function, so this file
 stays a thin dispatcher: ingest commands live in :mod:`pipeline.ingest.commands`, surrogate commands in
-:mod:`surrogates.cli`, environment commands in :mod:`pipeline.run`.
+:mod:`surrogates.cli`, environment commands in :mod:`pipeline.run`, stock selection in :mod:`pipeline.select`.
 """
 
 from __future__ import annotations
@@ -22,12 +22,14 @@ _EXTRA_OF = dict.fromkeys(("prefect", "pydantic", "fastapi", "pvlib", "pyarrow",
 
 def build_parser() -> argparse.ArgumentParser:
     from pipeline import run
+    from pipeline import select as stock_selection
     from pipeline.ingest import commands as ingest_commands
     from surrogates import cli as surrogate_commands
 
     parser = argparse.ArgumentParser(prog="districtgen", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True)
     run.register(sub)
+    stock_selection.register(sub)
     ingest_commands.register(sub)
     surrogate_commands.register(sub)
     return parser
@@ -42,6 +44,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     except (InputError, SchemaError) as error:
         print(f"districtgen: error: {error}", file=sys.stderr)
         return 2
+    except OSError as error:  # a file the user named cannot be read or written: one line, no traceback
+        where = f"{error.filename}: " if error.filename else ""
+        print(f"districtgen: error: {where}{error.strerror or error}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("districtgen: interrupted", file=sys.stderr)
+        return 130
     except ModuleNotFoundError as error:  # an optional dependency: name the extra instead of a traceback
         extra = _EXTRA_OF.get((error.name or "").partition(".")[0])
         if extra is None:

@@ -6,7 +6,9 @@ expected form (:class:`pipeline.errors.InputError`).
 
 from __future__ import annotations
 
+import re
 import tomllib
+import zoneinfo
 from datetime import date
 from pathlib import Path
 from typing import Literal
@@ -16,14 +18,22 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 from pipeline.errors import InputError
 from pipeline.sizing import BATTERIES, SizingRules
 
+#: a district name: it becomes the folder ``<output root>/<name>``, so no separators, no hidden or dot names
+NAME_PATTERN = r"[A-Za-z0-9][A-Za-z0-9_.-]{0,63}"
+
 
 class _Frozen(BaseModel):
-    model_config = ConfigDict(frozen=True, extra="forbid")
+    model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)  # inf/nan: never a value
 
 
 class Inputs(_Frozen):
-    eulp: str = Field(description="EULP release folder (OEDI layout) or http(s) base URL")
-    buildings: list[int] = Field(min_length=1, description="bldg_id values, in district order")
+    eulp: str | None = Field(None, description="EULP release folder (OEDI layout) or http(s) base URL: the "
+                                               "building loads come from its timeseries")
+    characteristics: Path | None = Field(
+        None, description="stock metadata file (EULP or buildstockbatch layout): the houses are simulated with "
+                          "the project's EnergyPlus house model on the district's weather")
+    buildings: list[int] | None = Field(None, min_length=1, description="bldg_id values, in district order "
+                                                                         "(or chosen by [selection])")
     upgrade: int = 0
     state: str | None = None
     weather: Path
@@ -31,6 +41,35 @@ class Inputs(_Frozen):
     fuel_mix: Path
     ilv: Path | None = Field(None, description="folder of precomputed ILV tables <bldg_id>.parquet/.csv")
     holidays: list[date] = []
+
+
+class Selection(_Frozen):
+    """Stock selection (pipeline.select): filters, then one building per k-means cluster."""
+
+    metadata: Path | None = Field(None, description="stock metadata file (default: inputs.characteristics)")
+    filters: dict[str, str | list[str]] = Field(default_factory=dict,
+                                                description="characteristic (no prefix) -> allowed value(s)")
+    clusters: int | Literal["auto"] = "auto"
+    max_clusters: int | None = Field(None, ge=2)
+    method: Literal["medoid", "draw"] = "medoid"
+    seed: int = 0
+
+    @field_validator("clusters")
+    @classmethod
+    def _positive(cls, value):
+        if value != "auto" and value < 1:
+            raise ValueError("clusters must be >= 1 or 'auto'")
+        return value
+
+
+class Simulation(_Frozen):
+    """EnergyPlus houses (inputs.characteristics): the one full-year pass that gives loads and ILV data."""
+
+    partial_runs: int = Field(4, ge=0, description="partial-load ILV runs besides the ideal replay and free float")
+    seed: int = Field(2018, description="seed of the partial-load multipliers (combined with the bldg_id)")
+    timesteps_per_hour: int = Field(1, ge=1, le=60)
+    fuel_heating: Literal["heat_pump", "electric_heater"] = Field(
+        "heat_pump", description="device for houses heated with a fuel (gas, oil, propane): electrified as")
 
 
 class Period(_Frozen):
@@ -52,6 +91,8 @@ class PV(_Frozen):
 class Sizing(_Frozen):
     heat_pump_efficiency: float = Field(0.25, gt=0, le=1)
     target_cooling_temperature: float = 8.0
+    target_heating_temperature: float = 45.0
+    electric_heater_efficiency: float = Field(1.0, gt=0, le=1)
     dhw_heater_efficiency: float = Field(0.9, gt=0, le=1)
     dhw_tank_fraction: float = Field(0.5, ge=0)
     battery: str = "BYD LVS"
@@ -69,8 +110,11 @@ class Sizing(_Frozen):
 
 
 class Surrogate(_Frozen):
-    source: Literal["csv", "energyplus", "none"] = Field(
-        "csv", description="ILV data: precomputed tables, EnergyPlus runs, or none (no LSTM: plain buildings)")
+    source: Literal["csv", "energyplus", "fmu", "none"] = Field(
+        "csv", description="ILV data: precomputed tables, EnergyPlus runs, an FMU, or none (no LSTM)")
+    fmu: Path | None = Field(None, description="FMI 2.0 co-simulation FMU of a building (source fmu)")
+    fmu_variables: dict[str, str] = Field(default_factory=dict, description="our name -> FMU variable name")
+    fmu_start_values: dict[str, float] = Field(default_factory=dict)
     hidden_size: int = Field(16, ge=1)
     num_layers: int = Field(2, ge=1)
     lookback: int = Field(12, ge=1)
@@ -80,12 +124,14 @@ class Surrogate(_Frozen):
 
 
 class BuildConfig(_Frozen):
-    name: str = Field(pattern=r"^[A-Za-z0-9_.-]+$")
+    name: str = Field(description="the district's folder name: a safe slug, see NAME_PATTERN")
     period: Period
     inputs: Inputs
     pv: PV = PV()
     sizing: Sizing = Sizing()
     surrogate: Surrogate = Surrogate()
+    selection: Selection | None = None
+    simulation: Simulation = Simulation()
     layout: Literal["v2.1", "v2.2"] = "v2.2"
     forecast: Literal["perfect", "noisy"] = "perfect"
     seed: int = 0
@@ -93,6 +139,37 @@ class BuildConfig(_Frozen):
     cache_dir: Path | None = Field(None, description="surrogate cache root (default: $DISTRICTGEN_CACHE_DIR, "
                                                      "else ~/.cache/districtgen); relative to the file")
     source: Path = Path("<dict>")
+
+    @field_validator("name")
+    @classmethod
+    def _safe_slug(cls, value: str) -> str:
+        if not re.fullmatch(NAME_PATTERN, value):
+            raise ValueError("name must be 1-64 letters, digits, '_', '-' or '.', starting with a letter or digit "
+                             "(it becomes a folder name: no '.', '..', '/' or hidden names)")
+        return value
+
+    @field_validator("timezone")
+    @classmethod
+    def _known_timezone(cls, value: str) -> str:
+        try:
+            zoneinfo.ZoneInfo(value)
+        except (zoneinfo.ZoneInfoNotFoundError, ValueError, OSError):
+            raise ValueError(f"unknown time zone {value!r} (an IANA name such as 'America/Chicago')") from None
+        return value
+
+    @model_validator(mode="after")
+    def _one_building_source(self):
+        i = self.inputs
+        if (i.eulp is None) == (i.characteristics is None):
+            raise ValueError("give exactly one of inputs.eulp (EULP timeseries) and inputs.characteristics "
+                             "(houses simulated in EnergyPlus)")
+        if i.buildings is None and self.selection is None:
+            raise ValueError("give inputs.buildings or a [selection] section")
+        if self.selection is not None and self.selection.metadata is None and i.characteristics is None:
+            raise ValueError("selection.metadata is needed when inputs.characteristics is not given")
+        if self.surrogate.source == "fmu" and (self.surrogate.fmu is None or not self.surrogate.fmu_variables):
+            raise ValueError("surrogate.source = 'fmu' needs surrogate.fmu and surrogate.fmu_variables")
+        return self
 
 
 def parse_build_config(data: dict, *, file: object = "<config>", base: Path | None = None) -> BuildConfig:
@@ -102,19 +179,27 @@ def parse_build_config(data: dict, *, file: object = "<config>", base: Path | No
     except ValidationError as error:
         first = error.errors()[0]
         key = ".".join(str(p) for p in first["loc"])
-        raise InputError(f"{first['msg']} (got {first.get('input')!r})", file=file, column=key) from None
+        got = repr(first.get("input"))
+        got = got if len(got) <= 80 else got[:77] + "..."
+        raise InputError(f"{first['msg']} (got {got})", file=file, column=key) from None
     except TypeError as error:
         raise InputError(f"invalid configuration: {error}", file=file) from None
     if base is None:
         return config
     inputs = config.inputs
-    resolved = {k: (base / getattr(inputs, k)) for k in ("weather", "tariff", "fuel_mix")}
-    if inputs.ilv is not None:
-        resolved["ilv"] = base / inputs.ilv
-    eulp = inputs.eulp if inputs.eulp.startswith(("http://", "https://")) else str(base / inputs.eulp)
-    update: dict[str, object] = {"inputs": inputs.model_copy(update={**resolved, "eulp": eulp})}
+    resolved: dict[str, object] = {k: (base / getattr(inputs, k)) for k in ("weather", "tariff", "fuel_mix")}
+    for key in ("ilv", "characteristics"):
+        if getattr(inputs, key) is not None:
+            resolved[key] = base / getattr(inputs, key)
+    if inputs.eulp is not None and not inputs.eulp.startswith(("http://", "https://")):
+        resolved["eulp"] = str(base / inputs.eulp)
+    update: dict[str, object] = {"inputs": inputs.model_copy(update=resolved)}
     if config.cache_dir is not None:
         update["cache_dir"] = base / config.cache_dir.expanduser()
+    if config.selection is not None and config.selection.metadata is not None:
+        update["selection"] = config.selection.model_copy(update={"metadata": base / config.selection.metadata})
+    if config.surrogate.fmu is not None:
+        update["surrogate"] = config.surrogate.model_copy(update={"fmu": base / config.surrogate.fmu})
     return config.model_copy(update=update)
 
 
@@ -125,6 +210,9 @@ def read_build_config(path: str | Path) -> BuildConfig:
         data = tomllib.loads(path.read_text())
     except FileNotFoundError:
         raise InputError("configuration file not found", file=path) from None
+    except (OSError, UnicodeDecodeError) as error:  # a folder, unreadable, not text
+        raise InputError(f"cannot read the configuration: {getattr(error, 'strerror', None) or error}",
+                         file=path) from None
     except tomllib.TOMLDecodeError as error:
         raise InputError(f"not valid TOML: {error}", file=path) from None
     return parse_build_config(data, file=path, base=path.resolve().parent)

@@ -53,13 +53,58 @@ def peak_rbc(hour: int, day_type: int) -> float:
 
 
 RULES = {"cost_rbc": cost_rbc, "emission_rbc": emission_rbc, "peak_rbc": peak_rbc}
+
+
+# ------------------------------------------------------------------ the rules as the paper's code has them
+def published_cost_rbc(hour: int, day_type: int) -> float:
+    """SimBuild ``AustinEnergyTOURBC`` as published: "weekdays" are day types 2-6 (Tue-Sat; the data's
+    weekdays are 1-5), off-peak is hours >= 22 or < 7, on-peak hours 15-17 (the price peak is 16-18);
+    weekends and holidays (day types 1, 7, 8) charge 1/48 per hour."""
+    if not 2 <= day_type <= 6:
+        return 1.0 / 48.0
+    if hour >= 22 or hour < 7:
+        return 1.0 / 9.0
+    if 15 <= hour < 18:
+        return -0.5 / 3.0
+    return -0.5 / 12.0
+
+
+def published_emission_rbc(hour: int, day_type: int) -> float:
+    """SimBuild ``AustinEnergyEmissionReductionRBC`` as published: +1/7 for hours <= 7, -1/11 for 12-22."""
+    if hour <= 7:
+        return 1.0 / 7.0
+    if 12 <= hour <= 22:
+        return -1.0 / 11.0
+    return 0.0
+
+
+def published_peak_rbc(hour: int, day_type: int) -> float:
+    """SimBuild ``PeakReductionRBC`` as published: -1/14 at hour 6 and 11-22, +1/5 before hour 6."""
+    if hour == 6 or 11 <= hour <= 22:
+        return -1.0 / 14.0
+    if hour < 6:
+        return 1.0 / 5.0
+    return 0.0
+
+
+PUBLISHED_RULES = {"cost_rbc": published_cost_rbc, "emission_rbc": published_emission_rbc,
+                   "peak_rbc": published_peak_rbc}
+#: rule set -> (rules by name, which time step's hour/day type a rule reads: 1 = the step it controls,
+#: t + 1, as described; 0 = the observation's own step t, as the published code does -- one hour early)
+RULE_SETS = {"described": (RULES, 1), "published": (PUBLISHED_RULES, 0)}
+
+
 #: actions of conversion devices (not storages): inactive under ``ideal_cooling``
 DEVICE_ACTIONS = ("cooling_device", "heating_device")
 
 
-def rule_actions(env, rule) -> np.ndarray:
-    """The action vector of ``rule`` for the step that controls t + 1 (storage actions; devices left at 0)."""
-    t = env.t + 1
+def rule_actions(env, rule, lookahead: int = 1) -> np.ndarray:
+    """The action vector of ``rule`` for the step that controls t + 1 (storage actions; devices left at 0).
+
+    ``lookahead`` 1: the rule reads the hour and day type of t + 1, the step the action controls (the rules
+    as described); 0: those of t, the observation's own step (the published code).
+    """
+    t = min(env.t + lookahead, env.episode_length - 1)
     hour = int(env.data("hour")[0, t])
     day_type = int(env.data("day_type")[0, t])
     value = rule(hour, day_type)

@@ -8,9 +8,13 @@ package writes itself) through the environment and prints its KPI table.
 from __future__ import annotations
 
 import argparse
+import os
+import tempfile
 from pathlib import Path
 
 import numpy as np
+
+from pipeline.errors import InputError
 
 ARTIFACTS = Path("artifacts")
 
@@ -33,17 +37,32 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     build.add_argument("--cache-dir", type=Path, metavar="DIR",
                        help="surrogate cache root (default: the configuration's cache_dir, else "
                             "$DISTRICTGEN_CACHE_DIR, else ~/.cache/districtgen)")
+    build.add_argument("--surrogate-source", choices=("csv", "energyplus", "fmu", "none"),
+                       help="override [surrogate] source: precomputed ILV tables, EnergyPlus, the configured FMU, "
+                            "or no surrogates")
     build.set_defaults(func=build_command)
 
     paper = subparsers.add_parser("paper", help="run the SimBuild 2024 paper's 17 benchmarks on a district")
     paper.add_argument("schema", type=Path, help="a district schema.json (e.g. artifacts/default/schema.json)")
-    paper.add_argument("-o", "--output", type=Path, required=True, help="folder for results.csv / results.md")
+    paper.add_argument("-o", "--output", type=Path, required=True,
+                       help="folder for results, figures and tasks/ (finished tasks there are reused)")
     paper.add_argument("--only", nargs="*", help="benchmark ids to run (default: all 17)")
+    paper.add_argument("--buildings", nargs="+", metavar="NAME",
+                       help="schema buildings playing B1 [B2] (default: the first two)")
+    paper.add_argument("--rules", choices=("described", "published"), default="described",
+                       help="the RBCs as the paper describes them, or as its published code has them")
+    paper.add_argument("--compat", action="store_true", help="the CityLearn 2.1 preset (bugs included)")
+    paper.add_argument("--sac", choices=("torch", "torch-bf16", "sbx", "sb3"), default="torch",
+                       help="SAC back end, all with SB3's defaults (see docs/paper.md)")
     paper.add_argument("--sac-episodes", type=int, default=150, help="SAC training episodes (paper: 150)")
     paper.add_argument("--multiplier", type=float, default=3.0, help="over-cooling multiplier m of d_o")
-    paper.add_argument("--seed", type=int, default=0)
+    paper.add_argument("--seed", type=int, default=0, help="first seed")
+    paper.add_argument("--seeds", type=int, default=1, help="run the learning rows with N seeds (mean ± std)")
+    paper.add_argument("--workers", type=int, default=os.cpu_count() or 1, help="parallel processes")
     paper.add_argument("--sweep", type=float, nargs="*", metavar="M",
-                       help="instead: the m-sweep table of rlc-b1-d_o-hp for these multipliers (paper: 1 3 6 12)")
+                       help="the m-sweep of rlc-b1-d_o-hp for these multipliers (paper: 1 3 6 12); with --only "
+                            "or alone, default: none; --full runs all 17 and the sweep 1 3 6 12")
+    paper.add_argument("--full", action="store_true", help="the whole paper: all 17 and the m-sweep 1 3 6 12")
     paper.set_defaults(func=paper_command)
 
     verify = subparsers.add_parser("verify", help="re-check a built district's manifest hashes and validate it")
@@ -55,12 +74,14 @@ def run_command(args: argparse.Namespace) -> int:
     import pandas as pd
 
     from citylearn_env.example import write_example_district
-
-    schema = args.schema or write_example_district(ARTIFACTS / "example")
     from pipeline.controllers import run_policy
 
     policy = "no_control" if args.policy == "zero" else "random"
-    env = run_policy(schema, policy, seed=args.seed, ideal_cooling=False, settings="citylearn-2.1" if args.compat else None)
+    with tempfile.TemporaryDirectory(prefix="districtgen_example_") as scratch:  # never ./artifacts in the cwd
+        schema = args.schema or write_example_district(Path(scratch) / "example")
+        env = run_policy(schema, policy, seed=args.seed, ideal_cooling=False,
+                         settings="citylearn-2.1" if args.compat else None)
+    schema = args.schema or "the example district (synthetic)"
     kpis = env.evaluate()
     table = kpis.pivot_table(index="cost_function", columns="name", values="value", dropna=False)
     with pd.option_context("display.width", 160, "display.max_columns", 20, "display.precision", 4):
@@ -75,11 +96,19 @@ def run_command(args: argparse.Namespace) -> int:
 
 
 def build_command(args: argparse.Namespace) -> int:
+    from pipeline.build import staging
     from pipeline.config import read_build_config
 
     config = read_build_config(args.config)
     if args.cache_dir is not None:
         config = config.model_copy(update={"cache_dir": args.cache_dir.resolve()})
+    if args.surrogate_source is not None:
+        from pipeline.config import parse_build_config
+
+        data = config.model_dump(exclude={"source"})
+        data["surrogate"]["source"] = args.surrogate_source
+        config = parse_build_config(data, file=f"{args.config} (--surrogate-source)")
+    staging(config, args.output_root).check()  # a bad output folder: one line before any work
     if args.no_prefect:
         from pipeline.build import build_district_local
 
@@ -90,9 +119,10 @@ def build_command(args: argparse.Namespace) -> int:
         address = None if args.dask == "local" else args.dask
         folder = build_district_on_dask(config, str(args.output_root), address=address)
     else:
-        from pipeline.flows import build_district
+        from pipeline.flows import build_district, prefect_api
 
-        folder = build_district(config, str(args.output_root))
+        with prefect_api():  # no Prefect server outlives the build
+            folder = build_district(config, str(args.output_root))
     print(f"built {folder}")
     print((folder / "report" / "summary.md").read_text())
     return 0
@@ -101,13 +131,19 @@ def build_command(args: argparse.Namespace) -> int:
 def verify_command(args: argparse.Namespace) -> int:
     from pipeline.build import validate_district, verify_district
 
-    problems = verify_district(args.folder)
+    if not args.folder.is_dir():
+        raise InputError("not a folder (verify takes a built district's folder)", file=args.folder, column="folder")
+    try:
+        problems = verify_district(args.folder)
+    except (KeyError, TypeError, AttributeError, ValueError) as error:
+        if isinstance(error, InputError):
+            raise
+        raise InputError(f"manifest.json is not a districtgen manifest ({type(error).__name__}: {error})",
+                         file=args.folder / "manifest.json") from None
     for problem in problems:
         print(f"districtgen: {args.folder}: {problem}")
     if problems:
         return 1
-    import tempfile
-
     with tempfile.TemporaryDirectory() as scratch:
         validate_district(args.folder / "schema.json", Path(scratch))
     print(f"{args.folder}: {len(problems)} problems; hashes match the manifest and the environment runs it")
@@ -115,13 +151,16 @@ def verify_command(args: argparse.Namespace) -> int:
 
 
 def paper_command(args: argparse.Namespace) -> int:
-    from pipeline.paper import multiplier_sweep, run_all
+    from pipeline.paper import RunOptions
+    from pipeline.paper_tasks import run_paper
 
-    if args.sweep:
-        multiplier_sweep(args.schema, args.output, args.sweep, sac_episodes=args.sac_episodes, seed=args.seed)
-        print((args.output / "multiplier_sweep.md").read_text())
-        return 0
-    run_all(args.schema, args.output, only=args.only, sac_episodes=args.sac_episodes, seed=args.seed,
-            multiplier=args.multiplier)
-    print((args.output / "results.md").read_text())
+    options = RunOptions(sac_episodes=args.sac_episodes, roles=tuple(args.buildings) if args.buildings else None,
+                         rules=args.rules, compat=args.compat, sac=args.sac)
+    sweep = (1.0, 3.0, 6.0, 12.0) if args.full and not args.sweep else tuple(args.sweep or ())
+    only = args.only if args.only or args.full or not args.sweep else []
+    run_paper(args.schema, args.output, only=only, sweep=sweep, seed=args.seed, seeds=args.seeds,
+              multiplier=args.multiplier, options=options, workers=args.workers)
+    for name in ("results.md", "multiplier_sweep.md"):
+        if (args.output / name).is_file():
+            print((args.output / name).read_text())
     return 0

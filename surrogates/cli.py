@@ -23,7 +23,8 @@ def train(table_path: str | os.PathLike, out_dir: str | os.PathLike, name: str |
 
 def evaluate(pth: str | os.PathLike, table_path: str | os.PathLike, all_runs: bool = False,
              plot: str | os.PathLike | None = None) -> dict:
-    """Metrics of an exported model on an ILV table: its held-out test segments (or every run)."""
+    """Metrics of an exported model on an ILV table: its held-out test segments (or every run); with ``plot``
+    also the PNG of simulated vs predicted temperature."""
     from surrogates.evaluate import evaluate_segments, plot_predictions
     from surrogates.export import load_surrogate
     from surrogates.sources.csv import read_ilv_table
@@ -52,7 +53,17 @@ def _train_command(args: argparse.Namespace) -> int:
 
 
 def _evaluate_command(args: argparse.Namespace) -> int:
-    print(json.dumps(evaluate(args.model, args.table, all_runs=args.all, plot=args.plot), indent=2))
+    from surrogates.evaluate import month_table
+
+    plot = args.plot or Path(args.model).with_suffix(".evaluate.png")
+    metrics = evaluate(args.model, args.table, all_runs=args.all, plot=plot)
+    if args.json:
+        print(json.dumps(metrics, indent=2))
+        return 0
+    print(month_table(metrics["monthly"]))
+    print(f"closed-loop monthly RMSE median {metrics['monthly_rmse_c']['median']:.3f} C, max "
+          f"{metrics['monthly_rmse_c']['max']:.3f} C; closed-loop RMSE {metrics['closed_loop_rmse_c']:.3f} C, "
+          f"one-step {metrics['one_step_rmse_c']:.3f} C over {metrics['hours']} h; plot {plot}")
     return 0
 
 
@@ -75,9 +86,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     train_parser.add_argument("--seed", type=int, default=defaults.seed)
     train_parser.add_argument("--quiet", action="store_true", help="no progress bar")
     train_parser.set_defaults(func=_train_command)
-    eval_parser = sub.add_parser("evaluate", help="print one-step and closed-loop metrics (JSON)")
+    eval_parser = sub.add_parser("evaluate", help="print the per-month closed-loop table and write the plot")
     eval_parser.add_argument("model", help="<name>.pth written by 'surrogate train' (dynamics JSON beside it)")
     eval_parser.add_argument("table", help="ILV table (.csv or .parquet)")
     eval_parser.add_argument("--all", action="store_true", help="evaluate every run, not only the test split")
-    eval_parser.add_argument("--plot", help="also write a PNG of prediction vs simulation")
+    eval_parser.add_argument("--plot", help="PNG of prediction vs simulation (default: <model>.evaluate.png)")
+    eval_parser.add_argument("--json", action="store_true", help="print the metrics as JSON instead")
     eval_parser.set_defaults(func=_evaluate_command)

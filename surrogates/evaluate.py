@@ -120,3 +120,54 @@ def plot_predictions(hours: pd.DataFrame, path: str | os.PathLike, title: str = 
     plt.close(fig)
     os.replace(temp, path)
     return path
+
+
+def bank_rollout(pth: str | os.PathLike, block: dict, table: pd.DataFrame, segments: Sequence[Segment],
+                 settings=None) -> pd.DataFrame:
+    """Closed-loop prediction of each segment by the environment's LSTM runtime
+    (:class:`citylearn_env.dynamics.LSTMBank`, weights read from the exported ``pth`` without torch).
+
+    Each segment is one episode: the bank is reset, then stepped once per hour with that hour's data inputs
+    (the indoor temperature input is the data value, replaced by the prediction as in the environment);
+    the first ``lookback`` hours are warm-up. ``settings`` is a :class:`citylearn_env.settings.Behaviour`
+    (``CORRECTED``: the environment's default; ``CITYLEARN_2_1``: upstream 2.1's day-type period 8 and
+    float32). Returns the hours after warm-up: reference, timestamp, month, simulated, predicted (degC).
+    """
+    from citylearn_env.dataset import DynamicsBlock
+    from citylearn_env.dynamics import LSTMBank, LSTMSpec, read_pth_state_dict
+    from citylearn_env.settings import CORRECTED
+
+    spec = LSTMSpec(read_pth_state_dict(pth), DynamicsBlock.from_schema(block), source=str(pth))
+    bank = LSTMBank([spec], settings=settings or CORRECTED)
+    frames = []
+    for seg in segments:
+        rows = table.iloc[seg.start:seg.stop]
+        raw = np.stack([rows[name].to_numpy(dtype=float) for name in bank.input_names])
+        bank.reset()
+        mode = np.ones(1)
+        predicted = np.array([bank.step_raw(raw[:, t:t + 1], mode)[0] for t in range(len(rows))])
+        lookback = spec.lookback
+        frames.append(pd.DataFrame({
+            "reference": rows["reference"].to_numpy()[lookback:], "timestamp": rows["timestamp"].to_numpy()[lookback:],
+            "month": rows["month"].to_numpy()[lookback:],
+            "simulated": rows["indoor_dry_bulb_temperature"].to_numpy()[lookback:],
+            "predicted": predicted[lookback:]}))
+    return pd.concat(frames, ignore_index=True)
+
+
+def monthly_rmse(hours: pd.DataFrame, prediction: str = "predicted") -> pd.DataFrame:
+    """Closed-loop RMSE (degC) per (reference, calendar month) of an hours frame (``simulated`` and
+    ``prediction`` columns); columns reference, month, hours, rmse_c."""
+    error = (hours[prediction] - hours["simulated"]) ** 2
+    grouped = error.groupby([hours["reference"], hours["month"]], sort=True)
+    out = pd.DataFrame({"hours": grouped.size(), "rmse_c": np.sqrt(grouped.mean())}).reset_index()
+    return out
+
+
+def month_table(monthly: Sequence[dict]) -> str:
+    """Plain-text table of per-(reference, month) closed-loop metrics (``evaluate_segments``' ``monthly``)."""
+    lines = ["reference  month  hours  closed-loop RMSE C  one-step RMSE C  MAPE %"]
+    for m in monthly:
+        lines.append(f"{m['reference']:>9}  {m['month']:>5}  {m['hours']:>5}  {m['rmse_c']:>17.3f}  "
+                     f"{m['one_step_rmse_c']:>15.3f}  {m['mape_pct']:>6.2f}")
+    return "\n".join(lines)

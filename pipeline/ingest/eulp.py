@@ -195,7 +195,9 @@ def citylearn_building(loads: pd.DataFrame, index: pd.DatetimeIndex, *, holidays
     out["indoor_dry_bulb_temperature_set_point"] = part["set_point_c"].to_numpy()
     out["hvac_mode"] = np.where(part["heating_demand_kwh"] > part["cooling_demand_kwh"], 2, 1)
     out["power_outage"] = 0
-    return out[list(BUILDING_COLUMNS)]
+    out["indoor_dry_bulb_temperature_cooling_set_point"] = part["cooling_set_point_c"].to_numpy()
+    out["indoor_dry_bulb_temperature_heating_set_point"] = part["heating_set_point_c"].to_numpy()
+    return out[[c for c in BUILDING_COLUMNS if c in out.columns]]
 
 
 def solar_noon_lag_hours(generation: pd.Series, longitude: float, utc_offset_hours: float) -> float:

@@ -18,7 +18,7 @@ import math
 from collections.abc import Sequence
 from pathlib import Path
 
-from surrogates.energyplus.metadata import HouseParameters
+from surrogates.energyplus.metadata import HouseParameters, setpoint_schedules
 
 #: Hourly fractions (hour 0 = 00:00-01:00), weekday then weekend. Engineering assumptions for a working
 #: household; see docs/energyplus.md.
@@ -48,8 +48,8 @@ HOT_WATER_SUPPLY_C = 49.0
 HOT_WATER_USE_C = 43.0
 INTERNAL_MASS_PER_FLOOR = 2.0
 
-ZONE_OUTPUTS = ["Zone Mean Air Temperature", "Zone People Occupant Count", "Zone Lights Electricity Rate",
-                "Zone Electric Equipment Electricity Rate"]
+ZONE_OUTPUTS = ["Zone Mean Air Temperature", "Zone Air Relative Humidity", "Zone People Occupant Count",
+                "Zone Lights Electricity Rate", "Zone Electric Equipment Electricity Rate"]
 SITE_OUTPUTS = ["Site Outdoor Air Drybulb Temperature", "Site Direct Solar Radiation Rate per Area",
                 "Site Diffuse Solar Radiation Rate per Area"]
 IDEAL_OUTPUTS = ["Zone Ideal Loads Zone Sensible Cooling Rate", "Zone Ideal Loads Zone Sensible Heating Rate",
@@ -229,7 +229,7 @@ def _gains(house: HouseParameters) -> dict[str, dict[str, dict[str, object]]]:
             "air_changes_per_hour": round(house.ach_natural, 4), "constant_term_coefficient": 1.0,
             "temperature_term_coefficient": 0.0, "velocity_term_coefficient": 0.0,
             "velocity_squared_term_coefficient": 0.0}
-    litres_per_day = house.dhw_base_litres_day + house.dhw_litres_per_person_day * house.occupants
+    litres_per_day = (house.dhw_base_litres_day + house.dhw_litres_per_person_day * house.occupants) * house.dhw_scale
     peak_m3_s = litres_per_day / 1000.0 / (3600.0 * sum(HOT_WATER[0]))
     return {
         "People": people, "Lights": lights, "ElectricEquipment": equipment,
@@ -248,7 +248,7 @@ def _schedules(house: HouseParameters) -> dict[str, dict[str, dict[str, object]]
     def constant(value, limits="any_number"):
         return {"schedule_type_limits_name": limits, "hourly_value": value}
 
-    return {
+    out: dict[str, dict[str, dict[str, object]]] = {
         "ScheduleTypeLimits": {"fraction": {"lower_limit_value": 0.0, "upper_limit_value": 1.0,
                                             "numeric_type": "Continuous"},
                                "any_number": {"numeric_type": "Continuous"}},
@@ -259,9 +259,13 @@ def _schedules(house: HouseParameters) -> dict[str, dict[str, dict[str, object]]
         "Schedule:Constant": {
             "always_on": constant(1.0, "fraction"), "activity": constant(ACTIVITY_W),
             "hot_water_supply": constant(HOT_WATER_SUPPLY_C), "hot_water_target": constant(HOT_WATER_USE_C),
-            "cooling_setpoint": constant(house.cooling_setpoint_c),
-            "heating_setpoint": constant(house.heating_setpoint_c), "dual_setpoint_control": constant(4.0)},
+            "dual_setpoint_control": constant(4.0)},
     }
+    cooling, heating, _ = setpoint_schedules(house)
+    out["Schedule:Compact"].update({
+        "cooling_setpoint": {"schedule_type_limits_name": "any_number", "data": _compact((cooling, cooling))},
+        "heating_setpoint": {"schedule_type_limits_name": "any_number", "data": _compact((heating, heating))}})
+    return out
 
 
 def _ideal_loads(house: HouseParameters) -> dict[str, dict[str, dict[str, object]]]:

@@ -15,6 +15,9 @@ Passes per building (all on the same model, weather and schedules):
    2...      partial_k        U(min, max) with probability p, else 1; seeded per building
    ========= ================ ==========================================================
 
+The ideal pass also gives the building's hourly loads in the same run (:func:`hourly_loads`, ``ILVResult.loads``):
+the building CSV and the ILV table come from one simulation on one weather file.
+
 Physical check: the multiplier-1 replay must reproduce the ideal run's indoor temperature (which holds
 the set points) within ``max_replay_mad_c`` (mean absolute deviation of hourly values, default 0.2 C);
 otherwise :class:`ILVCheckError` is raised and no table is produced.
@@ -77,6 +80,7 @@ class ILVResult:
     ideal: pd.DataFrame = field(repr=False)
     zone_areas: dict[str, float] = field(repr=False)
     timings_s: dict[str, float] = field(default_factory=dict)
+    loads: pd.DataFrame = field(repr=False, default_factory=pd.DataFrame)
 
 
 def hourly_multipliers(reference: int, hours: int, bldg_id: int, config: ILVConfig) -> np.ndarray:
@@ -99,6 +103,61 @@ def _ideal_zone_loads(ideal: pd.DataFrame, house: HouseParameters) -> pd.DataFra
         columns[f"{zone} ILV cool"] = ideal[("Zone Ideal Loads Zone Sensible Cooling Rate", key)]
         columns[f"{zone} ILV heat"] = ideal[("Zone Ideal Loads Zone Sensible Heating Rate", key)]
     return pd.DataFrame(columns)[replay_column_names(house)].clip(lower=0.0)
+
+
+#: columns of :func:`hourly_loads` (the frame :func:`pipeline.ingest.eulp.citylearn_building` takes, plus
+#: ``indoor_relative_humidity``)
+LOAD_COLUMNS = ["non_shiftable_load_kwh", "cooling_demand_kwh", "heating_demand_kwh", "dhw_demand_kwh",
+                "cooling_set_point_c", "heating_set_point_c", "set_point_c", "indoor_dry_bulb_temperature_c",
+                "indoor_relative_humidity", "occupant_count"]
+
+
+def hourly_loads(ideal: pd.DataFrame, areas: dict[str, float], house: HouseParameters) -> pd.DataFrame:
+    """The building's hourly loads from the ideal-loads pass (timestep rows, interval-END index).
+
+    Index: interval-beginning hours (local standard time). Energies [kWh per hour]: ``non_shiftable_load_kwh``
+    = zone lights + electric equipment; ``cooling_demand_kwh`` / ``heating_demand_kwh`` = the hour's net
+    ideal sensible load (cooling minus heating summed over zones; at most one is non-zero, the same netting
+    as the ILV table); ``dhw_demand_kwh`` = water-use heating. ``cooling_set_point_c`` /
+    ``heating_set_point_c`` = the thermostat schedules (max over zones, hourly mean) and ``set_point_c`` the
+    one that acts: heating where there is heating demand, cooling where there is cooling demand, and in hours
+    without load (indoor temperature floating in the dead band) the one nearer the indoor temperature;
+    ``indoor_dry_bulb_temperature_c`` and
+    ``indoor_relative_humidity`` [%] floor-area weighted; ``occupant_count`` = people in the house (hourly
+    mean of the schedule x occupants).
+    """
+    step_h = (ideal.index[1] - ideal.index[0]) / pd.Timedelta(hours=1)
+    kwh = step_h / 1000.0  # W held over one timestep -> kWh
+    keys = [f"{zone} IDEAL LOADS AIR SYSTEM".upper() for zone in zone_names(house)]
+    zones = [zone.upper() for zone in zone_names(house)]
+    per_step = pd.DataFrame({
+        "cool": ideal["Zone Ideal Loads Zone Sensible Cooling Rate"][keys].sum(axis=1) * kwh,
+        "heat": ideal["Zone Ideal Loads Zone Sensible Heating Rate"][keys].sum(axis=1) * kwh,
+        "dhw_demand_kwh": ideal["Water Use Equipment Heating Rate"].sum(axis=1) * kwh
+        if "Water Use Equipment Heating Rate" in ideal.columns.get_level_values(0) else 0.0,
+        "non_shiftable_load_kwh": (ideal["Zone Lights Electricity Rate"].sum(axis=1)
+                                   + ideal["Zone Electric Equipment Electricity Rate"].sum(axis=1)) * kwh,
+    })
+    means = pd.DataFrame({
+        "cooling_set_point_c": ideal["Zone Thermostat Cooling Setpoint Temperature"][zones].max(axis=1),
+        "heating_set_point_c": ideal["Zone Thermostat Heating Setpoint Temperature"][zones].max(axis=1),
+        "indoor_dry_bulb_temperature_c": area_weighted(ideal, "Zone Mean Air Temperature", areas),
+        "indoor_relative_humidity": area_weighted(ideal, "Zone Air Relative Humidity", areas),
+        "occupant_count": ideal["Zone People Occupant Count"].sum(axis=1),
+    })
+    sums = per_step.resample("1h", closed="right", label="right").sum()
+    out = means.resample("1h", closed="right", label="right").mean().join(sums)
+    out.index = out.index - pd.Timedelta(hours=1)
+    net = out.pop("cool") - out.pop("heat")
+    out["cooling_demand_kwh"] = net.clip(lower=0.0)
+    out["heating_demand_kwh"] = (-net).clip(lower=0.0)
+    indoor = out["indoor_dry_bulb_temperature_c"]
+    nearer_heating = (indoor - out["heating_set_point_c"]).abs() < (out["cooling_set_point_c"] - indoor).abs()
+    out["set_point_c"] = np.where(
+        out["heating_demand_kwh"] > 0, out["heating_set_point_c"],
+        np.where(out["cooling_demand_kwh"] > 0, out["cooling_set_point_c"],
+                 np.where(nearer_heating, out["heating_set_point_c"], out["cooling_set_point_c"])))
+    return out[LOAD_COLUMNS]
 
 
 def write_replay_schedule(loads_w: pd.DataFrame, multiplier_per_hour: np.ndarray, path: Path, *,
@@ -207,4 +266,5 @@ def generate_ilv(house: HouseParameters, epw: Path, *, config: ILVConfig = ILVCo
             f"multiplier-1 replay deviates from the ideal-loads run by {mad:.3f} C on average (limit "
             f"{config.max_replay_mad_c} C): the injected loads do not reproduce the set-point trajectory",
             file=epw, row=f"bldg_id={house.bldg_id}")
-    return ILVResult(table=table, replay_mad_c=mad, ideal=ideal, zone_areas=areas, timings_s=timings)
+    return ILVResult(table=table, replay_mad_c=mad, ideal=ideal, zone_areas=areas, timings_s=timings,
+                     loads=hourly_loads(ideal, areas, house))

@@ -3,7 +3,41 @@
 Every ``parse_*`` function is pure and maps one ResStock string encoding to a number in SI units. Fields
 that are absent (or ``None``/NaN) fall back to the documented defaults in :data:`VINTAGE_DEFAULTS` and
 :class:`HouseParameters`; fields that are present but unreadable raise :class:`InputError` naming the column
-and the building.
+and the building. Rows of the buildstockbatch layout (``building_id``, ``build_existing_model.<x>``) are
+first renamed to the published layout (``bldg_id``, ``in.<x>``) by :func:`normalise_characteristics`.
+
+The mapping (one table; units converted here, at the edge; docs/energyplus.md repeats it):
+
+======================================== ============================== ==========================================
+characteristic (``in.`` prefix)          parameter                      conversion
+======================================== ============================== ==========================================
+``sqft`` (else ``floor_area_conditioned`` ``floor_area_m2``             ft2 x 0.09290304; a ``geometry_floor_area``
+``_ft_2`` / ``geometry_floor_area`` bin)                                bin -> its mid-point
+``geometry_stories``                     ``stories`` (1-4)              leading number
+``vintage``                              ``vintage`` (decade)           ``1980s`` -> 1980, ``<1940`` -> 1930
+``orientation``                          ``front_azimuth_deg``          8 compass points -> 0, 45, ... 315 deg
+``window_areas`` (else window/wall ft2)  ``window_to_wall``             mean of ``F B L R`` percents / 100
+``windows``                              ``window_u``, ``window_shgc``  glazing class -> :data:`GLAZING`
+``insulation_wall`` / ``_ceiling`` /     ``wall_r_si`` / ``ceiling_r_si`` R (h ft2 F/Btu) x 0.1761102 -> m2 K/W
+``_slab``                                / ``slab_r_si``
+``infiltration``                         ``ach50``                      ``7 ACH50`` -> 7; natural ACH = ACH50 / 20
+``occupants``                            ``occupants``                  leading number (0 allowed: vacant)
+``cooling_setpoint`` / ``heating_setpoint`` base set points [degC]      ``76F`` -> (76 - 32) x 5/9
+``*_setpoint_has_offset``, ``*_offset_   hourly set-point schedules     offset degF x 5/9 [K] in the night
+magnitude``, ``*_offset_period``                                        window 22:00-07:00 shifted by the period's
+                                                                        ``+Nh``/``-Nh``: cooling raised, heating
+                                                                        lowered; crossed hours repaired (below)
+``lighting``                             ``lighting_w_per_m2``          :data:`LIGHTING_W_PER_M2` by lamp type
+``plug_loads``                           ``equipment_w_per_m2``         3.5 W/m2 x the percent / 100
+``hot_water_fixtures``                   ``dhw_scale``                  the percent / 100 (scales daily litres)
+``heating_fuel``, ``hvac_heating_type_   ``heating_system``             :func:`parse_heating_system`
+and_fuel`` / ``hvac_heating_efficiency``
+======================================== ============================== ==========================================
+
+Set-point repair: EnergyPlus's dual set point refuses a heating set point at or above the cooling one.
+In every hour where heating >= cooling, both move to their mean m: heating = m - 0.5 K, cooling = m + 0.5 K
+(a 1 K dead band centred where the household asked for). :func:`setpoint_schedules` reports how many hours
+were repaired.
 """
 
 from __future__ import annotations
@@ -48,6 +82,15 @@ GLAZING: dict[str, tuple[float, float]] = {
 
 #: ACH50 -> natural air changes per hour (the common "divide by 20" rule of thumb).
 ACH50_TO_ACH_NATURAL = 1.0 / 20.0
+#: peak lighting power density [W/m2] by lamp type (engineering assumption: the same light output, lamp
+#: efficacies of about 90 (LED), 60 (CFL) and 15 (incandescent) lm/W)
+LIGHTING_W_PER_M2 = {"led": 1.0, "cfl": 1.5, "incandescent": 6.0}
+#: the night window of set-point offsets: hours of the day (0 = 00:00-01:00) before shifting
+NIGHT_HOURS = (22, 23, 0, 1, 2, 3, 4, 5, 6)
+#: half the dead band the repair leaves between heating and cooling set points [K]
+REPAIR_HALF_BAND_K = 0.5
+#: heating systems: what the house's space heating is, as far as the schema's devices go
+HEATING_SYSTEMS = ("heat_pump", "electric_resistance", "fuel", "none")
 
 
 @dataclass(frozen=True)
@@ -80,6 +123,14 @@ class HouseParameters:
     equipment_w_per_m2: float = 3.5
     dhw_litres_per_person_day: float = 45.0
     dhw_base_litres_day: float = 30.0
+    dhw_scale: float = 1.0
+    #: night set-point offsets (cooling, heating): cooling raised / heating lowered by ``offsets_k`` [K] in the
+    #: window :data:`NIGHT_HOURS` shifted by ``offset_shifts_h`` hours
+    offsets_k: tuple[float, float] = (0.0, 0.0)
+    offset_shifts_h: tuple[int, int] = (0, 0)
+    #: the stock's heating fuel (``in.heating_fuel``) and system (one of :data:`HEATING_SYSTEMS`)
+    heating_fuel: str = "Electricity"
+    heating_system: str = "heat_pump"
 
     @property
     def ach_natural(self) -> float:
@@ -202,6 +253,78 @@ def parse_window_to_wall(text: str) -> float:
     return sum(float(v) for v in values) / 400.0
 
 
+def normalise_characteristics(row: Mapping[str, object]) -> dict[str, object]:
+    """A buildstockbatch results row (``building_id``, ``build_existing_model.<x>``,
+    ``upgrade_costs.floor_area_conditioned_ft_2``) -> the published layout (``bldg_id``, ``in.<x>``,
+    ``in.sqft``); rows already in the published layout pass through unchanged."""
+    out = dict(row)
+    if "bldg_id" not in out and "building_id" in out:
+        out["bldg_id"] = out.pop("building_id")
+    for key in list(out):
+        if key.startswith("build_existing_model."):
+            out.setdefault("in." + key[len("build_existing_model."):], out[key])
+    area = out.get("upgrade_costs.floor_area_conditioned_ft_2", out.get("in.floor_area_conditioned_ft_2"))
+    if _missing(out.get("in.sqft")) and not _missing(area):
+        out["in.sqft"] = area
+    return out
+
+
+def parse_offset_f(text: object) -> float:
+    """Set-point offset magnitude ``'2F'`` (degF difference) -> K."""
+    return _number(r"\s*(\d+(?:\.\d+)?)\s*F?\s*", text, "expected e.g. '2F'", whole=True) * 5.0 / 9.0
+
+
+def parse_offset_shift(text: object) -> int:
+    """Hours the night window is shifted by, from ``'Night Setback +3h'`` / ``'Night -5h'``; ``'None'`` or
+    a period without a shift -> 0. Day-time periods are refused (not in the ResStock options used here)."""
+    s = str(text).strip()
+    if s.lower() == "none":
+        return 0
+    if not s.lower().startswith("night"):
+        raise ValueError(f"expected a 'Night ...' offset period, got {text!r}")
+    match = re.search(r"([+-]\d+)\s*h", s)
+    return int(match.group(1)) if match else 0
+
+
+def offset_hours(shift_h: int) -> list[int]:
+    """Hours of the day (0..23) of the night window :data:`NIGHT_HOURS` shifted by ``shift_h``."""
+    return sorted((h + shift_h) % 24 for h in NIGHT_HOURS)
+
+
+def setpoint_schedules(house: HouseParameters) -> tuple[list[float], list[float], int]:
+    """Hourly (0..23) cooling and heating set points [degC] with offsets and the repair rule applied, and the
+    number of repaired hours of the day (0 = the row's set points were usable as given)."""
+    cooling = [house.cooling_setpoint_c] * 24
+    heating = [house.heating_setpoint_c] * 24
+    (cooling_k, heating_k), (cooling_shift, heating_shift) = house.offsets_k, house.offset_shifts_h
+    for h in offset_hours(cooling_shift) if cooling_k else []:
+        cooling[h] += cooling_k
+    for h in offset_hours(heating_shift) if heating_k else []:
+        heating[h] -= heating_k
+    repaired = 0
+    for h in range(24):
+        if heating[h] >= cooling[h]:
+            mean = (heating[h] + cooling[h]) / 2.0
+            heating[h], cooling[h] = mean - REPAIR_HALF_BAND_K, mean + REPAIR_HALF_BAND_K
+            repaired += 1
+    return [round(v, 4) for v in cooling], [round(v, 4) for v in heating], repaired
+
+
+def parse_heating_system(fuel: object, system: object) -> str:
+    """One of :data:`HEATING_SYSTEMS` from ``in.heating_fuel`` and ``in.hvac_heating_type_and_fuel`` (or
+    ``in.hvac_heating_efficiency``): electricity with a heat pump (``ASHP``, ``MSHP``, ``Heat Pump``) ->
+    ``heat_pump``; other electricity (furnace, baseboard, boiler) -> ``electric_resistance``; any other fuel
+    -> ``fuel``; ``None`` -> ``none``."""
+    f, k = str(fuel).strip().lower(), str(system).strip().lower()
+    if f in ("none", ""):
+        return "none"
+    if f != "electricity":
+        return "fuel"
+    if re.search(r"ashp|mshp|gshp|heat pump", k):
+        return "heat_pump"
+    return "electric_resistance"
+
+
 def house_parameters_from_metadata(row: Mapping[str, object], *,
                                    source: object = "metadata") -> HouseParameters:
     """Map one EULP metadata row (``bldg_id``, ``in.*``) to :class:`HouseParameters`.
@@ -210,8 +333,10 @@ def house_parameters_from_metadata(row: Mapping[str, object], *,
     is optional and falls back to the vintage defaults. Raises :class:`InputError` naming ``source``, the
     column and the building id for an unreadable field.
     """
+    row = normalise_characteristics(row)
     if _missing(row.get("bldg_id")):
-        raise InputError("missing building id", file=source, column="bldg_id")
+        raise InputError("missing building id (expected column bldg_id or building_id)", file=source,
+                         column="bldg_id")
     bldg_id = int(row["bldg_id"])
 
     def field(column: str, parse):
@@ -247,6 +372,24 @@ def house_parameters_from_metadata(row: Mapping[str, object], *,
     ceiling_r = field("in.insulation_ceiling", parse_r_value)
     slab_r = field("in.insulation_slab", parse_r_value)
     defaults = VINTAGE_DEFAULTS[decade]
+    occupants = field("in.occupants", parse_leading_number)
+    lamp = field("in.lighting", parse_lighting)
+    plug = field("in.plug_loads", parse_percent)
+    fixtures = field("in.hot_water_fixtures", parse_percent)
+    fuel = row.get("in.heating_fuel")
+    system_text = row.get("in.hvac_heating_type_and_fuel", row.get("in.hvac_heating_efficiency"))
+    heating_system = "heat_pump" if _missing(fuel) else parse_heating_system(
+        fuel, "" if _missing(system_text) else system_text)
+
+    def offset(kind: str) -> tuple[float, int]:
+        if str(row.get(f"in.{kind}_setpoint_has_offset", "No")).strip().lower() != "yes":
+            return 0.0, 0
+        return (field(f"in.{kind}_setpoint_offset_magnitude", parse_offset_f) or 0.0,
+                field(f"in.{kind}_setpoint_offset_period", parse_offset_shift) or 0)
+
+    cooling_offset, heating_offset = offset("cooling"), offset("heating")
+    cooling_sp = field("in.cooling_setpoint", parse_setpoint)
+    heating_sp = field("in.heating_setpoint", parse_setpoint)
     return HouseParameters(
         bldg_id=bldg_id,
         floor_area_m2=sqft * FT2_TO_M2,
@@ -261,7 +404,27 @@ def house_parameters_from_metadata(row: Mapping[str, object], *,
         ceiling_r_si=(defaults[1] if ceiling_r is None else ceiling_r) * R_IP_TO_SI,
         slab_r_si=(slab_r or 0.0) * R_IP_TO_SI,
         ach50=field("in.infiltration", parse_ach50) or ach50,
-        occupants=field("in.occupants", parse_leading_number) or 3.0,
-        cooling_setpoint_c=field("in.cooling_setpoint", parse_setpoint) or 24.0,
-        heating_setpoint_c=field("in.heating_setpoint", parse_setpoint) or 20.0,
+        occupants=3.0 if occupants is None else occupants,
+        cooling_setpoint_c=24.0 if cooling_sp is None else cooling_sp,
+        heating_setpoint_c=20.0 if heating_sp is None else heating_sp,
+        lighting_w_per_m2=LIGHTING_W_PER_M2[lamp] if lamp else 2.0,
+        equipment_w_per_m2=3.5 * (1.0 if plug is None else plug),
+        dhw_scale=1.0 if fixtures is None else fixtures,
+        offsets_k=(cooling_offset[0], heating_offset[0]), offset_shifts_h=(cooling_offset[1], heating_offset[1]),
+        heating_fuel="Electricity" if _missing(fuel) else str(fuel),
+        heating_system=heating_system,
     )
+
+
+def parse_lighting(text: object) -> str:
+    """Lamp key of :data:`LIGHTING_W_PER_M2` from ``in.lighting`` like ``'100% LED'``."""
+    s = str(text).lower()
+    for key in ("incandescent", "cfl", "led"):
+        if key in s:
+            return key
+    raise ValueError(f"expected '100% LED', '100% CFL' or '100% Incandescent', got {text!r}")
+
+
+def parse_percent(text: object) -> float:
+    """``'113%'`` or ``'50% Usage'`` -> 1.13 / 0.5."""
+    return _number(r"\s*(\d+(?:\.\d+)?)\s*%", text, "expected e.g. '100%'") / 100.0

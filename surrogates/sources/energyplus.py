@@ -18,7 +18,7 @@ from prefect import task
 
 from citylearn_env.errors import InputError
 from surrogates.energyplus.ilv import ILVConfig, ILVResult, generate_ilv
-from surrogates.energyplus.metadata import house_parameters_from_metadata
+from surrogates.energyplus.metadata import HouseParameters, house_parameters_from_metadata, setpoint_schedules
 from surrogates.ilv import validate_ilv
 
 
@@ -68,3 +68,30 @@ def energyplus_ilv_task(metadata_row: dict[str, object], epw: str, output: str,
                         config: ILVConfig | None = None) -> dict[str, object]:
     """Prefect task: one building's EnergyPlus ILV table (see :func:`build_ilv_table`)."""
     return build_ilv_table(metadata_row, epw, output, config=config)
+
+
+def house_summary(house: HouseParameters) -> dict[str, object]:
+    """What the report says about a simulated house: heating fuel and system, set points [degC] as used
+    (after offsets and the repair rule) and how many hours of the day were repaired."""
+    cooling, heating, repaired = setpoint_schedules(house)
+    return {"bldg_id": house.bldg_id, "floor_area_m2": round(house.floor_area_m2, 1), "stories": house.stories,
+            "vintage": house.vintage, "occupants": house.occupants, "heating_fuel": house.heating_fuel,
+            "heating_system": house.heating_system,
+            "cooling_set_point_c": [min(cooling), max(cooling)], "heating_set_point_c": [min(heating), max(heating)],
+            "set_point_hours_repaired": repaired,
+            "stock_set_points_c": [round(house.heating_setpoint_c, 2), round(house.cooling_setpoint_c, 2)]}
+
+
+def simulate_house(characteristics: Mapping[str, object], epw: Path, *, config: ILVConfig | None = None,
+                   source: object = "characteristics") -> tuple[pd.DataFrame, pd.DataFrame, dict[str, object]]:
+    """One EnergyPlus pass over a real stock row: (hourly loads, ILV table, house summary).
+
+    ``characteristics``: a row of either metadata layout (``bldg_id``/``in.*`` or
+    ``building_id``/``build_existing_model.*``). The loads (:func:`surrogates.energyplus.ilv.hourly_loads`)
+    and the ILV table come from the same runs on ``epw``; the summary is :func:`house_summary` plus the
+    replay check's mean absolute deviation [degC].
+    """
+    house = house_parameters_from_metadata(characteristics, source=source)
+    result = generate_ilv(house, Path(epw), config=config or ILVConfig())
+    table = validate_ilv(result.table, source=f"EnergyPlus ILV of building {house.bldg_id}")
+    return result.loads, table, {**house_summary(house), "replay_mad_c": round(result.replay_mad_c, 4)}

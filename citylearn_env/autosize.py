@@ -1,0 +1,147 @@
+"""Upstream CityLearn 2.1's device ``autosize``, as pure sizing functions.
+
+A schema device with ``"autosize": true`` is sized from the building's data over the **simulation range**
+(``simulation_start_time_step`` .. ``simulation_end_time_step``, not the episode) after its ``attributes``
+are applied; ``autosize_attributes`` may hold ``safety_factor`` (SF, default 1.0; null means 1.0), the only
+keyword CityLearn 2.1's autosizers take. Units: energies kWh per 1-h step (so peak kWh per step = kW),
+temperatures degC, ``solar_generation`` W of AC output per kW of PV.
+
+Rules of CityLearn 2.1.2 (``Building.autosize_*`` and the devices' ``autosize``), one function each:
+
+* heat pump (:func:`heat_pump_power`): ``nominal_power = max_t(Q_c[t] / COP_c[t] + Q_h[t] / COP_h[t]) * SF``
+  [kW electric] with the Carnot COPs of :mod:`citylearn_env.devices` at the outdoor dry-bulb temperature.
+  As ``cooling_device`` it sees only ``cooling_demand`` (Q_h = 0); as ``heating_device`` only
+  ``heating_demand``; as ``dhw_device`` only ``dhw_demand`` (with the heating COP).
+* electric heater (:func:`heater_power`): ``nominal_power = max_t(Q[t] / efficiency) * SF`` [kW] with Q the
+  demand of its slot (``heating_demand`` or ``dhw_demand``; a heater as ``cooling_device`` sees
+  ``cooling_demand``) -- :func:`citylearn_env.sizing.dhw_heater_power`, the pipeline's DHW heater rule.
+* storage tank (:func:`tank_capacity`): ``capacity = max_t(Q[t]) * SF`` [kWh] with Q the demand of its end use
+  (``cooling_demand`` / ``heating_demand`` / ``dhw_demand``); not divided by an efficiency.
+* battery (:func:`battery_capacity`): ``capacity = max_t(PV generation[t]) * SF`` [kWh], PV generation =
+  ``pv_kw * solar_generation / 1000``. Only the capacity is sized (``nominal_power`` stays as given).
+  CityLearn 2.1 sizes the battery *before* the PV and from the PV the building holds at that moment, which
+  is always the zero-size placeholder (the schema's PV is attached after the battery), so an autosized
+  battery gets capacity 0. :func:`autosize_device` reproduces that (``pv_kw`` = 0); no shared data set
+  autosizes a battery.
+* PV (:func:`pv_power`): ``nominal_power = max_t(P0 * solar_generation[t] / 1000 / efficiency) * SF`` [kW]
+  with P0 the schema's own ``nominal_power`` (0 when absent, giving 0) and the PV's ``efficiency``
+  (default 1.0): upstream sizes the PV to its own peak generation.
+
+Randomness: none. CityLearn 2.1's autosizers and device defaults are deterministic (fixed default
+efficiencies and temperatures), so the result does not depend on the schema's ``random_seed``; the random
+draws of later versions (catalogue batteries, U(a, b) default attributes) are not part of these rules.
+Upstream computes in float32; these functions compute in float64 on the float32-rounded data, so sizes agree
+to about 1e-7 relative.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from citylearn_env.config import Battery, ConversionDevice, Tank
+from citylearn_env.devices import carnot_cop_cooling, carnot_cop_heating
+from citylearn_env.errors import SchemaError
+from citylearn_env.sizing import SizingRules, dhw_heater_power
+from citylearn_env.sizing import heat_pump_power as cooling_heat_pump_power
+
+#: the demand column each thermal slot is sized on
+SLOT_DEMAND = {
+    "cooling_device": "cooling_demand", "heating_device": "heating_demand", "dhw_device": "dhw_demand",
+    "cooling_storage": "cooling_demand", "heating_storage": "heating_demand", "dhw_storage": "dhw_demand",
+}
+#: the keys ``autosize_attributes`` may hold (CityLearn 2.1's autosizers take only this keyword)
+AUTOSIZE_KEYS = ("safety_factor",)
+
+
+def heat_pump_power(outdoor_c: np.ndarray, *, cooling_kwh: np.ndarray | None = None,
+                    heating_kwh: np.ndarray | None = None, efficiency: float, target_cooling_temperature: float,
+                    target_heating_temperature: float, safety_factor: float = 1.0) -> float:
+    """Heat-pump nominal electric power [kW] = max_t(Q_c / COP_c + Q_h / COP_h) x SF over hourly series.
+
+    ``outdoor_c`` [degC]; ``cooling_kwh`` / ``heating_kwh`` [kWh per hour] (None = no such load);
+    ``efficiency`` is the Carnot fraction; COPs as :func:`citylearn_env.devices.carnot_cop_cooling` /
+    ``_heating`` (replaced by 20 outside (0, 20]). The cooling-only case is
+    :func:`citylearn_env.sizing.heat_pump_power`.
+    """
+    outdoor = np.asarray(outdoor_c, dtype=np.float64)
+    if heating_kwh is None:  # cooling only: the pipeline's rule
+        rules = SizingRules(heat_pump_efficiency=efficiency, target_cooling_temperature=target_cooling_temperature,
+                            heat_pump_safety_factor=safety_factor)
+        return cooling_heat_pump_power(np.zeros_like(outdoor) if cooling_kwh is None else cooling_kwh, outdoor, rules)
+    electric = np.asarray(heating_kwh, dtype=np.float64) / carnot_cop_heating(
+        outdoor, target_heating_temperature, efficiency)
+    if cooling_kwh is not None:
+        electric = electric + np.asarray(cooling_kwh, dtype=np.float64) / carnot_cop_cooling(
+            outdoor, target_cooling_temperature, efficiency)
+    return float(np.max(electric) * safety_factor)
+
+
+def heater_power(demand_kwh: np.ndarray, *, efficiency: float, safety_factor: float = 1.0) -> float:
+    """Electric-heater nominal power [kW] = max_t(demand / efficiency) x SF (the pipeline's DHW heater rule)."""
+    rules = SizingRules(dhw_heater_efficiency=efficiency, dhw_heater_safety_factor=safety_factor)
+    return dhw_heater_power(np.asarray(demand_kwh, dtype=np.float64), rules)
+
+
+def tank_capacity(demand_kwh: np.ndarray, *, safety_factor: float = 1.0) -> float:
+    """Storage-tank capacity [kWh] = max_t(demand) x SF: one peak hour of its end use, times SF."""
+    return float(np.max(np.asarray(demand_kwh, dtype=np.float64)) * safety_factor)
+
+
+def battery_capacity(pv_kw: float, solar_w_per_kw: np.ndarray, *, safety_factor: float = 1.0) -> float:
+    """Battery capacity [kWh] = max_t(pv_kw x solar_generation / 1000) x SF: the peak hourly PV output."""
+    return float(np.max(pv_kw * np.asarray(solar_w_per_kw, dtype=np.float64) / 1000.0) * safety_factor)
+
+
+def pv_power(pv_kw: float, solar_w_per_kw: np.ndarray, *, efficiency: float = 1.0,
+             safety_factor: float = 1.0) -> float:
+    """PV nominal power [kW] = max_t(pv_kw x solar_generation / 1000 / efficiency) x SF (upstream 2.1's rule:
+    the peak generation of the PV as given, so a PV given as 0 kW stays 0 kW)."""
+    generation = pv_kw * np.asarray(solar_w_per_kw, dtype=np.float64) / 1000.0
+    return float(np.max(generation / efficiency) * safety_factor)
+
+
+def safety_factor(autosize_attributes: Mapping[str, Any] | None, where: str) -> float:
+    """The ``safety_factor`` of a device's ``autosize_attributes`` (1.0 when absent or null); a SchemaError
+    for an unknown key or a value that is not a finite number >= 0."""
+    attrs = dict(autosize_attributes or {})
+    unknown = sorted(set(attrs) - set(AUTOSIZE_KEYS))
+    if unknown:
+        raise SchemaError(f"unknown autosize attribute(s) {unknown}; known: {', '.join(AUTOSIZE_KEYS)}",
+                          column=f"{where}.autosize_attributes")
+    value = attrs.get("safety_factor")
+    if value is None:
+        return 1.0
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value < 0:
+        raise SchemaError(f"expected a finite number >= 0, got {value!r}",
+                          column=f"{where}.autosize_attributes.safety_factor")
+    return float(value)
+
+
+def autosize_device(slot: str, device: ConversionDevice | Tank | Battery, series: Mapping[str, np.ndarray],
+                    sf: float) -> ConversionDevice | Tank | Battery:
+    """``device`` (in building ``slot``) with its size replaced by CityLearn 2.1's autosize rule.
+
+    ``series`` are the building's data columns over the simulation range (``cooling_demand``,
+    ``heating_demand``, ``dhw_demand`` [kWh], ``outdoor_dry_bulb_temperature`` [degC], ``solar_generation``
+    [W/kW]); ``sf`` is the safety factor. PV is sized by :func:`pv_power` directly (its config is a number).
+    """
+    if isinstance(device, Battery):
+        # upstream sizes the battery from the zero-size PV placeholder (see the module docstring)
+        return dataclasses.replace(device, capacity=battery_capacity(0.0, series["solar_generation"],
+                                                                     safety_factor=sf))
+    demand = series[SLOT_DEMAND[slot]]
+    if isinstance(device, Tank):
+        return dataclasses.replace(device, capacity=tank_capacity(demand, safety_factor=sf))
+    if device.kind == "ElectricHeater":
+        power = heater_power(demand, efficiency=device.efficiency, safety_factor=sf)
+    else:
+        loads = {"cooling_kwh": demand} if slot == "cooling_device" else {"heating_kwh": demand}
+        power = heat_pump_power(series["outdoor_dry_bulb_temperature"], **loads, efficiency=device.efficiency,
+                                target_cooling_temperature=device.target_cooling_temperature,
+                                target_heating_temperature=device.target_heating_temperature, safety_factor=sf)
+    return dataclasses.replace(device, nominal_power=power)

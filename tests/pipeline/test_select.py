@@ -1,0 +1,130 @@
+"""Stock selection (pipeline.select): layouts, filters, features, auto-k, medoids, determinism and the command.
+
+The real file is the embedded copy in raw/ of the 100 ResStock dwellings (buildstockbatch layout; 85 of them
+single-family detached, as ../shared/data/README.md states)."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from pipeline import select
+from pipeline.cli import main
+from pipeline.errors import InputError
+
+ROOT = Path(__file__).resolve().parents[2]
+STOCK = ROOT / "raw" / "eulp" / "resstock_characteristics_100_dwellings.parquet"
+SFD = {"geometry_building_type_recs": "Single-Family Detached"}
+
+
+@pytest.fixture(scope="module")
+def stock() -> pd.DataFrame:
+    return select.read_stock_metadata(STOCK)
+
+
+def test_both_layouts_read_the_same(stock):
+    raw = pd.read_parquet(STOCK)
+    published = raw.rename(columns=lambda c: c.replace("build_existing_model.", "in.")).rename(
+        columns={"building_id": "bldg_id", "upgrade_costs.floor_area_conditioned_ft_2": "in.sqft"})
+    other = select.parse_stock_metadata(published)
+    assert list(other.index) == list(stock.index) == sorted(raw["building_id"])
+    assert (other["vintage"] == stock["vintage"]).all()
+    assert np.allclose(other["floor_area_ft2"], stock["floor_area_ft2"])
+    # EUI [kWh/ft2] = total MBtu x 293.07107 kWh/MBtu / floor area, only derivable from the buildstock layout
+    row = raw.iloc[0]
+    expected = row["report_simulation_output.energy_use_total_m_btu"] * 293.07107017222 / row[
+        "upgrade_costs.floor_area_conditioned_ft_2"]
+    assert stock.loc[int(row["building_id"]), "site_eui_kwh_per_ft2"] == pytest.approx(expected)
+
+
+def test_filters_keys_alternatives_and_errors(stock):
+    assert len(select.apply_filters(stock, SFD)) == 85                              # as the data README says
+    filters = select.parse_filters(["geometry_building_type_recs=Single-Family Detached", "vintage=1980s",
+                             "in.vintage='1990s'"])
+    assert filters == {"geometry_building_type_recs": ("Single-Family Detached",), "vintage": ("1980s", "1990s")}
+    chosen = select.apply_filters(stock, filters)
+    assert len(chosen) > 0 and set(chosen["vintage"]) <= {"1980s", "1990s"}
+    assert len(chosen) == ((stock["geometry_building_type_recs"] == "Single-Family Detached")
+                           & stock["vintage"].isin(["1980s", "1990s"])).sum()
+    with pytest.raises(InputError, match="'colour'.*unknown characteristic"):
+        select.apply_filters(stock, {"colour": "blue"}, file="m.parquet")
+    with pytest.raises(InputError, match="expected KEY=VALUE"):
+        select.parse_filters(["vintage"])
+
+
+def test_orientation_and_scaling_by_hand():
+    frame = pd.DataFrame({"orientation": ["North", "East", "South", "West"], "vintage": ["1950s", "1960s",
+                                                                                          "<1940", "2010s"]},
+                         index=pd.Index([1, 2, 3, 4], name="bldg_id"))
+    features = select.selection_features(frame)
+    # 8 compass points: East = 2 of 8 -> angle pi/2 -> sin 1; min-max scaling of sin(0, pi/2, pi, 3pi/2) -> 0.5, 1, .5, 0
+    assert features["orientation_sin"].to_numpy() == pytest.approx([0.5, 1.0, 0.5, 0.0])
+    assert features["orientation_cos"].to_numpy() == pytest.approx([1.0, 0.5, 0.0, 0.5])
+    # decades 1950, 1960, 1930, 2010 over the span 80 years
+    assert features["vintage_decade"].to_numpy() == pytest.approx([20 / 80, 30 / 80, 0.0, 1.0])
+
+
+def test_medoid_by_hand():
+    # summed distances: 0 -> 1 + 10 = 11, 1 -> 1 + 9 = 10, 10 -> 10 + 9 = 19
+    assert select.medoid(np.array([[0.0], [1.0], [10.0]])) == 1
+
+
+def test_auto_k_finds_three_separated_groups():
+    # three far-apart groups of five houses, each a "plus" of infiltration +-1 ACH50 and occupants +-1 around
+    # its centre: 3 clusters by construction, and each group's medoid is its centre (j = 4)
+    rows = []
+    for group, (ach, occupants) in enumerate(((3, 1), (15, 4), (40, 8))):
+        for j, (da, do) in enumerate(((-1, 0), (1, 0), (0, -1), (0, 1), (0, 0))):
+            rows.append({"bldg_id": 10 * group + j, "in.infiltration": f"{ach + da} ACH50",
+                         "in.occupants": str(occupants + do)})
+    frame = select.parse_stock_metadata(pd.DataFrame(rows))
+    selection = select.select_buildings(frame, clusters="auto", seed=0, max_clusters=6)
+    assert selection.chosen["k"].iloc[0] == 3
+    assert sorted(selection.chosen["bldg_id"]) == [4, 14, 24]
+
+
+def test_auto_k_on_the_real_file_votes_by_the_rule():
+    selection = select.select_from_file(STOCK, SFD, clusters="auto", seed=3, max_clusters=10)
+    table = selection.validity
+    assert list(table["k"]) == list(range(2, 11))
+    votes = (table.loc[table["calinski_harabasz"].idxmax(), "k"], table.loc[table["silhouette"].idxmax(), "k"],
+             table.loc[table["davies_bouldin"].idxmin(), "k"])
+    assert selection.chosen["k"].iloc[0] == math.floor(sum(votes) / 3) == select.choose_k(table)
+    assert (np.diff(table["sse"]) < 0).all()                     # SSE falls with k (why it does not vote)
+
+
+def test_same_seed_same_rows_and_draws_stay_in_their_cluster(stock):
+    sfd = select.apply_filters(stock, SFD)
+    a = select.select_buildings(sfd, clusters=8, seed=3)
+    b = select.select_buildings(sfd.sample(frac=1.0, random_state=1), clusters=8, seed=3)   # row order does not matter
+    assert a.chosen.equals(b.chosen)
+    assert a.chosen["bldg_id"].is_unique and len(a.chosen) == 8
+    drawn = select.select_buildings(sfd, clusters=8, seed=3, method="draw")
+    assert drawn.chosen.equals(select.select_buildings(sfd, clusters=8, seed=3, method="draw").chosen)
+    assert drawn.chosen["bldg_id"].is_unique
+
+
+def test_command_writes_eight_single_family_ids_twice_the_same(tmp_path, capsys):
+    args = [str(STOCK), "--filter", 'geometry_building_type_recs="Single-Family Detached"', "--clusters", "8",
+            "--seed", "3"]
+    assert main(["select", *args, "-o", str(tmp_path / "a.csv")]) == 0
+    printed = capsys.readouterr().out
+    assert "Calinski-H" in printed and "silhouette" in printed and "Davies-B" in printed
+    assert main(["select", *args, "-o", str(tmp_path / "b.csv")]) == 0
+    a, b = pd.read_csv(tmp_path / "a.csv"), pd.read_csv(tmp_path / "b.csv")
+    assert a.equals(b)
+    assert list(a.columns) == ["bldg_id", "cluster", "k"] and len(a) == 8 and a["bldg_id"].is_unique
+    raw = pd.read_parquet(STOCK).set_index("building_id")
+    assert (raw.loc[a["bldg_id"], "build_existing_model.geometry_building_type_recs"]
+            == "Single-Family Detached").all()
+
+
+def test_command_bad_input_is_one_line(tmp_path, capsys):
+    assert main(["select", str(STOCK), "--filter", "colour=blue", "-o", str(tmp_path / "x.csv")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "colour" in err[0]
+    assert main(["select", str(tmp_path / "missing.parquet"), "-o", str(tmp_path / "x.csv")]) == 2
