@@ -22,8 +22,8 @@ class Behaviour:
     """Which upstream quirks the environment reproduces (the defaults are the corrected behaviour)."""
 
     # ---------------------------------------------------------------- data sets
-    #: a building file without an ``hvac_mode`` column: True = mode 0 ("off", CityLearn 2.1), False = mode 1
-    #: (cooling, as its documentation and later versions say)
+    #: a building file without an ``hvac_mode`` column: True = mode 0 ("off", what CityLearn 2.1.0 did),
+    #: False = mode 1 (cooling, as the documentation says and CityLearn 2.1.2 does -- so both presets keep False)
     missing_hvac_mode_is_off: bool = False
 
     # ---------------------------------------------------------------- devices
@@ -78,9 +78,9 @@ class Behaviour:
 #: every quirk corrected (the default)
 CORRECTED = Behaviour()
 
-#: CityLearn 2.1.2 exactly, bugs included
+#: CityLearn 2.1.2 exactly, bugs included (fields that only older 2.1 releases had keep their default)
+ONLY_BEFORE_2_1_2 = ("missing_hvac_mode_is_off",)
 CITYLEARN_2_1 = Behaviour(
-    missing_hvac_mode_is_off=True,
     battery_curve_extrapolates_first_segment=True,
     lstm_day_type_period=8.0,
     lstm_output_uses_last_input_bounds=True,
