@@ -200,8 +200,8 @@ def _bound(d: District, name: str, b: int) -> tuple[float, float]:
     if name.endswith("_soc") or name == "power_outage":
         return 0.0, 1.0
     if name == "indoor_dry_bulb_temperature":
-        t = s["indoor_dry_bulb_temperature"][b]
-        return float(t.min()) - 10.0, float(t.max()) + 10.0
+        low, high = _finite_range(s["indoor_dry_bulb_temperature"][b])
+        return low - 10.0, high + 10.0
     if name == "indoor_dry_bulb_temperature_delta":
         return 0.0, 10.0
     if name in SET_POINT_DELTAS:
@@ -215,8 +215,13 @@ def _bound(d: District, name: str, b: int) -> tuple[float, float]:
             return 0.0, float(p.nominal_power[b])
         if name == STORAGE_ELECTRICITY_NAMES[p.name]:
             return -float(np.max(p.demand[b] / p.cop[b])), float(p.nominal_power[b])
-    values = static_series(d, name, full_range=True)[b]
-    return float(values.min()), float(values.max())
+    return _finite_range(static_series(d, name, full_range=True)[b])
+
+
+def _finite_range(values: np.ndarray) -> tuple[float, float]:
+    """(min, max) of the finite values; (0, 0) when there is none (an empty optional column held as NaN)."""
+    finite = values[np.isfinite(values)]
+    return (float(finite.min()), float(finite.max())) if finite.size else (0.0, 0.0)
 
 
 #: end use -> its electricity-consumption observation names
