@@ -101,13 +101,16 @@ def run(args: argparse.Namespace) -> None:
         config = replace(config, seed=args.seed)
     results = CACHE / "results" / f"{args.recipe}{'' if args.seed is None else f'_seed{args.seed}'}.jsonl"
     results.parent.mkdir(parents=True, exist_ok=True)
-    done = {json.loads(line)["key"] for line in results.read_text().splitlines()} if results.is_file() else set()
+
+    def done() -> set[str]:  # re-read before every building: several workers may share the results file
+        return {json.loads(line)["key"] for line in results.read_text().splitlines()} if results.is_file() else set()
+
     for house in houses(args.houses):
         for climate in args.climates:
             paths = rh.generate_reference_ilv(house, climate, epw(climate), CACHE, schemes=args.schemes)
             for scheme, path in paths.items():
                 key = f"{house.name}/{climate}/{scheme}"
-                if key in done:
+                if key in done():
                     continue
                 table = read_ilv(path)
                 train = table[table["reference"].isin(TRAIN_REFERENCES)].reset_index(drop=True)

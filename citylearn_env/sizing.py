@@ -5,7 +5,8 @@ both size devices the same way. Inputs are hourly series over the sizing period 
 outputs are CityLearn device attributes (kW electric, kWh, fractions).
 
 * Heat pump and DHW heater: peak *electric input* = max over hours of thermal load / COP (or efficiency)
-  x safety factor, rounded to 4 decimals (kW). A heat pump that also heats is sized on the peak over hours
+  x safety factor, rounded to 4 decimals (kW; heat pumps and space heaters rounded up, so the rounding never
+  leaves an hour's demand undelivered). A heat pump that also heats is sized on the peak over hours
   of cooling / COP_c + heating / COP_h (Carnot COPs of the hour's outdoor temperature), so in no hour does
   either demand exceed what it delivers; a resistance heater on the peak of heating / efficiency.
 * DHW tank: ``dhw_tank_fraction`` (one half) of the peak hourly DHW demand (kWh), charged and discharged at
@@ -17,6 +18,7 @@ outputs are CityLearn device attributes (kW electric, kWh, fractions).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -125,6 +127,12 @@ def pv_power(consumption_kwh: float, yield_w_per_kw: np.ndarray, rules: SizingRu
     return round(rules.pv_zne_fraction * consumption_kwh / specific, 2)
 
 
+def round_up(power_kw: float, decimals: int = 4) -> float:
+    """``power_kw`` rounded UP to ``decimals`` (a device sized at a peak must not lose it to rounding)."""
+    scale = 10.0 ** decimals
+    return math.ceil(round(power_kw * scale, 6)) / scale
+
+
 def size_devices(series: Mapping[str, Any], outdoor_c: np.ndarray, rules: SizingRules, *,
                  heating_device: str | None = None) -> dict[str, dict]:
     """All device attributes of one building, by schema slot, from its building columns.
@@ -151,14 +159,14 @@ def size_devices(series: Mapping[str, Any], outdoor_c: np.ndarray, rules: Sizing
         space += np.sum(heating) / rules.electric_heater_efficiency
     consumption = float(space + np.sum(dhw) / rules.dhw_heater_efficiency
                         + np.sum(np.asarray(series["non_shiftable_load"], dtype=float)))
-    heat_pump = {"nominal_power": round(hp, 4), "efficiency": rules.heat_pump_efficiency,
+    heat_pump = {"nominal_power": round_up(hp), "efficiency": rules.heat_pump_efficiency,
                  "target_cooling_temperature": rules.target_cooling_temperature,
                  "target_heating_temperature": rules.target_heating_temperature}
     heating_slot = {}
     if heating_device == "heat_pump":
         heating_slot = {"heating_device": dict(heat_pump)}
     elif heating_device == "electric_heater":
-        heating_slot = {"heating_device": {"nominal_power": round(electric_heater_power(heating, rules), 4),
+        heating_slot = {"heating_device": {"nominal_power": round_up(electric_heater_power(heating, rules)),
                                            "efficiency": rules.electric_heater_efficiency}}
     return {
         "cooling_device": heat_pump, **heating_slot,

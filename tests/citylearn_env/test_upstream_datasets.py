@@ -78,7 +78,7 @@ def test_full_episode(tag, name, settings):
 UPSTREAM_212_NO_CONTROL_KWH = {
     # 2022 phase 1: five buildings whose indoor temperature / unmet set-point difference / indoor humidity
     # columns are empty (read as NaN, as upstream does)
-    "citylearn_challenge_2022_phase_1": None,
+    "citylearn_challenge_2022_phase_1": 16076.464086586759,
     # 2020 climate zone 1: every heat pump, DHW heater and tank autosized from the data
     "citylearn_challenge_2020_climate_zone_1": 1518259.3000372946,
 }
