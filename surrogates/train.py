@@ -67,7 +67,6 @@ class TrainConfig:
     learning_rate: float = 0.01
     finetune_learning_rate: float = 0.003
     patience: int = 6
-    min_epochs: int = 0
     plateau: int = 3
     lr_decay: float = 1.0
     pretrain_noise: float = 0.0
@@ -275,8 +274,7 @@ def _fit(table, inputs, splits, config: TrainConfig, started: float) -> Trained:
             lr *= config.lr_decay
             model.load_state_dict(best)
             averaged.load_state_dict(best)
-        if (stale >= config.patience and epoch + 1 >= config.min_epochs) or (
-                config.max_seconds and time.perf_counter() - started > config.max_seconds):
+        if stale >= config.patience or (config.max_seconds and time.perf_counter() - started > config.max_seconds):
             break
     if bar is not None:
         bar.close()
