@@ -48,7 +48,8 @@ class Actions:
     heating_device: np.ndarray
 
     def storage(self, end_use: str) -> np.ndarray:
-        return {"cooling": self.cooling_storage, "heating": self.heating_storage, "dhw": self.dhw_storage}[end_use]
+        """The storage action of ``end_use`` (cooling, heating or dhw)."""
+        return getattr(self, END_USE_SLOTS[end_use][3])
 
 
 @dataclass(eq=False)
@@ -81,7 +82,6 @@ class District:
         self.signals = Signals(MappingProxyType(columns), pv, columns["power_outage"])
         self.end_use_params = tuple(self._end_use_params(k) for k in END_USES)
         self.battery = self._battery_params()
-        self.has_battery = bool((self.battery.capacity > 0).any())
         self.dynamics = np.array([x.has_dynamics for x in b])
         self.thermal = None
         if self.dynamics.any():

@@ -255,11 +255,9 @@ class Signals:
 
 def site_signals(config: BuildConfig) -> Signals:
     """Read the weather file once: the weather table and the site's PV yield; then prices and carbon."""
-    from pipeline.carbon import carbon_intensity, read_emission_factors
-    from pipeline.ingest.commands import read_weather_file
-    from pipeline.ingest.fuel_mix import read_fuel_mix_csv, read_fuel_mix_workbook
+    from pipeline.ingest.commands import carbon_table, read_weather_file
     from pipeline.ingest.tariff import citylearn_pricing, read_tariff
-    from pipeline.ingest.timeindex import period_index, select_period
+    from pipeline.ingest.timeindex import period_index
     from pipeline.ingest.weather import ForecastSpec, citylearn_weather
     from pipeline.pv import site_pv_yield
 
@@ -269,13 +267,7 @@ def site_signals(config: BuildConfig) -> Signals:
     weather = citylearn_weather(frame, index, ForecastSpec(mode=config.forecast, seed=config.seed), file=i.weather)
     solar = site_pv_yield(frame, meta, tilt=config.pv.tilt, azimuth=config.pv.azimuth, file=i.weather)
     pricing = citylearn_pricing(read_tariff(i.tariff), index)
-    fuel_mix = Path(i.fuel_mix)
-    if fuel_mix.suffix.lower() in (".xlsx", ".xlsm"):
-        generation, _ = read_fuel_mix_workbook(fuel_mix, timezone=config.timezone)
-    else:
-        generation, _ = read_fuel_mix_csv(fuel_mix, timezone=config.timezone)
-    generation = select_period(generation, index, file=fuel_mix)
-    carbon = carbon_intensity(generation, read_emission_factors(None)).to_frame("carbon_intensity")
+    carbon = carbon_table(i.fuel_mix, index, timezone=config.timezone)
     return Signals(weather, pricing, carbon, solar, frame["outdoor_dry_bulb_temperature_c"].astype(float))
 
 

@@ -55,18 +55,24 @@ def write_carbon(path: PathLike, start: DateLike, end: DateLike, output: PathLik
                  clock: str = "prevailing", timezone: str = "America/Chicago",
                  factors: PathLike | None = None) -> Path:
     """Write CityLearn ``carbon_intensity.csv`` from an ERCOT workbook (.xlsx) or a long CSV."""
+    table = carbon_table(path, period_index(start, end), clock=clock, timezone=timezone, factors=factors)
+    return _write(output, "carbon", table, layout)
+
+
+def carbon_table(path: PathLike, index: pd.DatetimeIndex, *, clock: str = "prevailing",
+                 timezone: str = "America/Chicago", factors: PathLike | None = None) -> pd.DataFrame:
+    """Hourly grid carbon intensity [kg CO2e/kWh] over ``index`` (local standard time, interval-beginning)
+    from an ERCOT fuel-mix workbook (.xlsx) or a long CSV; one column ``carbon_intensity``."""
     from pipeline.carbon import carbon_intensity, read_emission_factors
     from pipeline.ingest.fuel_mix import read_fuel_mix_csv, read_fuel_mix_workbook
 
-    index = period_index(start, end)
     path = Path(path)
     if path.suffix.lower() in (".xlsx", ".xlsm"):
         generation, _ = read_fuel_mix_workbook(path, timezone=timezone)
     else:
         generation, _ = read_fuel_mix_csv(path, clock=clock, timezone=timezone)
     generation = select_period(generation, index, file=path)
-    table = carbon_intensity(generation, read_emission_factors(factors)).to_frame()
-    return _write(output, "carbon", table, layout)
+    return carbon_intensity(generation, read_emission_factors(factors)).to_frame("carbon_intensity")
 
 
 def write_building(source: PathLike, building: int, start: DateLike, end: DateLike, output: PathLike, *,
