@@ -463,10 +463,15 @@ def calendar(start: np.datetime64 | str | dt.date, hours: int, holidays: Iterabl
     Row i is the hour that begins at ``start + i h``: ``month`` 1-12 and ``day_type`` 1 = Monday ..
     7 = Sunday (8 for a date in ``holidays``) of that beginning, ``hour`` 1-24 hour-ending (the row
     beginning at 00:00 is hour 1), ``daylight_savings_status`` 0 (data in standard time). Float64 arrays.
-    The same values as :func:`pipeline.ingest.calendar.calendar_columns` without a time zone.
     """
     begin = np.datetime64(start, "h")
-    stamps = begin + np.arange(int(hours)).astype("timedelta64[h]")
+    return calendar_of(begin + np.arange(int(hours)).astype("timedelta64[h]"), holidays)
+
+
+def calendar_of(stamps: Any, holidays: Iterable[Any] = ()) -> dict[str, np.ndarray]:
+    """:func:`calendar` for any interval-beginning timestamps (datetime64 array-like, local standard time, not
+    necessarily contiguous): the one calendar of the package (the pipeline's and the surrogates' call it)."""
+    stamps = np.asarray(stamps, dtype="datetime64[h]")
     days = stamps.astype("datetime64[D]")
     weekday = (days.astype(np.int64) + 3) % 7  # 1970-01-01 was a Thursday (weekday 3, 0 = Monday)
     day_type = weekday + 1.0
@@ -478,7 +483,7 @@ def calendar(start: np.datetime64 | str | dt.date, hours: int, holidays: Iterabl
         "month": (stamps.astype("datetime64[M]").astype(np.int64) % 12 + 1).astype(np.float64),
         "hour": (stamps - days).astype(np.int64).astype(np.float64) + 1.0,
         "day_type": day_type.astype(np.float64),
-        "daylight_savings_status": np.zeros(int(hours)),
+        "daylight_savings_status": np.zeros(len(stamps)),
     }
 
 

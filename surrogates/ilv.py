@@ -237,9 +237,7 @@ def write_ilv(frame: pd.DataFrame, path: str | os.PathLike) -> Path:
 def calendar_columns(timestamps: pd.DatetimeIndex | pd.Series, holidays: set | None = None) -> pd.DataFrame:
     """``month``, ``hour`` (1..24, hour-ending) and ``day_type`` (1 = Monday ... 8 = holiday) of
     interval-beginning timestamps; ``holidays`` is a set of ``datetime.date``."""
-    stamps = pd.DatetimeIndex(timestamps)
-    day_type = stamps.dayofweek.to_numpy() + 1
-    if holidays:
-        day_type = np.where(np.isin(stamps.date, list(holidays)), 8, day_type)
-    return pd.DataFrame({"month": stamps.month.to_numpy(), "hour": stamps.hour.to_numpy() + 1,
-                         "day_type": day_type})
+    from citylearn_env.dataset import calendar_of
+
+    cal = calendar_of(pd.DatetimeIndex(timestamps).to_numpy(), holidays or ())
+    return pd.DataFrame({name: cal[name].astype(np.int64) for name in ("month", "hour", "day_type")})

@@ -9,8 +9,6 @@ from zoneinfo import ZoneInfo
 import numpy as np
 import pandas as pd
 
-HOLIDAY_DAY_TYPE = 8
-
 
 def calendar_columns(
     index: pd.DatetimeIndex,
@@ -35,12 +33,10 @@ def calendar_columns(
     DataFrame with int columns ``month`` (1-12), ``hour`` (1-24, hour-ending: the row starting at 00:00 is
     hour 1), ``day_type`` (1 = Monday ... 7 = Sunday, 8 = holiday) and ``daylight_savings_status`` (0/1).
     """
+    from citylearn_env.dataset import calendar_of
+
     index = pd.DatetimeIndex(index)
-    holiday_dates = {pd.Timestamp(day).date() for day in holidays}
-    day_type = index.dayofweek.to_numpy() + 1
-    if holiday_dates:
-        is_holiday = np.array([stamp.date() in holiday_dates for stamp in index], dtype=bool)
-        day_type = np.where(is_holiday, HOLIDAY_DAY_TYPE, day_type)
+    cal = calendar_of(index.to_numpy(), holidays)
     dst = np.zeros(len(index), dtype=np.int64)
     if timezone is not None:
         zone = ZoneInfo(timezone)
@@ -50,9 +46,9 @@ def calendar_columns(
             dst[i] = int(bool(instant.astimezone(zone).dst()))
     return pd.DataFrame(
         {
-            "month": index.month.to_numpy().astype(np.int64),
-            "hour": index.hour.to_numpy().astype(np.int64) + 1,
-            "day_type": day_type.astype(np.int64),
+            "month": cal["month"].astype(np.int64),
+            "hour": cal["hour"].astype(np.int64),
+            "day_type": cal["day_type"].astype(np.int64),
             "daylight_savings_status": dst,
         },
         index=index,
