@@ -120,10 +120,11 @@ def check_weather(own_outdoor_c: pd.Series, weather_outdoor_c: pd.Series, *, wha
 def read_characteristics_row(path: Path, bldg_id: int) -> dict[str, object]:
     """One stock row (either metadata layout) as plain JSON values in the published layout (``bldg_id``,
     ``in.*``); NaN -> None."""
+    from pipeline.select import read_stock_table
     from surrogates.energyplus.metadata import normalise_characteristics
 
     path = Path(path)
-    raw = pd.read_parquet(path) if path.suffix.lower() == ".parquet" else pd.read_csv(path, low_memory=False)
+    raw = read_stock_table(path)
     id_column = "bldg_id" if "bldg_id" in raw.columns else "building_id"
     if id_column not in raw.columns:
         raise InputError("no building id column (expected 'bldg_id' or 'building_id')", file=path, column="bldg_id")

@@ -86,14 +86,18 @@ def parse_stock_metadata(raw: pd.DataFrame, *, file: object = "<metadata>") -> p
 
 def read_stock_metadata(path: str | Path) -> pd.DataFrame:
     """Read a stock metadata file (``.parquet`` or ``.csv``, either layout); see :func:`parse_stock_metadata`."""
+    return parse_stock_metadata(read_stock_table(path), file=Path(path))
+
+
+def read_stock_table(path: str | Path) -> pd.DataFrame:
+    """The raw rows of a stock metadata file (``.parquet`` or ``.csv``), columns as published."""
     path = Path(path)
     if not path.is_file():
         raise InputError("metadata file not found", file=path)
     try:
-        raw = pd.read_parquet(path) if path.suffix.lower() == ".parquet" else pd.read_csv(path, low_memory=False)
+        return pd.read_parquet(path) if path.suffix.lower() == ".parquet" else pd.read_csv(path, low_memory=False)
     except (OSError, ValueError) as error:
         raise InputError(f"unreadable metadata table: {error}", file=path) from None
-    return parse_stock_metadata(raw, file=path)
 
 
 def _first_numeric(frame: pd.DataFrame, columns: Iterable[str]) -> pd.Series | None:
