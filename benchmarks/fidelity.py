@@ -1,7 +1,8 @@
 """Fidelity against upstream CityLearn 2.1.2 on every v2.1.2 dataset, and what each correction of the default moves.
 
     .venv/bin/python benchmarks/fidelity.py --upstream-python /tmp/cl212/bin/python \
-        [--datasets NAME ...] [--upstream-cache /tmp/fidelity_upstream.json] [--json OUT] [--skip-corrections]
+        [--datasets NAME ...] [--upstream-cache /tmp/fidelity_upstream.json ...] [--json OUT] [--skip-corrections] \
+        [--store]
 
 For every dataset under ../shared/data/citylearn/upstream/v2.1.2/ (read in place, unchanged), one no-control
 episode (every action 0 at every step, the whole simulation range) is run
@@ -18,8 +19,11 @@ on both sides, or both below 1e-9 in magnitude, counts as equal). Target: <= 1e-
 Then the corrected default (``CORRECTED``) on the same episode, and, for every field of
 :class:`citylearn_env.settings.Behaviour`, ``dataclasses.replace(CORRECTED, field=<its CityLearn 2.1 value>)``:
 the change of the district energy that reverting that one correction causes is that correction's effect.
-Upstream results are cached in ``--upstream-cache`` (JSON, keyed by schema path) because the 4-year set takes
-minutes upstream; delete the file to rerun them.
+Upstream results are cached in ``--upstream-cache`` (JSON, keyed by schema path; several files may be given,
+new runs go to the first) because the 4-year set takes minutes upstream; delete the file to rerun them.
+``--store`` copies the upstream records of the datasets compared into ``benchmarks/upstream_2_1_2/no_control.json``
+(keyed by dataset name: steps, district and building energy [kWh], every KPI row), the reference that
+``tests/citylearn_env/test_fidelity_tables.py`` reads without the scratch venv.
 """
 
 from __future__ import annotations
@@ -33,6 +37,7 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
+STORE = ROOT / "benchmarks" / "upstream_2_1_2" / "no_control.json"
 UPSTREAM_DIR = ROOT.parent / "shared" / "data" / "citylearn" / "upstream" / "v2.1.2"
 THREADS = {"OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "NUMBA_NUM_THREADS": "1"}
 
@@ -118,11 +123,17 @@ def compare_kpis(ours: list, upstream: list) -> list[tuple[str, str, float | Non
             for k, n, v in upstream]
 
 
-def upstream_result(python: str, schema: Path, cache: Path) -> dict:
-    """Upstream's no-control result for ``schema``, from ``cache`` or a fresh subprocess."""
+def upstream_result(python: str, schema: Path, caches: list[Path]) -> dict:
+    """Upstream's no-control result for ``schema``, from one of ``caches`` or a fresh subprocess (stored in the
+    first cache)."""
     import os
     import tempfile
 
+    for cache in caches[1:]:
+        found = json.loads(cache.read_text()).get(str(schema)) if cache.exists() else None
+        if found is not None:
+            return found
+    cache = caches[0]
     store = json.loads(cache.read_text()) if cache.exists() else {}
     if str(schema) not in store:
         with tempfile.NamedTemporaryFile(suffix=".json", delete=False) as handle:
@@ -152,9 +163,10 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--upstream-python", default="/tmp/cl212/bin/python")
     parser.add_argument("--datasets", nargs="*", default=None)
-    parser.add_argument("--upstream-cache", default="/tmp/fidelity_upstream.json")
+    parser.add_argument("--upstream-cache", nargs="+", type=Path, default=[Path("/tmp/fidelity_upstream.json")])
     parser.add_argument("--json", default=None)
     parser.add_argument("--skip-corrections", action="store_true")
+    parser.add_argument("--store", action="store_true", help=f"merge the upstream records into {STORE}")
     parser.add_argument("--corrections-only", action="store_true",
                         help="only the table of each correction's effect (no upstream, no KPI comparison)")
     args = parser.parse_args()
@@ -175,7 +187,7 @@ def main() -> None:
         if args.corrections_only:
             report[name] = {"corrections": corrections(schema)}
             continue
-        up = upstream_result(args.upstream_python, schema, Path(args.upstream_cache))
+        up = upstream_result(args.upstream_python, schema, args.upstream_cache)
         rows = compare_kpis(ours["kpis"], up["kpis"])
         worst = max(rows, key=lambda r: r[4])
         fixes = {} if args.skip_corrections else corrections(schema)
@@ -191,26 +203,50 @@ def main() -> None:
     print_kpis(report)
     if args.json:
         Path(args.json).write_text(json.dumps(report, indent=1, default=str))
+    if args.store:
+        store_references({name: r["upstream"] for name, r in report.items() if "upstream" in r})
+
+
+def store_references(records: dict[str, dict]) -> None:
+    """Merge upstream 2.1.2 no-control records (by dataset name) into :data:`STORE`, without the machine-specific
+    fields (wall time, peak memory); NaN and infinite KPI values are stored as the strings "nan", "inf", "-inf"
+    (``float()`` reads them back), missing ones as null."""
+    old = json.loads(STORE.read_text()) if STORE.is_file() else {}
+    for name, record in records.items():
+        kpis = [[k, n, v if v is None or math.isfinite(v) else str(v)] for k, n, v in record["kpis"]]
+        old[name] = {"citylearn": "2.1.2", "actions": "zeros", "steps": record["steps"],
+                     "district_energy_kwh": record["district_energy_kwh"],
+                     "building_energy_kwh": record["building_energy_kwh"], "kpis": kpis}
+    STORE.parent.mkdir(parents=True, exist_ok=True)
+    lines = ",\n".join(f"{json.dumps(name)}: {json.dumps(old[name])}" for name in sorted(old))  # a dataset a line
+    STORE.write_text("{\n" + lines + "\n}\n")
 
 
 def print_corrections(report: dict) -> None:
-    """Per dataset: the district energy change [%] that reverting each correction causes (0 rows left out)."""
+    """Per dataset: the corrected default's no-control energy [kWh], its difference from upstream 2.1.2 (from
+    :data:`STORE`) and the district energy change [%] that reverting each correction causes (fields with no
+    effect on any dataset listed below the table)."""
     from citylearn_env.settings import Behaviour
 
+    stored = json.loads(STORE.read_text()) if STORE.is_file() else {}
     print("\nEffect of each correction on no-control district energy: (CORRECTED - CORRECTED with the field at "
           "its 2.1 value) / that, in %; fields with no effect on any dataset are listed below the table.")
-    fields = [f for f in Behaviour.field_names()
-              if any(r.get("corrections") and r["corrections"][f] != r["corrections"]["CORRECTED"]
-                     for r in report.values())]
-    print("| dataset | " + " | ".join(fields) + " |")
-    print("|---|" + "---|" * len(fields))
+    measured = [f for f in Behaviour.field_names() if all(f in r["corrections"] for r in report.values()
+                                                          if r.get("corrections"))]
+    fields = [f for f in measured if any(r.get("corrections") and r["corrections"][f] != r["corrections"]["CORRECTED"]
+                                         for r in report.values())]
+    print("| dataset | CORRECTED kWh | vs upstream 2.1.2 | " + " | ".join(f"`{f}`" for f in fields)
+          + " | each other field |")
+    print("|---|---|---|" + "---|" * len(fields) + "---|")
     for name, r in report.items():
         fixes = r.get("corrections")
         if not fixes:
             continue
-        cells = [f"{(fixes['CORRECTED'] / fixes[f] - 1) * 100:+.3f}" for f in fields]
-        print(f"| {name} | " + " | ".join(cells) + " |")
-    print("no effect on any dataset: " + ", ".join(f for f in Behaviour.field_names() if f not in fields))
+        upstream = stored.get(name, {}).get("district_energy_kwh")
+        versus = f"{(fixes['CORRECTED'] / upstream - 1) * 100:+.3f} %" if upstream else "(upstream not stored)"
+        cells = [f"{(fixes['CORRECTED'] / fixes[f] - 1) * 100:+.3f} %" for f in fields]
+        print(f"| {name} | {fixes['CORRECTED']:,.2f} | {versus} | " + " | ".join(cells) + " | 0 |")
+    print("no effect on any dataset: " + ", ".join(f for f in measured if f not in fields))
 
 
 def print_kpis(report: dict) -> None:

@@ -29,7 +29,7 @@ def load() -> tuple:
     return load_district(SCHEMA), next(b for b in BENCHMARKS if b.id == BENCH)
 
 
-def throughput(backends: list[str], episodes: int, repeats: int) -> None:
+def throughput(backends: list[str], episodes: int, repeats: int, threads: int = 1) -> None:
     from citylearn_env import CityLearnEnv
     from citylearn_env.wrappers import NormalizedActionWrapper, NormalizedObservationWrapper
     from pipeline.paper import TRAIN_DAYS, benchmark_schema
@@ -40,11 +40,11 @@ def throughput(backends: list[str], episodes: int, repeats: int) -> None:
     rates: dict[str, list[float]] = {b: [] for b in backends}
     cpu_rates: dict[str, list[float]] = {b: [] for b in backends}
     for backend in backends:  # warm-up: imports, JIT compilation
-        train_sac(NormalizedActionWrapper(NormalizedObservationWrapper(CityLearnEnv(config))), 1, 0, backend)
+        train_sac(NormalizedActionWrapper(NormalizedObservationWrapper(CityLearnEnv(config))), 1, 0, backend, threads)
     for _ in range(repeats):
         for backend in backends:
             env = NormalizedActionWrapper(NormalizedObservationWrapper(CityLearnEnv(config)))
-            trained = train_sac(env, episodes, 0, backend)
+            trained = train_sac(env, episodes, 0, backend, threads)
             rates[backend].append(trained.steps / trained.seconds)
             cpu_rates[backend].append(trained.steps / trained.cpu_seconds)
             print(f"{backend}: {rates[backend][-1]:.0f} steps/s wall, {cpu_rates[backend][-1]:.0f} per CPU s",
@@ -88,12 +88,14 @@ def quality(backends: list[str], episodes: int, seeds: list[int]) -> None:
 
     district, bench = load()
     print(uptime())
-    print("| back end | seed | episodes | B1 test cost $ | train s | total s |\n|---|---|---|---|---|---|")
+    print("| back end | seed | episodes | B1 test cost $ | train wall s | train CPU s | total s |\n"
+          "|---|---|---|---|---|---|---|")
     for seed in seeds:
         for backend in backends:
             started = time.perf_counter()
             r = run_benchmark(district, bench, seed=seed, options=RunOptions(sac_episodes=episodes, sac=backend))
             print(f"| {backend} | {seed} | {episodes} | {r['cost']:.3f} | {r['train_seconds']:.0f} | "
+                  f"{r['train_cpu_seconds']:.0f} | "
                   f"{time.perf_counter() - started:.0f} |", flush=True)
     print(uptime())
 
@@ -105,15 +107,16 @@ def uptime() -> str:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("part", choices=("throughput", "quality", "collection"))
-    parser.add_argument("--backends", nargs="+", default=["torch", "torch-bf16", "sbx", "sb3"])
+    parser.add_argument("--backends", nargs="+", default=["fast", "torch", "torch-bf16", "sbx", "sb3"])
     parser.add_argument("--episodes", type=int)
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1])
+    parser.add_argument("--threads", type=int, default=1, help="torch threads per training (throughput)")
     args = parser.parse_args()
     if args.part == "collection":
         collection(args.repeats)
     elif args.part == "throughput":
-        throughput(args.backends, args.episodes or 5, args.repeats)
+        throughput(args.backends, args.episodes or 5, args.repeats, args.threads)
     else:
         quality(args.backends, args.episodes or 150, args.seeds)
 

@@ -17,6 +17,8 @@ import numpy as np
 
 from citylearn_env.dataset import DynamicsBlock
 from citylearn_env.errors import SchemaError
+from citylearn_env.ev import EVSection, with_initial_soc
+from citylearn_env.washing_machine import WashingMachines
 
 #: CityLearn v2.1 battery curves used when a schema gives none: [[x, y], ...]
 DEFAULT_POWER_EFFICIENCY_CURVE = ((0.0, 0.83), (0.3, 0.83), (0.7, 0.9), (0.8, 0.9), (1.0, 0.85))
@@ -30,7 +32,31 @@ ACTION_NAMES = (
     "cooling_device",
     "heating_device",
     "cooling_or_heating_device",
+    "electric_vehicle_storage",
+    "washing_machine",
 )
+#: generic schema actions that become one action per device: ``electric_vehicle_storage_<charger id>`` per
+#: charger and the machine's own name per washing machine (docs/ev.md section 6)
+EV_ACTION = "electric_vehicle_storage"
+WASHING_MACHINE_ACTION = "washing_machine"
+
+
+def expand_actions(active: Iterable[str], building: int, ev: EVSection | None,
+                   machines: WashingMachines | None) -> tuple[str, ...]:
+    """Building ``building``'s action names from the generic ``active`` ones (in that order): the EV action
+    becomes one name per charger of the building, the washing-machine action one per machine."""
+    out: list[str] = []
+    for name in active:
+        if name == EV_ACTION:
+            if ev is not None:
+                out.extend(f"{EV_ACTION}_{c}" for c, b in zip(ev.chargers.names, ev.chargers.building, strict=True)
+                           if b == building)
+        elif name == WASHING_MACHINE_ACTION:
+            if machines is not None:
+                out.extend(m for m, b in zip(machines.names, machines.building, strict=True) if b == building)
+        else:
+            out.append(name)
+    return tuple(out)
 
 
 @dataclass(frozen=True)
@@ -132,6 +158,10 @@ class DistrictConfig:
     reward_function: Mapping[str, object] | None
     random_seed: int | None
     source: str
+    #: EVs, chargers and their data (None: the schema has none); docs/ev.md
+    electric_vehicles: EVSection | None = None
+    #: washing machines and their data (None: the schema has none)
+    washing_machines: WashingMachines | None = None
 
     @property
     def building_names(self) -> tuple[str, ...]:
@@ -153,6 +183,9 @@ class DistrictConfig:
         if unknown or not names:
             raise SchemaError(f"unknown building(s) {unknown}; the district has {', '.join(by_name)}"
                               if unknown else "at least one building is needed", column="buildings")
+        if (self.electric_vehicles or self.washing_machines) and tuple(names) != self.building_names:
+            raise SchemaError("choosing buildings of a district with EV chargers or washing machines is not "
+                              "supported (their building indices would change)", column="buildings")
         return dataclasses.replace(self, buildings=tuple(by_name[n] for n in names))
 
     def with_observations(self, active: Sequence[str], shared: Iterable[str] = ()) -> DistrictConfig:
@@ -170,8 +203,16 @@ class DistrictConfig:
         if unknown:
             raise SchemaError(f"unknown action(s) {unknown}; known: {', '.join(ACTION_NAMES)}", column="actions")
         ordered = tuple(a for a in ACTION_NAMES if a in active)
-        return dataclasses.replace(
-            self, buildings=tuple(dataclasses.replace(b, active_actions=ordered) for b in self.buildings))
+        return dataclasses.replace(self, buildings=tuple(
+            dataclasses.replace(b, active_actions=expand_actions(ordered, i, self.electric_vehicles,
+                                                                 self.washing_machines))
+            for i, b in enumerate(self.buildings)))
+
+    def with_ev_initial_soc(self, initial_soc: Mapping[str, float]) -> DistrictConfig:
+        """EVs (by name) starting the episode at these SOCs [0..1] (e.g. an upstream run's realised values)."""
+        if self.electric_vehicles is None:
+            raise SchemaError("the district has no electric vehicles", column="electric_vehicles_def")
+        return dataclasses.replace(self, electric_vehicles=with_initial_soc(self.electric_vehicles, initial_soc))
 
     def with_episode(self, splits: Sequence[tuple[int, int]] | int | None) -> DistrictConfig:
         """``episode_time_steps``: None (the whole range), a length, or inclusive (start, end) time steps."""

@@ -3,19 +3,23 @@
 Every quantity is a numpy array with one element per building; a step advances all buildings together.
 Order inside a step (per building, expressed with masks): the thermal model turns device actions into demands
 (LSTM buildings) -> battery if it discharges -> for cooling, heating, DHW: device then storage (storage first if
-it discharges) -> non-shiftable load -> battery if it charges -> the thermal model predicts the indoor
-temperature. During a power outage every draw is capped by the building's remaining supply (PV minus what was
-already booked this step) and net consumption is 0. Energies are kWh per step.
+it discharges) -> non-shiftable load -> battery if it charges -> EV chargers -> washing machines (CityLearn
+2.5's order; docs/ev.md section 3) -> the thermal model predicts the indoor temperature. Before the actions
+the EVs' away and connection rules run at the new step (docs/ev.md section 10: this env's 2.1 step timing).
+During a power outage every draw is capped by the building's remaining supply (PV minus what was already
+booked this step; EV chargers and washing machines are not capped) and net consumption is 0. Energies are kWh
+per step.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, fields
 from types import MappingProxyType
 
 import numpy as np
 
-from citylearn_env import devices
+from citylearn_env import devices, ev, washing_machine
 from citylearn_env.config import DistrictConfig
 from citylearn_env.settings import CORRECTED, Behaviour
 from citylearn_env.state import (
@@ -23,12 +27,18 @@ from citylearn_env.state import (
     END_USES,
     BatteryRecord,
     BuildingRecord,
+    ChargerRecord,
+    ElectricVehicleRecord,
     EndUseParams,
     EndUseRecord,
     Signals,
     TankParams,
+    WashingMachineRecord,
     recorded_names,
 )
+
+#: draws k numbers of N(1, 0.2) for the SOC drift of away EVs (docs/ev.md section 3)
+DriftDraw = Callable[[int], Sequence[float]]
 
 
 def _stack(values) -> np.ndarray:
@@ -46,6 +56,10 @@ class Actions:
     electrical_storage: np.ndarray
     cooling_device: np.ndarray
     heating_device: np.ndarray
+    #: (C,) charger actions in -1..1 (fraction of max charging / discharging power), 0 where inactive
+    electric_vehicle_storage: np.ndarray | None = None
+    #: (M,) washing-machine start requests (> 0 asks to start), 0 where inactive
+    washing_machine: np.ndarray | None = None
 
     def storage(self, end_use: str) -> np.ndarray:
         """The storage action of ``end_use`` (cooling, heating or dhw)."""
@@ -82,6 +96,9 @@ class District:
         self.signals = Signals(MappingProxyType(columns), pv, columns["power_outage"])
         self.end_use_params = tuple(self._end_use_params(k) for k in END_USES)
         self.battery = self._battery_params()
+        #: kWh per unit of battery action: capacity (CityLearn 2.1) or nominal power x step hours (2.5)
+        self._battery_scale = self.battery.nominal_power * (config.seconds_per_time_step / 3600.0) \
+            if settings.battery_action_fraction_of_nominal_power else self.battery.capacity
         self.dynamics = np.array([x.has_dynamics for x in b])
         self.thermal = None
         if self.dynamics.any():
@@ -92,6 +109,10 @@ class District:
         self.zeros = np.zeros(self.n)  # read-only stand-in: nothing booked on a battery before it runs
         self.zeros.flags.writeable = False
         self.t, self.length = 0, 0
+        self.ev = config.electric_vehicles if config.electric_vehicles is not None and \
+            config.electric_vehicles.chargers.names else None
+        self.machines = config.washing_machines
+        self.step_hours = config.seconds_per_time_step / 3600.0
 
     # ------------------------------------------------------------------ construction
     def _end_use_params(self, k: str) -> EndUseParams:
@@ -142,10 +163,12 @@ class District:
         return self.end_uses[END_USES.index(name)]
 
     # ------------------------------------------------------------------ episode
-    def reset(self, start: int, length: int, outage: np.ndarray) -> None:
-        """Start an episode over simulation rows ``start .. start+length-1``; ``outage`` is (B, length) 0/1.
+    def reset(self, start: int, length: int, outage: np.ndarray, drift: DriftDraw | None = None) -> None:
+        """Start an episode over simulation rows ``start .. start+length-1``; ``outage`` is (B, length) 0/1;
+        ``drift`` draws the SOC drift of away EVs (needed when the district has EVs).
 
-        At t = 0 nothing is controlled: devices serve the data-set demands and storages hold their initial SOC.
+        At t = 0 nothing is controlled: devices serve the data-set demands and storages hold their initial SOC;
+        EVs hold their initial SOC, or their arrival SOC when plugged in at t = 0.
         """
         n = self.n
         self.t, self.length = 0, length
@@ -173,9 +196,33 @@ class District:
         self.building_record.non_shiftable_load_served[:, 0] = e["non_shiftable_load"][:, 0]
         net = total - e.pv_generation[:, 0]
         self.building_record.net_electricity_consumption[:, 0] = np.where(outage[:, 0] > 0, 0.0, net)
-        self.recorded = recorded_names({u.params.name: u.record for u in self.end_uses}, bat, self.building_record)
+        with_ev = self.ev is not None or self.machines is not None
+        self.recorded = recorded_names({u.params.name: u.record for u in self.end_uses}, bat, self.building_record,
+                                       with_ev=with_ev)
+        if with_ev:
+            self._reset_ev(start, length, drift)
         if self.thermal is not None:
             self.thermal.reset()
+
+    def _reset_ev(self, start: int, length: int, drift: DriftDraw | None) -> None:
+        """Episode state of chargers, EVs and washing machines. Their rows start at the episode's first
+        simulation row, or at the range start when ``settings.ev_data_from_range_start`` (CityLearn 2.5)."""
+        first = 0 if self.settings.ev_data_from_range_start else start
+        self.ev_first_row, self._drift = first, drift
+        if self.ev is not None:
+            data = self.ev.data
+            self.ev_data = ev.ChargerData(**{f.name: getattr(data, f.name)[:, first:first + length]
+                                             for f in fields(ev.ChargerData)})
+            battery = self.ev.vehicles.battery
+            self.charger_record = ChargerRecord.zeros(len(self.ev.chargers.names), length)
+            r = self.ev_record = ElectricVehicleRecord.zeros(len(self.ev.vehicles.names), length)
+            r.soc[:, 0] = ev.advance_soc(battery.initial_soc, battery.initial_soc, self.ev_data, 0)
+            r.efficiency[:, 0], r.capacity[:, 0] = battery.efficiency, battery.capacity
+        if self.machines is not None:
+            self.machine_record = WashingMachineRecord.zeros(len(self.machines.names), length)
+            # CityLearn 2.5 compares the (absolute) start windows with the episode step; corrected: the row
+            self._machine_offset = 0 if self.settings.ev_data_from_range_start else \
+                self.config.simulation_start_time_step + start
 
     def step(self, actions: Actions) -> None:
         """Advance to t + 1 and apply ``actions`` there."""
@@ -213,6 +260,10 @@ class District:
             total += self._battery(t, battery_action, supply(), ~first)
         else:
             total += self._battery(t, battery_action, self.inf, None)
+        if self.ev is not None:
+            total += self._chargers(t, actions.electric_vehicle_storage)
+        if self.machines is not None:
+            total += self._washing_machines(t, actions.washing_machine)
         net = total - pv
         self.building_record.net_electricity_consumption[:, t] = np.where(outage, 0.0, net) if in_outage else net
         if self.thermal is not None:
@@ -257,10 +308,11 @@ class District:
     def _battery(self, t: int, action: np.ndarray, supply: np.ndarray, mask: np.ndarray | None) -> np.ndarray:
         """Charge/discharge the batteries (only where ``mask``); return the electricity booked (B,)."""
         r = self.battery_record
-        request = np.minimum(action * self.battery.capacity, supply)
+        request = np.minimum(action * self._battery_scale, supply)
         soc, bal, eff, cap = devices.battery_charge(
             request, r.soc[:, t - 1], self.zeros, self.battery, r.efficiency[:, t - 1], r.capacity[:, t - 1],
-            extrapolate_first_segment=self.settings.battery_curve_extrapolates_first_segment)
+            extrapolate_first_segment=self.settings.battery_curve_extrapolates_first_segment,
+            efficiency_from_request=self.settings.battery_efficiency_from_request)
         if mask is not None:
             soc = np.where(mask, soc, r.soc[:, t])
             bal = np.where(mask, bal, r.energy_balance[:, t])
@@ -271,3 +323,52 @@ class District:
         r.efficiency[:, t] = eff
         r.capacity[:, t] = cap
         return bal if mask is None else np.where(mask, bal, 0.0)
+
+    def _chargers(self, t: int, action: np.ndarray | None) -> np.ndarray:
+        """EVs at step t: the away and connection rules, then each charger's action; returns the chargers'
+        consumption summed per building (B,) [kWh]. SOC bookkeeping per docs/ev.md section 4 and the settings
+        ``ev_unwritten_soc_is_zero`` / ``ev_step_starts_from_previous_soc``. Not capped during an outage."""
+        s, section, data, r = self.settings, self.ev, self.ev_data, self.ev_record
+        battery = section.vehicles.battery
+        prev = r.soc[:, t - 1]
+        now = ev.advance_soc(prev, r.soc[:, t] if s.ev_unwritten_soc_is_zero else prev, data, t, self._drift)
+        start = prev if s.ev_step_starts_from_previous_soc else now
+        action = np.zeros(len(section.chargers.names)) if action is None else action
+        soc, eff, cap, consumption, stepped = ev.charge_plugged_evs(
+            action, start, r.efficiency[:, t - 1], r.capacity[:, t - 1], data, t, section.chargers, section.vehicles,
+            self.step_hours, efficiency_from_request=s.battery_efficiency_from_request)
+        if not s.ev_unwritten_soc_is_zero:  # an idle plugged EV keeps its SOC less the standby loss
+            idle = np.zeros_like(stepped)
+            plugged = ev.plugged_ev(data, t)
+            idle[plugged[plugged != ev.NO_EV]] = True
+            now = np.where(idle & ~stepped, now * (1.0 - battery.loss_coefficient), now)
+        r.soc[:, t] = np.where(stepped, soc, now)
+        r.efficiency[:, t], r.capacity[:, t] = eff, cap
+        self.charger_record.electricity_consumption[:, t] = consumption
+        self.charger_record.action_energy[:, t] = ev.charger_energy(action, section.chargers, self.step_hours)
+        per_building = np.bincount(section.chargers.building, weights=consumption, minlength=self.n)
+        self.building_record.chargers_electricity_consumption[:, t] = per_building
+        return per_building
+
+    def _washing_machines(self, t: int, action: np.ndarray | None) -> np.ndarray:
+        """Washing machines at step t: clear the running flag where the start window changed, start the
+        requested cycles inside their window (booking the whole profile ahead); returns the machines'
+        consumption at t summed per building (B,) [kWh]."""
+        m, r = self.machines, self.machine_record
+        row = self.ev_first_row + t
+        running = r.running[:, t - 1] > 0
+        if row > 0:
+            running &= ~washing_machine.window_changed(m.start, m.end, row)
+        if action is not None:
+            profiles = [p[row] for p in m.profile]
+            has_profile = np.array([len(p) > 0 for p in profiles])
+            started = washing_machine.cycle_starts(action, running, m.start[:, row], m.end[:, row], has_profile,
+                                                   t + self._machine_offset)
+            if started.any():
+                r.electricity_consumption[:] = washing_machine.add_cycle_load(r.electricity_consumption, started,
+                                                                               profiles, t)
+                running |= started
+        r.running[:, t] = running
+        per_building = np.bincount(m.building, weights=r.electricity_consumption[:, t], minlength=self.n)
+        self.building_record.washing_machines_electricity_consumption[:, t] = per_building
+        return per_building

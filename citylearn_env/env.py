@@ -8,6 +8,7 @@ observation. An episode of T time steps has T - 1 step calls; ``terminated`` is 
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -16,7 +17,7 @@ import gymnasium as gym
 import numpy as np
 
 from citylearn_env import observations as obs_mod
-from citylearn_env.config import DistrictConfig
+from citylearn_env.config import EV_ACTION, DistrictConfig
 from citylearn_env.district import Actions, District
 from citylearn_env.errors import SchemaError
 from citylearn_env.schema import load_schema
@@ -86,7 +87,17 @@ class CityLearnEnv(gym.Env):
         for b, building in enumerate(self.config.buildings):
             self.action_pairs.extend((name, b) for name in building.active_actions)
         lo, hi = [], []
+        ev_names = self._device_action_names()
         for name, b in self.action_pairs:
+            kind = ev_names.get(name)
+            if kind is not None:  # a charger: -1 only if it can discharge; a washing machine: 0..1
+                owner = (d.ev.chargers.building if kind[0] == "ev" else d.machines.building)[kind[1]]
+                if owner != b:  # e.g. copies of a district (vector env): devices index the original buildings
+                    raise SchemaError(f"{self.config.building_names[b]} has no device {name!r} (it belongs to "
+                                      f"{self.config.building_names[owner]})", column=f"actions.{name}")
+                lo.append(-1.0 if kind[0] == "ev" and d.ev.chargers.max_discharging_power[kind[1]] > 0 else 0.0)
+                hi.append(1.0)
+                continue
             if name in DEVICE_ACTIONS:
                 lo.append(0.0), hi.append(1.0)
                 continue
@@ -95,7 +106,7 @@ class CityLearnEnv(gym.Env):
                 continue
             if name == "electrical_storage":
                 cap, power = d.battery.capacity[b], d.battery.nominal_power[b]
-                bound = power / cap if cap > 0 else 1.0
+                bound = 1.0 if self.settings.battery_action_fraction_of_nominal_power or cap <= 0 else power / cap
             else:
                 params = next(p for p in d.end_use_params if END_USE_SLOTS[p.name][3] == name)
                 cap = params.tank.capacity[b]
@@ -105,7 +116,15 @@ class CityLearnEnv(gym.Env):
         names = (*STORAGE_ACTIONS, *DEVICE_ACTIONS)
         self._action_template = np.zeros((len(names), d.n))
         self._action_template[len(STORAGE_ACTIONS):] = np.nan
-        plain = [i for i, (n, _) in enumerate(self.action_pairs) if n != COMBINED_DEVICE_ACTION]
+        self._device_actions = None
+        if ev_names:  # (action index, device index) of the charger and washing-machine actions
+            self._device_actions = {kind: (np.array([i for i, (n, _) in enumerate(self.action_pairs)
+                                                     if ev_names.get(n, ("",))[0] == kind], dtype=np.intp),
+                                           np.array([ev_names[n][1] for n, _ in self.action_pairs
+                                                     if ev_names.get(n, ("",))[0] == kind], dtype=np.intp))
+                                    for kind in ("ev", "wm")}
+        plain = [i for i, (n, _) in enumerate(self.action_pairs)
+                 if n != COMBINED_DEVICE_ACTION and n not in ev_names]
         self._plain_actions = np.array(plain, dtype=np.intp)
         self._action_rows = np.array([names.index(self.action_pairs[i][0]) for i in plain], dtype=np.intp)
         self._action_cols = np.array([self.action_pairs[i][1] for i in plain], dtype=np.intp)
@@ -150,6 +169,7 @@ class CityLearnEnv(gym.Env):
             | {"electrical_storage": d.battery.initial_soc},
             active_actions={name: np.isin(np.arange(d.n), self._action_index[name][1])
                             for name in (*STORAGE_ACTIONS, *DEVICE_ACTIONS)},
+            chargers=functools.partial(rewards.charger_step, d) if d.ev is not None else None,
         )
         self._reward_context = context
         if spec is None:
@@ -176,7 +196,7 @@ class CityLearnEnv(gym.Env):
             start, length = self.splits[self.episode % len(self.splits)]
         self.t = 0
         self.episode_start = start
-        self.district.reset(start, length, self._outage_signal(start, length))
+        self.district.reset(start, length, self._outage_signal(start, length), self._drift_draw(seed))
         self._static = self.layout.episode_matrix()
         self.reward_function.reset(self._reward_context)
         self.rewards = np.full(length, np.nan)
@@ -261,15 +281,52 @@ class CityLearnEnv(gym.Env):
         """Action vector -> typed per-building actions: inactive storage actions 0, inactive device actions NaN;
         a combined ``cooling_or_heating_device`` action becomes a cooling and a heating action (one of them 0)."""
         table = self._action_template.copy()
-        if self._combined_actions is None:
+        if self._combined_actions is None and self._device_actions is None:
             table[self._action_rows, self._action_cols] = a
         else:
             table[self._action_rows, self._action_cols] = a[self._plain_actions]
-            both = a[self._combined_actions]
-            cooling, heating = self._device_rows
-            table[cooling, self._combined_cols] = np.maximum(-both, 0.0)
-            table[heating, self._combined_cols] = np.maximum(both, 0.0)
-        return Actions(*table)
+            if self._combined_actions is not None:
+                both = a[self._combined_actions]
+                cooling, heating = self._device_rows
+                table[cooling, self._combined_cols] = np.maximum(-both, 0.0)
+                table[heating, self._combined_cols] = np.maximum(both, 0.0)
+        if self._device_actions is None:
+            return Actions(*table)
+        return Actions(*table, *(self._device_action_vector(kind, a) for kind in ("ev", "wm")))
+
+    def _device_action_names(self) -> dict[str, tuple[str, int]]:
+        """Charger and washing-machine action names -> ("ev", charger index) or ("wm", machine index)."""
+        d, out = self.district, {}
+        if d.ev is not None:
+            out.update({f"{EV_ACTION}_{c}": ("ev", i) for i, c in enumerate(d.ev.chargers.names)})
+        if d.machines is not None:
+            out.update({m: ("wm", i) for i, m in enumerate(d.machines.names)})
+        return out
+
+    def _device_action_vector(self, kind: str, a: np.ndarray) -> np.ndarray | None:
+        """The (C,) charger or (M,) washing-machine actions of action vector ``a`` (0 where inactive)."""
+        d = self.district
+        devices_ = d.ev.chargers.names if kind == "ev" and d.ev is not None else \
+            d.machines.names if kind == "wm" and d.machines is not None else None
+        if devices_ is None:
+            return None
+        out = np.zeros(len(devices_))
+        index, device = self._device_actions[kind]
+        out[device] = a[index]
+        return out
+
+    def _drift_draw(self, seed: int | None):
+        """The draw of away EVs' SOC drift, N(1, 0.2) (None without EVs): the env's generator, or with
+        ``settings.legacy_ev_drift_draws`` a ``RandomState`` seeded by ``reset(seed=...)`` (CityLearn 2.5's
+        global ``numpy.random`` seeded with that number), kept across resets without a seed."""
+        if self.district.ev is None:
+            return None
+        if not self.settings.legacy_ev_drift_draws:
+            return lambda k: self.np_random.normal(1.0, 0.2, k)
+        if seed is not None or getattr(self, "_legacy_drift", None) is None:
+            self._legacy_drift = np.random.RandomState(seed if seed is not None
+                                                       else int(self.np_random.integers(2**31 - 1)))
+        return lambda k, rs=self._legacy_drift: rs.normal(1.0, 0.2, k)
 
     def _outage_signal(self, start: int, length: int) -> np.ndarray:
         d = self.district
@@ -319,6 +376,13 @@ class CityLearnEnv(gym.Env):
         from citylearn_env.history import history_frame
 
         return history_frame(self.district, self.t, include_district=include_district)
+
+    def device_history(self):
+        """One row per (charger, EV or washing machine, time_step) so far: consumption, SOC, efficiency,
+        degraded capacity (:func:`citylearn_env.history.device_history_frame`)."""
+        from citylearn_env.history import device_history_frame
+
+        return device_history_frame(self.district, self.t)
 
     def evaluate(self, *, comfort_band: float = 2.0, window: slice | None = None):
         """The CityLearn KPI table (long form: cost_function, value, name, level) over the episode so far."""

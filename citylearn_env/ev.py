@@ -9,6 +9,9 @@ no EV.
 
 from __future__ import annotations
 
+import dataclasses
+import hashlib
+import random
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -177,6 +180,28 @@ def upstream_uniform(seed: int) -> float:
     return float(np.random.RandomState(seed).uniform())
 
 
+def upstream_battery_curves(efficiency: float, u: float) -> tuple[tuple[tuple[float, float], ...], ...]:
+    """CityLearn 2.5's drawn default battery curves for round-trip ``efficiency`` e and its uniform number
+    ``u``: (power-efficiency curve (x = |energy| / nominal power, y = efficiency), capacity-power curve (x =
+    SOC, y = fraction of nominal power)), as ((x, y), ...) points (docs/ev.md section 1)."""
+    e = efficiency
+    power_efficiency = ((0.0, e * (0.85 + 0.05 * u)), (0.25 + 0.1 * u, e * (0.90 + 0.05 * u)),
+                        (0.65 + 0.1 * u, e * (0.98 + 0.02 * u)), (0.75 + 0.1 * u, e),
+                        (1.0, e * (0.95 + 0.03 * u)))
+    capacity_power = ((0.0, 0.95 + 0.05 * u), (0.75 + 0.1 * u, 0.90 + 0.05 * u), (1.0, 0.20 + 0.10 * u))
+    return power_efficiency, capacity_power
+
+
+def upstream_device_seed(building: str, building_type: str, slot: str, device_type: str, random_seed: int) -> int:
+    """The seed CityLearn 2.5 gives a building device for its drawn defaults: the sum of the running MD5
+    digests (as integers) after each of the four names, times ``random_seed + 1``, cut to its first 9 digits."""
+    md5, total = hashlib.md5(), 0
+    for text in (building, building_type, slot, device_type):
+        md5.update(text.encode())
+        total += int(md5.hexdigest(), 16)
+    return int(str(total * (random_seed + 1))[:9])
+
+
 def default_ev_battery(capacity: Sequence[float], nominal_power: Sequence[float], initial_soc: Sequence[float],
                        depth_of_discharge: Sequence[float], u: float) -> BatteryParams:
     """EV batteries with CityLearn 2.5's defaults for everything the schema leaves out, drawn as
@@ -185,10 +210,7 @@ def default_ev_battery(capacity: Sequence[float], nominal_power: Sequence[float]
     ``capacity`` [kWh], ``nominal_power`` [kW], ``initial_soc`` and ``depth_of_discharge`` [-] per EV."""
     n = len(capacity)
     e = 0.90 + 0.08 * u
-    power_efficiency = ((0.0, e * (0.85 + 0.05 * u)), (0.25 + 0.1 * u, e * (0.90 + 0.05 * u)),
-                        (0.65 + 0.1 * u, e * (0.98 + 0.02 * u)), (0.75 + 0.1 * u, e),
-                        (1.0, e * (0.95 + 0.03 * u)))
-    capacity_power = ((0.0, 0.95 + 0.05 * u), (0.75 + 0.1 * u, 0.90 + 0.05 * u), (1.0, 0.20 + 0.10 * u))
+    power_efficiency, capacity_power = upstream_battery_curves(e, u)
 
     def column(value: float | Sequence[float]) -> np.ndarray:
         return np.broadcast_to(np.asarray(value, dtype=np.float64), (n,)).copy()
@@ -211,14 +233,17 @@ def parse_ev_section(raw_schema: Mapping[str, Any], root: str | Path, *,
     draws it from Python's unseeded ``random``; pass the reference run's values for parity); without draws
     it is an error (one draw per included EV, in order, used or not). Unknown EV ids in a charger file and
     bad attributes are one SchemaError each."""
-    vehicles = parse_vehicles(raw_schema, initial_soc_draws)
     start = int(raw_schema.get("simulation_start_time_step") or 0)
     end = raw_schema.get("simulation_end_time_step")
     buildings = [(name, spec) for name, spec in raw_schema.get("buildings", {}).items() if spec.get("include", True)]
     chargers = [(b, cid, spec) for b, (_, bspec) in enumerate(buildings)
                 for cid, spec in (bspec.get("chargers") or {}).items()]
-    if not chargers and not vehicles.names:
+    included = [n for n, spec in (raw_schema.get("electric_vehicles_def") or {}).items() if spec.get("include", True)]
+    if not chargers and not included:
         return None
+    if not included:
+        raise SchemaError("chargers need electric vehicles: no included EV", column="electric_vehicles_def")
+    vehicles = parse_vehicles(raw_schema, initial_soc_draws)
     params = parse_charger_params([(b, cid, spec) for b, cid, spec in chargers])
     index = {name: i for i, name in enumerate(vehicles.names)}
     tables = []
@@ -237,6 +262,31 @@ def parse_ev_section(raw_schema: Mapping[str, Any], root: str | Path, *,
         tables.append(table)
     data = stack_charger_tables(tables, index, start)
     return EVSection(vehicles=vehicles, chargers=params, data=data)
+
+
+def seeded_initial_soc_draws(raw_schema: Mapping[str, Any]) -> list[float]:
+    """One U(0, 1) number per included EV of ``electric_vehicles_def`` from ``random.Random(random_seed)``
+    (the schema's seed, 0 when absent): the initial SOC of EVs whose battery leaves ``initial_soc`` out.
+    Upstream draws these from Python's unseeded global ``random``, so no run can reproduce its values; give
+    ``initial_soc`` in the schema or set them with ``DistrictConfig.with_ev_initial_soc``."""
+    rng = random.Random(int(raw_schema.get("random_seed") or 0))
+    defs = raw_schema.get("electric_vehicles_def") or {}
+    return [rng.uniform(0.0, 1.0) for spec in defs.values() if spec.get("include", True)]
+
+
+def with_initial_soc(section: EVSection, initial_soc: Mapping[str, float]) -> EVSection:
+    """``section`` with the named EVs' initial SOC [0..1] replaced; SchemaError for an unknown EV or a value
+    outside 0..1."""
+    names = section.vehicles.names
+    soc = section.vehicles.battery.initial_soc.copy()
+    for name, value in initial_soc.items():
+        if name not in names:
+            raise SchemaError(f"unknown EV; the district has {', '.join(names)}", column=f"initial_soc.{name}")
+        if not 0.0 <= float(value) <= 1.0:
+            raise SchemaError(f"{value!r} is not within 0..1", column=f"initial_soc.{name}")
+        soc[names.index(name)] = float(value)
+    battery = dataclasses.replace(section.vehicles.battery, initial_soc=soc)
+    return dataclasses.replace(section, vehicles=dataclasses.replace(section.vehicles, battery=battery))
 
 
 def parse_vehicles(raw_schema: Mapping[str, Any], initial_soc_draws: Sequence[float] | None) -> ElectricVehicles:
@@ -274,6 +324,8 @@ def parse_charger_params(chargers: Sequence[tuple[int, str, Mapping[str, Any]]])
     columns: dict[str, list[float]] = {k: [] for k in CHARGER_DEFAULTS}
     curves: dict[str, list] = {"charge_efficiency_curve": [], "discharge_efficiency_curve": []}
     for _, cid, spec in chargers:
+        if spec.get("noise_std") not in (None, 0, 0.0):  # upstream: unseeded Gaussian noise on the SOC columns
+            raise SchemaError("charger data noise (noise_std > 0) is not supported", column=f"chargers.{cid}.noise_std")
         attributes = spec.get("attributes") or {}
         for key, default in CHARGER_DEFAULTS.items():
             value = attributes.get(key)
@@ -387,7 +439,7 @@ def connection_soc(data: ChargerData, t: int) -> np.ndarray:
         candidate = data.estimated_soc_arrival[:, 0]
     else:
         new = (state == PARKED) & ((data.state[:, t - 1] != PARKED) | (data.ev[:, t - 1] != ev))
-        from_previous = np.isin(data.state[:, t - 1], (INCOMING, AWAY))
+        from_previous = data.state[:, t - 1] != PARKED  # state 2 or 3
         candidate = np.where(from_previous, data.estimated_soc_arrival[:, t - 1], data.estimated_soc_arrival[:, t])
     required = data.required_soc_departure[:, t]
     value = np.where(candidate >= 0, candidate, np.where(required >= 0, required, np.nan))

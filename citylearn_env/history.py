@@ -1,7 +1,8 @@
 """Episode series for KPIs and the ``history()`` table, derived from the recorded arrays after the fact.
 
 Counterfactual ("baseline") series follow CityLearn 2.1 (kWh per step; cost in $, emission in kg):
-``without_storage`` removes every storage's electricity, ``and_pv`` adds the PV generation back, and
+``without_storage`` removes every storage's electricity (and the EV chargers', as CityLearn 2.5 does; the
+washing machines' load stays), ``and_pv`` adds the PV generation back, and
 ``without_storage_and_partial_load`` also adds back the heat-pump electricity an LSTM building saved by
 serving less than its ideal load: (ideal - served demand) / COP.
 """
@@ -64,6 +65,8 @@ def episode_series(district: District, t_end: int, window: slice | None = None) 
     price, carbon = out["electricity_pricing"], out["carbon_intensity"]
     net = out["net_electricity_consumption"]
     storage = sum(out[k] for k in STORAGE_CONSUMPTION)
+    if "chargers_electricity_consumption" in out:  # EV charging counts as storage (CityLearn 2.5); machines not
+        storage = storage + out["chargers_electricity_consumption"]
     partial = np.zeros_like(net)
     for end_use, (served, ideal) in PARTIAL_LOAD.items():
         saved = (out[ideal] - out[served]) / district.end_use(end_use).cop[:, :n]
@@ -99,3 +102,32 @@ def history_frame(district: District, t_end: int, *, include_district: bool = Tr
             district_rows[k] = v.sum(axis=0) if additive else np.full(n, np.nan)
         frame = pd.concat([frame, pd.DataFrame(district_rows)], ignore_index=True)
     return frame
+
+
+def device_history_frame(district: District, t_end: int):
+    """A long DataFrame of the EV chargers, EVs and washing machines over time steps 0..t_end: one row per
+    (device, time_step) with ``kind`` ("charger", "electric_vehicle", "washing_machine"), ``building`` (the
+    owner; empty for an EV), ``electricity_consumption`` [kWh] (chargers, machines), ``soc`` [-],
+    ``efficiency`` [-] and ``capacity`` [kWh] (EVs; NaN for the others). Empty without such devices."""
+    import pandas as pd
+
+    n = t_end + 1
+    frames = []
+
+    def frame(kind: str, names, buildings, **columns: np.ndarray):
+        rows = {"kind": kind, "device": np.repeat(list(names), n), "building": np.repeat(list(buildings), n),
+                "time_step": np.tile(np.arange(n), len(names))}
+        frames.append(pd.DataFrame(rows | {k: v[:, :n].reshape(-1) for k, v in columns.items()}))
+
+    if district.ev is not None:
+        chargers = district.ev.chargers
+        frame("charger", chargers.names, [district.names[b] for b in chargers.building],
+              electricity_consumption=district.charger_record.electricity_consumption)
+        r = district.ev_record
+        frame("electric_vehicle", district.ev.vehicles.names, [""] * len(district.ev.vehicles.names),
+              soc=r.soc, efficiency=r.efficiency, capacity=r.capacity)
+    if district.machines is not None:
+        frame("washing_machine", district.machines.names, [district.names[b] for b in district.machines.building],
+              electricity_consumption=district.machine_record.electricity_consumption)
+    return pd.concat(frames, ignore_index=True) if frames else pd.DataFrame(
+        columns=["kind", "device", "building", "time_step"])

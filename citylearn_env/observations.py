@@ -7,7 +7,7 @@ columns of the observation vector are laid out once per episode; each step only 
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterator, Mapping, Sequence
 
 import numpy as np
 
@@ -50,6 +50,87 @@ DYNAMIC = (
 )
 
 
+#: per-charger observations (docs/ev.md section 5): generic schema key -> (name pattern with the charger id,
+#: bounds); in this order after a building's other observations, charger by charger
+CHARGER_OBSERVATIONS = {
+    "electric_vehicle_charger_connected_state": ("electric_vehicle_charger_{}_connected_state", (0.0, 1.0)),
+    "connected_electric_vehicle_at_charger_departure_time":
+        ("connected_electric_vehicle_at_charger_{}_departure_time", (-1.0, 24.0)),
+    "connected_electric_vehicle_at_charger_required_soc_departure":
+        ("connected_electric_vehicle_at_charger_{}_required_soc_departure", (-0.1, 1.0)),
+    "connected_electric_vehicle_at_charger_soc": ("connected_electric_vehicle_at_charger_{}_soc", (-0.1, 1.0)),
+    "connected_electric_vehicle_at_charger_battery_capacity":
+        ("connected_electric_vehicle_at_charger_{}_battery_capacity", (-1.0, 100.0)),
+    "electric_vehicle_charger_incoming_state": ("electric_vehicle_charger_{}_incoming_state", (0.0, 1.0)),
+    "incoming_electric_vehicle_at_charger_estimated_arrival_time":
+        ("incoming_electric_vehicle_at_charger_{}_estimated_arrival_time", (-1.0, 24.0)),
+    "incoming_electric_vehicle_at_charger_estimated_soc_arrival":
+        ("incoming_electric_vehicle_at_charger_{}_estimated_soc_arrival", (-0.1, 1.0)),
+}
+#: per-machine observations: generic key -> (name pattern with the machine name, bounds); the schema key
+#: ``washing_machine_load_profile`` is accepted and gives no observation (a list, not a number)
+MACHINE_OBSERVATIONS = {
+    "washing_machine_start_time_step": ("{}_start_time_step", (-1.0, 24.0)),
+    "washing_machine_end_time_step": ("{}_end_time_step", (-1.0, 24.0)),
+}
+SILENT_OBSERVATIONS = ("washing_machine_load_profile",)
+
+
+def charger_observations(district: District, t: int) -> dict[str, np.ndarray]:
+    """Every per-charger observation at step ``t``: generic key (:data:`CHARGER_OBSERVATIONS`) -> (C,) values,
+    the plugged-in (state 1) or incoming (state 2) EV's data, else upstream's placeholder (-1 for times and
+    the capacity, -0.1 for SOCs, 0 for the states)."""
+    data, ev = district.ev_data, district.ev
+    state, vehicle = data.state[:, t], data.ev[:, t]
+    plugged, incoming = (state == 1) & (vehicle >= 0), (state == 2) & (vehicle >= 0)
+    v = np.maximum(vehicle, 0)
+    keys = list(CHARGER_OBSERVATIONS)
+    values = (plugged.astype(np.float64), np.where(plugged, data.departure_time[:, t], -1.0),
+              np.where(plugged, data.required_soc_departure[:, t], -0.1),
+              np.where(plugged, district.ev_record.soc[v, t], -0.1),
+              np.where(plugged, ev.vehicles.battery.capacity[v], -1.0), incoming.astype(np.float64),
+              np.where(incoming, data.estimated_arrival_time[:, t], -1.0),
+              np.where(incoming, data.estimated_soc_arrival[:, t], -0.1))
+    return dict(zip(keys, values, strict=True))
+
+
+def machine_observations(district: District, t: int) -> dict[str, np.ndarray]:
+    """Start and end of every washing machine's window at step ``t`` (M,) [absolute time step, -1 none]."""
+    row = district.ev_first_row + t
+    machines = district.machines
+    return {"washing_machine_start_time_step": machines.start[:, row],
+            "washing_machine_end_time_step": machines.end[:, row]}
+
+
+def _device_bound(district: District, key: str, kind: str, index: int) -> tuple[float, float]:
+    """Bounds of a charger or washing-machine observation: the fixed ones of docs/ev.md section 5, except a
+    machine window's upper bound, which is the largest window step in its data (upstream's 24 is below the
+    absolute time steps the windows hold)."""
+    if kind == "ev":
+        return CHARGER_OBSERVATIONS[key][1]
+    machines = district.machines
+    column = machines.start if key.endswith("start_time_step") else machines.end
+    return -1.0, max(24.0, float(column[index].max()))
+
+
+def device_observation_pairs(district: District, building: int, active: Sequence[str]
+                             ) -> list[tuple[str, str, str, int]]:
+    """Building ``building``'s charger and washing-machine observations from the active generic keys:
+    (name, generic key, "ev" or "wm", device index), chargers then machines, each in schema order."""
+    out = []
+    if district.ev is not None:
+        for c, (cid, b) in enumerate(zip(district.ev.chargers.names, district.ev.chargers.building, strict=True)):
+            if b == building:
+                out.extend((pattern.format(cid), key, "ev", c) for key, (pattern, _) in CHARGER_OBSERVATIONS.items()
+                           if key in active)
+    if district.machines is not None:
+        for m, (name, b) in enumerate(zip(district.machines.names, district.machines.building, strict=True)):
+            if b == building:
+                out.extend((pattern.format(name), key, "wm", m) for key, (pattern, _) in MACHINE_OBSERVATIONS.items()
+                           if key in active)
+    return out
+
+
 def dynamic_value(district: District, name: str, t: int) -> np.ndarray:
     """The (B,) value of dynamic observation ``name`` at episode step ``t``."""
     end_use = DELIVERED_OBSERVATIONS.get(name)
@@ -79,8 +160,11 @@ def static_series(district: District, name: str, *, full_range: bool = False) ->
     return columns.get(STATIC_ALIASES.get(name) or NAME_ALIASES.get(name, name))
 
 
+DEVICE_KEYS = (*CHARGER_OBSERVATIONS, *MACHINE_OBSERVATIONS, *SILENT_OBSERVATIONS)
+
+
 def is_known(district: District, name: str) -> bool:
-    return name in DYNAMIC or static_series(district, name, full_range=True) is not None
+    return name in DYNAMIC or name in DEVICE_KEYS or static_series(district, name, full_range=True) is not None
 
 
 class StepObservations(Mapping):
@@ -129,6 +213,9 @@ class ObservationLayout:
         self.pairs: list[tuple[str, int]] = []
         self.building_slices: list[slice] = []
         order = [name for name, _ in config.observations]
+        #: (position, generic key, "ev"/"wm", device index) of each charger and washing-machine observation
+        self.device_pairs: list[tuple[int, str, str, int]] = []
+        self.device_bounds: list[tuple[float, float]] = []
         for b, building in enumerate(config.buildings):
             names = [n for n in order if n in building.active_observations]
             for name in names:
@@ -136,8 +223,13 @@ class ObservationLayout:
                     raise SchemaError(f"observation {name!r} is active but cannot be produced",
                                       column=f"observations.{name}")
             start = len(self.pairs)
-            self.pairs.extend((n, b) for n in names)
+            self.pairs.extend((n, b) for n in names if n not in DEVICE_KEYS)
+            for name, key, kind, index in device_observation_pairs(district, b, names):
+                self.device_pairs.append((len(self.pairs), key, kind, index))
+                self.device_bounds.append(_device_bound(district, key, kind, index))
+                self.pairs.append((name, b))
             self.building_slices.append(slice(start, len(self.pairs)))
+        device_positions = {pos for pos, *_ in self.device_pairs}
         shared = set(config.shared_observations)
         seen: set[str] = set()
         central = []
@@ -151,9 +243,16 @@ class ObservationLayout:
         self.district = district
         groups: dict[str, list[int]] = {}
         for i, (name, _) in enumerate(self.pairs):
-            groups.setdefault(name, []).append(i)
+            if i not in device_positions:
+                groups.setdefault(name, []).append(i)
         self.groups = {n: (np.array(ix), np.array([self.pairs[i][1] for i in ix])) for n, ix in groups.items()}
         self.dynamic = [(n, pos, bidx) for n, (pos, bidx) in self.groups.items() if n in DYNAMIC]
+        by_key: dict[str, list[tuple[int, int]]] = {}
+        for pos, key, _, index in self.device_pairs:
+            by_key.setdefault(key, []).append((pos, index))
+        #: generic device key -> (positions, device indices) in the flat vector
+        self.device_groups = {k: (np.array([p for p, _ in v], dtype=np.intp), np.array([i for _, i in v], dtype=np.intp))
+                              for k, v in by_key.items()}
 
     def names(self, central: bool = True) -> list[str]:
         index = self.central_index if central else range(len(self.pairs))
@@ -173,13 +272,19 @@ class ObservationLayout:
         out = static_row.copy()
         for name, pos, bidx in self.dynamic:
             out[pos] = dynamic_value(self.district, name, t)[bidx]
+        if self.device_groups:
+            values = {**(charger_observations(self.district, t) if self.district.ev is not None else {}),
+                      **(machine_observations(self.district, t) if self.district.machines is not None else {})}
+            for key, (pos, index) in self.device_groups.items():
+                out[pos] = values[key][index]
         return out
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """Lower and upper bounds of every (name, building) pair, estimated over the simulation range."""
         lo, hi = np.zeros(len(self.pairs)), np.zeros(len(self.pairs))
+        device = dict(zip((pos for pos, *_ in self.device_pairs), self.device_bounds, strict=True))
         for i, (name, b) in enumerate(self.pairs):
-            lo[i], hi[i] = _bound(self.district, name, b)
+            lo[i], hi[i] = device[i] if i in device else _bound(self.district, name, b)
         # an observation that never varies over the range (e.g. month in a one-month run) gets a unit-wide
         # box centred on its value, so spaces are never degenerate and normalise it to 0.5
         flat = hi <= lo
@@ -194,8 +299,9 @@ def _bound(d: District, name: str, b: int) -> tuple[float, float]:
     p_batt = d.battery.nominal_power[b]
     if name == "net_electricity_consumption":
         nsl = s["non_shiftable_load"][b]
-        low = min(float(np.min(nsl - p_batt - pv)), 0.0)
-        devices_power = sum(p.nominal_power[b] for p in d.end_use_params)
+        charge, discharge = _charger_power(d, b)
+        low = min(float(np.min(nsl - p_batt - discharge - pv)), 0.0)
+        devices_power = sum(p.nominal_power[b] for p in d.end_use_params) + charge + _machine_peak(d, b)
         return low, float(np.max(nsl + devices_power + p_batt - pv))
     if name.endswith("_soc") or name == "power_outage":
         return 0.0, 1.0
@@ -216,6 +322,23 @@ def _bound(d: District, name: str, b: int) -> tuple[float, float]:
         if name == STORAGE_ELECTRICITY_NAMES[p.name]:
             return -float(np.max(p.demand[b] / p.cop[b])), float(p.nominal_power[b])
     return _finite_range(static_series(d, name, full_range=True)[b])
+
+
+def _charger_power(d: District, b: int) -> tuple[float, float]:
+    """Building ``b``'s total max charging and max discharging power of its EV chargers [kW] (0 without)."""
+    if d.ev is None:
+        return 0.0, 0.0
+    mine = d.ev.chargers.building == b
+    return float(d.ev.chargers.max_charging_power[mine].sum()), float(d.ev.chargers.max_discharging_power[mine].sum())
+
+
+def _machine_peak(d: District, b: int) -> float:
+    """The largest step of any washing-machine cycle in building ``b`` [kWh] times its machine count (0 without)."""
+    if d.machines is None:
+        return 0.0
+    peaks = [max((max(p) for p in d.machines.profile[m] if p), default=0.0)
+             for m in np.flatnonzero(d.machines.building == b)]
+    return float(len(peaks) * max(peaks, default=0.0))
 
 
 def _finite_range(values: np.ndarray) -> tuple[float, float]:

@@ -6,41 +6,101 @@ full per-building observation dict CityLearn gives its reward functions, e.g. ``
 kWh, ``electricity_pricing`` $/kWh, ``indoor_dry_bulb_temperature`` degC, ``dhw_storage_soc`` 0..1). It returns
 ``(value, terms)``: a float for a central agent, a (B,) array otherwise, and named per-building components.
 
-Upstream classes (CityLearn 2.1 ``citylearn.reward_function``) and the SimBuild 2024 classes
+Upstream classes (CityLearn 2.1 ``citylearn.reward_function``, plus 2.5's ``Electric_Vehicles_Reward_Function``,
+which reads the EV chargers through ``RewardContext.chargers``) and the SimBuild 2024 classes
 (``src.reward_function``) are registered under their dotted type strings in :data:`REWARDS`, next to short
 names for the paper's four objectives. Upstream's bugs are kept where the :class:`~citylearn_env.settings.Behaviour`
 passed as ``settings`` asks for them (``independent_sac_reward_precedence_bug``, ``comfort_reward_float32``,
-``storage_signal_reward_multiplies_by_delta``; the default :data:`~citylearn_env.settings.CORRECTED` fixes all
-three; docs/environment_kpis.md).
+``storage_signal_reward_multiplies_by_delta``, ``ev_reward_skips_unplugged_chargers``,
+``ev_reward_squares_soc_under_weight``; the default :data:`~citylearn_env.settings.CORRECTED` fixes them all;
+docs/environment_kpis.md, docs/ev.md).
 """
 
 from __future__ import annotations
 
 import inspect
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from citylearn_env.errors import SchemaError
 from citylearn_env.settings import CORRECTED, Behaviour
 
+if TYPE_CHECKING:
+    from citylearn_env.district import District
+
 STORAGES = ("cooling_storage", "heating_storage", "dhw_storage", "electrical_storage")
 #: storages whose capacity does not exceed this (kWh) count as absent (CityLearn's zero-division placeholder)
 ZERO_CAPACITY = 1e-6
 
 
+@dataclass(frozen=True, eq=False)
+class ChargerStep:
+    """What a reward sees of every EV charger at one step, (C,) arrays in charger order.
+
+    ``building``: index of the charger's building; ``connected``: an EV is plugged in (row state 1);
+    ``action_energy`` [kWh]: the charger-side energy the action asked for (action x max power within the
+    charger's limits, before the battery clips it; upstream's ``last_charged_kwh``). For the plugged-in EV (0
+    where none): ``previous_soc`` and ``soc`` [0..1] before and after the step (as recorded, docs/ev.md
+    section 4), nominal ``capacity`` [kWh], ``min_capacity`` = (1 - depth of discharge) x capacity [kWh],
+    ``required_soc`` [0..1, -0.1 missing] and ``hours_until_departure`` [h]: the row's departure time [steps]
+    x step hours. ``max_charging_power`` / ``max_discharging_power`` [kW] of the charger."""
+
+    building: np.ndarray
+    connected: np.ndarray
+    action_energy: np.ndarray
+    previous_soc: np.ndarray
+    soc: np.ndarray
+    capacity: np.ndarray
+    min_capacity: np.ndarray
+    required_soc: np.ndarray
+    hours_until_departure: np.ndarray
+    max_charging_power: np.ndarray
+    max_discharging_power: np.ndarray
+
+
+def charger_step(district: District) -> ChargerStep:
+    """The chargers of ``district`` at its current step ``district.t`` (after that step's actions), read from
+    its typed state (``ev_data``, ``ev_record``, ``charger_record``)."""
+    from citylearn_env.ev import NO_EV, plugged_ev
+
+    t, section, data = district.t, district.ev, district.ev_data
+    battery = section.vehicles.battery
+    ev = plugged_ev(data, t)
+    connected = ev != NO_EV
+    v = np.maximum(ev, 0)
+    soc = district.ev_record.soc
+    previous = soc[v, t - 1] if t > 0 else battery.initial_soc[v]
+    capacity = battery.capacity[v]
+
+    def plugged(values: np.ndarray) -> np.ndarray:
+        return np.where(connected, values, 0.0)
+
+    return ChargerStep(
+        building=np.asarray(section.chargers.building), connected=connected,
+        action_energy=district.charger_record.action_energy[:, t], previous_soc=plugged(previous),
+        soc=plugged(soc[v, t]), capacity=plugged(capacity),
+        min_capacity=plugged((1.0 - battery.depth_of_discharge[v]) * capacity),
+        required_soc=plugged(data.required_soc_departure[:, t]),
+        hours_until_departure=plugged(data.departure_time[:, t] * district.step_hours),
+        max_charging_power=section.chargers.max_charging_power,
+        max_discharging_power=section.chargers.max_discharging_power)
+
+
 @dataclass(frozen=True)
 class RewardContext:
     """Static facts a reward needs: agent mode, building names, storage capacities (kWh) and initial SOCs
-    (0..1) per storage kind as (B,) arrays, and the active-action mask per action name as (B,) bool arrays."""
+    (0..1) per storage kind as (B,) arrays, and the active-action mask per action name as (B,) bool arrays.
+    ``chargers``: returns the EV chargers' :class:`ChargerStep` at the current step (None: no chargers)."""
 
     central_agent: bool
     building_names: Sequence[str]
     capacity: Mapping[str, np.ndarray] = field(default_factory=dict)
     initial_soc: Mapping[str, np.ndarray] = field(default_factory=dict)
     active_actions: Mapping[str, np.ndarray] = field(default_factory=dict)
+    chargers: Callable[[], ChargerStep] | None = None
 
     @property
     def n_buildings(self) -> int:
@@ -218,6 +278,105 @@ class SolarPenaltyAndComfortReward(Reward):
         return (float(total[0]) if self.context.central_agent else total), terms
 
 
+# ------------------------------------------------------------------------------------ CityLearn 2.5
+#: Electric_Vehicles_Reward_Function's default weights (score points; upstream's names)
+EV_REWARD_WEIGHTS = {"no_car_charging": -5.0, "battery_limits": -2.0, "soc_impossible": -10.0, "soc_under": -5.0,
+                     "close_soc": 10.0, "self_ev_consumption": 5.0, "extra_self_production": 5.0}
+
+
+def ev_charger_scores(step: ChargerStep, net: np.ndarray, multiplier: np.ndarray, weights: Mapping[str, float],
+                      *, skip_unplugged: bool, square_soc_under: bool) -> dict[str, np.ndarray]:
+    """Electric_Vehicles_Reward_Function's score of every charger (C,), per weight name, in score points.
+
+    ``net`` [kWh] is the net consumption of each charger's building after the step and ``multiplier`` the
+    factor every weight is scaled by (1 / (1 + |base reward|)). With E the charger's action energy [kWh], a
+    charger with a plugged-in EV scores:
+
+    * ``battery_limits`` when previous SOC x capacity + E is above the capacity or below the minimum capacity;
+    * with the SOC gap d = SOC - required SOC and D = d x capacity [kWh], and the most the charger can move
+      before departure, C = max charging power x hours to departure and P = the same for discharging [kWh]:
+      ``soc_impossible`` when D > C; ``close_soc`` / (hours + 0.1) when |D| <= max(C, P); at departure (0 hours)
+      ``close_soc`` when -0.1 < d <= 0.1, 2 ``soc_under`` when -0.25 < d <= -0.1, and when d <= -0.25
+      ``soc_under`` x |soc_under| (``square_soc_under``: ``soc_under ** 2``, CityLearn 2.5's sign slip);
+    * while the building exports (net < 0): ``extra_self_production`` when charging (E > 0), -0.5 x it when
+      discharging; while it imports (net > 0): ``self_ev_consumption`` when discharging, -0.5 x it when charging.
+
+    A charger without an EV scores ``no_car_charging`` when |E| > 0.1 kWh, or nothing when ``skip_unplugged``
+    (CityLearn 2.5). Upstream compares the departure time in steps with kW limits: identical for hourly data."""
+    on, e = step.connected, step.action_energy
+    charging, discharging = e > 0, e < 0
+    gap = step.soc - step.required_soc
+    gap_kwh = gap * step.capacity
+    can_charge = step.max_charging_power * step.hours_until_departure
+    can_discharge = step.max_discharging_power * step.hours_until_departure
+    stored = step.previous_soc * step.capacity + e
+    leaving = on & (step.hours_until_departure == 0)
+    under = float(weights["soc_under"])
+    far_under = under if square_soc_under else abs(under)  # x the soc_under weight below
+    hits = {  # multiples of each weight per charger
+        "no_car_charging": ~on & (np.abs(e) > 0.1) & (not skip_unplugged),
+        "battery_limits": on & ((stored > step.capacity) | (stored < step.min_capacity)),
+        "soc_impossible": on & (gap_kwh > can_charge),
+        "soc_under": leaving * np.where(gap <= -0.25, far_under, 2.0 * (gap <= -0.10)),
+        "close_soc": (leaving & (gap > -0.10) & (gap <= 0.10))
+        + (on & (np.abs(gap_kwh) <= np.maximum(can_charge, can_discharge))) / (step.hours_until_departure + 0.1),
+        "extra_self_production": (on & (net < 0)) * (charging - 0.5 * discharging),
+        "self_ev_consumption": (on & (net > 0)) * (discharging - 0.5 * charging),
+    }
+    return {k: float(weights[k]) * multiplier * v for k, v in hits.items()}
+
+
+def parse_ev_reward_weights(weights: Any) -> dict[str, float]:
+    """:data:`EV_REWARD_WEIGHTS` with the entries of ``weights`` (a mapping of weight name -> number, or None)
+    replaced; SchemaError naming the attribute for anything else."""
+    column = "reward_function.attributes.weights"
+    if weights is None:
+        return dict(EV_REWARD_WEIGHTS)
+    if not isinstance(weights, Mapping):
+        raise SchemaError(f"must map weight names to numbers, got {type(weights).__name__}", column=column)
+    out = dict(EV_REWARD_WEIGHTS)
+    for name, value in weights.items():
+        if name not in EV_REWARD_WEIGHTS:
+            raise SchemaError(f"unknown EV reward weight {name!r}; known: {', '.join(EV_REWARD_WEIGHTS)}",
+                              column=column)
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value):
+            raise SchemaError(f"weight {name!r} must be a finite number, got {value!r}", column=column)
+        out[name] = float(value)
+    return out
+
+
+class ElectricVehiclesReward(MARL):
+    """CityLearn 2.5's Electric_Vehicles_Reward_Function: each building with EV chargers gets the sum of its
+    chargers' scores (:func:`ev_charger_scores`, score points), every weight scaled by 1 / (1 + |m|) with m the
+    building's :class:`MARL` reward (central agent: the district's MARL sum); a building without chargers
+    gets 0. The MARL value only scales the scores, as upstream. Central: sum over buildings.
+
+    ``weights`` replace entries of :data:`EV_REWARD_WEIGHTS` by name (upstream needs all seven when it is
+    given). Upstream's charging-constraint penalty is 0 here: schemas with ``charging_constraints`` are
+    refused at load. Upstream quirks per ``settings``: ``ev_reward_skips_unplugged_chargers``,
+    ``ev_reward_squares_soc_under_weight``."""
+
+    def __init__(self, weights: Mapping[str, float] | None = None, *, settings: Behaviour = CORRECTED):
+        super().__init__(settings=settings)
+        self.weights = parse_ev_reward_weights(weights)
+
+    def building_values(self, obs):
+        marl, _ = super().building_values(obs)
+        base = np.full_like(marl, marl.sum()) if self.context.central_agent else marl
+        if self.context.chargers is None:
+            zeros = np.zeros_like(marl)
+            return zeros, {"marl": marl, **{k: zeros for k in self.weights}}
+        step = self.context.chargers()
+        net = _get(obs, "net_electricity_consumption")[step.building]
+        scores = ev_charger_scores(step, net, 1.0 / (1.0 + np.abs(base[step.building])), self.weights,
+                                   skip_unplugged=self.settings.ev_reward_skips_unplugged_chargers,
+                                   square_soc_under=self.settings.ev_reward_squares_soc_under_weight)
+        owner = np.zeros((step.building.size, marl.size))
+        owner[np.arange(step.building.size), step.building] = 1.0
+        per_building = np.array(list(scores.values())) @ owner  # (terms, B)
+        return per_building.sum(axis=0), {"marl": marl, **dict(zip(scores, per_building, strict=True))}
+
+
 # ------------------------------------------------------------------------------------ SimBuild 2024
 class SignalReward(Reward):
     """-(max(e_b, 0) * s_b)^exponent with s the observation named ``signal`` ($/kWh, kg/kWh) or 1 when None;
@@ -391,6 +550,7 @@ REWARDS: dict[str, type[Reward]] = {
     _CITYLEARN + "SolarPenaltyReward": SolarPenaltyReward,
     _CITYLEARN + "ComfortReward": ComfortReward,
     _CITYLEARN + "SolarPenaltyAndComfortReward": SolarPenaltyAndComfortReward,
+    _CITYLEARN + "Electric_Vehicles_Reward_Function": ElectricVehiclesReward,
     _SIMBUILD + "SignalReward": SignalReward,
     _SIMBUILD + "StorageSignalReward": StorageSignalReward,
     _SIMBUILD + "StorageCostReductionReward": StorageCostReductionReward,
@@ -403,6 +563,7 @@ REWARDS: dict[str, type[Reward]] = {
     "solar_penalty": SolarPenaltyReward,
     "comfort": ComfortReward,
     "solar_penalty_and_comfort": SolarPenaltyAndComfortReward,
+    "electric_vehicles": ElectricVehiclesReward,
     "signal": SignalReward,
     "storage_signal": StorageSignalReward,
     "storage_cost_reduction": StorageCostReductionReward,

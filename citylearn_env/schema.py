@@ -10,6 +10,7 @@ from __future__ import annotations
 import copy
 import json
 from collections.abc import Mapping
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -24,11 +25,20 @@ from citylearn_env.config import (
     DistrictConfig,
     Outage,
     Tank,
+    expand_actions,
     frozen_series,
 )
 from citylearn_env.errors import SchemaError
+from citylearn_env.ev import (
+    parse_ev_section,
+    seeded_initial_soc_draws,
+    upstream_battery_curves,
+    upstream_device_seed,
+    upstream_uniform,
+)
 from citylearn_env.registry import SLOT_CLASSES, resolve_type
 from citylearn_env.settings import Behaviour, resolve
+from citylearn_env.washing_machine import parse_washing_machines
 
 
 def load_schema(schema: str | Path | Mapping[str, Any], *,
@@ -63,7 +73,7 @@ def load_schema(schema: str | Path | Mapping[str, Any], *,
     try:  # --- hardening hook (citylearn_env.ranges / citylearn_env.paths): shape, keys, confined root
         ranges.check_schema_shape(raw)
         root = paths.dataset_folder(raw.get("root_directory"), schema_folder, allow_outside=allow_outside_paths)
-        return _parse(raw, root, source, settings.missing_hvac_mode_is_off)
+        return _parse(raw, root, source, settings.missing_hvac_mode_is_off, settings.battery_defaults_drawn)
     except SchemaError as error:  # name the schema file in key errors
         if error.file is None and schema_folder is not None:
             where = str(SchemaError("", column=error.column, row=error.row))   # "column/key 'x': "
@@ -73,7 +83,7 @@ def load_schema(schema: str | Path | Mapping[str, Any], *,
 
 
 def _parse(raw: dict[str, Any], root: paths.DatasetFolder, source: str,
-           missing_hvac_mode_is_off: bool) -> DistrictConfig:
+           missing_hvac_mode_is_off: bool, battery_defaults_drawn: bool = False) -> DistrictConfig:
     start = ranges.check_key(raw, "simulation_start_time_step", 0, where="simulation_start_time_step")
     end = ranges.check_key(raw, "simulation_end_time_step", None, where="simulation_end_time_step")
     if end is None or end < start:
@@ -90,14 +100,24 @@ def _parse(raw: dict[str, Any], root: paths.DatasetFolder, source: str,
     buildings_raw = raw.get("buildings")
     if not isinstance(buildings_raw, Mapping) or not buildings_raw:
         raise SchemaError("missing or empty", column="buildings")
+    ev = parse_ev_section(raw, root.root, initial_soc_draws=seeded_initial_soc_draws(raw))
+    machines = parse_washing_machines(raw, root.root)
+    if any(spec.get("charging_constraints") for spec in buildings_raw.values() if isinstance(spec, Mapping)):
+        raise SchemaError("charging constraints (CityLearn 2.5) are not supported", column="charging_constraints")
     cache: dict[tuple[str, str], dict[str, np.ndarray]] = {}
     buildings = []
     for name, spec in buildings_raw.items():
         if not spec.get("include", True):
             continue
-        buildings.append(
-            _building(name, spec, root, start, end, cache, active_obs, active_actions, missing_hvac_mode_is_off)
-        )
+        building = _building(name, spec, root, start, end, cache, active_obs, active_actions,
+                             missing_hvac_mode_is_off)
+        inactive = set(spec.get("inactive_actions") or [])
+        expanded = expand_actions(building.active_actions, len(buildings), ev, machines)
+        building = replace(building, active_actions=tuple(a for a in expanded if a not in inactive))
+        if battery_defaults_drawn and spec.get("electrical_storage"):
+            building = replace(building, electrical_storage=drawn_battery_defaults(
+                building.electrical_storage, name, spec, int(raw.get("random_seed") or 0)))
+        buildings.append(building)
     if not buildings:
         raise SchemaError("no building has include = true", column="buildings")
     episode = raw.get("episode_time_steps")
@@ -122,7 +142,31 @@ def _parse(raw: dict[str, Any], root: paths.DatasetFolder, source: str,
         reward_function=raw.get("reward_function"),
         random_seed=raw.get("random_seed"),
         source=source,
+        electric_vehicles=ev,
+        washing_machines=machines,
     )
+
+
+def drawn_battery_defaults(battery: Battery, building: str, spec: Mapping[str, Any], random_seed: int) -> Battery:
+    """``battery`` with CityLearn 2.5's drawn defaults for what the building's schema entry ``spec`` leaves
+    out of its ``electrical_storage`` attributes: round-trip efficiency 0.90..0.98, standby loss
+    0.001..0.009 per step, capacity loss coefficient 1e-5..1e-4 and both curves (:func:`ev.upstream_battery_curves`),
+    each ``low + (high - low) u`` with ``u`` the first uniform number of the device's seed
+    (:func:`ev.upstream_device_seed`)."""
+    given = (spec["electrical_storage"].get("attributes") or {})
+    seed = upstream_device_seed(building, spec.get("type") or "citylearn.citylearn.Building", "electrical_storage",
+                                spec["electrical_storage"].get("type", ""), random_seed)
+    u = upstream_uniform(seed)
+    drawn = {"efficiency": 0.90 + 0.08 * u, "loss_coefficient": 0.001 + 0.008 * u,
+             "capacity_loss_coefficient": 1e-5 + 9e-5 * u}
+    changes = {k: v for k, v in drawn.items() if given.get(k) is None}
+    efficiency = changes.get("efficiency", battery.efficiency)
+    power_efficiency, capacity_power = upstream_battery_curves(efficiency, u)
+    if given.get("power_efficiency_curve") is None:
+        changes["power_efficiency_curve"] = power_efficiency
+    if given.get("capacity_power_curve") is None:
+        changes["capacity_power_curve"] = capacity_power
+    return replace(battery, **changes)
 
 
 def _device(slot: str, spec: Mapping[str, Any] | None, where: str, series: Mapping[str, np.ndarray]) -> Any:

@@ -5,7 +5,10 @@ documented or physically consistent behaviour is one field here, read where it a
 Presets:
 
 * :data:`CORRECTED` -- the default: every quirk corrected;
-* :data:`CITYLEARN_2_1` -- CityLearn 2.1.2 number for number, bugs included (golden-trace parity).
+* :data:`CITYLEARN_2_1` -- CityLearn 2.1.2 number for number, bugs included (golden-trace parity);
+* :data:`CITYLEARN_2_5` -- CityLearn 2.5.0's physics where it differs from the corrected default (legacy
+  outage draws, battery efficiency read at the request, the EV state-of-charge bookkeeping of docs/ev.md
+  section 4, the two bugs of its EV reward); every other field corrected.
 
 ``CityLearnEnv(schema, compat=True)`` is shorthand for ``settings=CITYLEARN_2_1``. Change one field with
 ``dataclasses.replace(CORRECTED, lstm_day_type_period=8.0)``. Each field's effect is in its comment; the
@@ -30,6 +33,35 @@ class Behaviour:
     #: battery efficiency and capacity-power curves beyond their last point: True = extrapolate the first
     #: segment (CityLearn 2.1), False = hold the last y
     battery_curve_extrapolates_first_segment: bool = False
+    #: battery round-trip efficiency read on the power-efficiency curve at min(|request|, capacity-power limit) /
+    #: nominal power (CityLearn 2.5, building batteries and EV batteries) instead of at |clipped energy| /
+    #: nominal power (CityLearn 2.1, the corrected default)
+    battery_efficiency_from_request: bool = False
+    #: the ``electrical_storage`` action is a fraction of the battery's nominal power in [-1, 1] (request =
+    #: action * nominal power * step hours, CityLearn 2.5) instead of a fraction of its capacity with bounds
+    #: +-nominal power / capacity (CityLearn 2.1, the corrected default)
+    battery_action_fraction_of_nominal_power: bool = False
+    #: a building battery whose schema leaves out a curve, efficiency, standby loss or capacity loss gets
+    #: CityLearn 2.5's drawn defaults (a fresh ``RandomState`` of the device's seed per draw, docs/ev.md
+    #: section 1) instead of CityLearn 2.1's fixed ones (the corrected default)
+    battery_defaults_drawn: bool = False
+
+    # ---------------------------------------------------------------- electric vehicles (docs/ev.md section 4)
+    #: an EV's SOC at a step that nothing writes (no charger action, no arrival, no drift) is 0, as CityLearn
+    #: 2.5 leaves its SOC array: a plugged EV under a zero action is observed empty and starts the next step
+    #: from 0 (energy lost). False: the SOC carries over from the previous step less the standby loss
+    ev_unwritten_soc_is_zero: bool = False
+    #: a charger's battery step at t starts from the EV's SOC at t - 1 even when the EV arrived at t with a
+    #: forced arrival SOC (CityLearn 2.5: an arrival without an announcing state-2 row starts from a stale
+    #: SOC). False: the step starts from the SOC the EV holds at t (its arrival SOC when it just arrived)
+    ev_step_starts_from_previous_soc: bool = False
+    #: charger and washing-machine rows indexed by the episode time step counted from the simulation start
+    #: (CityLearn 2.5 does not re-window them to the episode: a later episode replays the first rows). False:
+    #: the rows of the episode's own time steps
+    ev_data_from_range_start: bool = False
+    #: the drift of an away EV's SOC drawn from ``numpy.random.RandomState(reset seed)`` (the stream of
+    #: CityLearn 2.5's global ``numpy.random`` seeded with that number) instead of the env's own generator
+    legacy_ev_drift_draws: bool = False
 
     # ---------------------------------------------------------------- LSTM temperature model
     #: period of the day_type sin/cos model inputs [days]: 8 (CityLearn 2.1: holidays as day 8) or 7
@@ -55,6 +87,14 @@ class Behaviour:
     comfort_reward_float32: bool = False
     #: StorageSignalReward with stored energy D <= 0: multiply by D itself instead of its sign
     storage_signal_reward_multiplies_by_delta: bool = False
+    #: Electric_Vehicles_Reward_Function: a charger without a plugged-in EV never scores (CityLearn 2.5: its
+    #: ``no_car_charging`` weight is unreachable). False: a charger asked for more than 0.1 kWh with no EV plugged
+    #: in scores ``no_car_charging`` x the reward's multiplier
+    ev_reward_skips_unplugged_chargers: bool = False
+    #: Electric_Vehicles_Reward_Function: an EV leaving 0.25 or more below its required SOC scores
+    #: ``soc_under ** 2`` (CityLearn 2.5: +25 with the default weight -5, more than a near miss earns) instead
+    #: of ``soc_under * |soc_under|`` (-25: the weight's sign kept, its size squared)
+    ev_reward_squares_soc_under_weight: bool = False
 
     # ---------------------------------------------------------------- KPIs
     #: KPI ratios by plain IEEE division (x/0 = inf, 0/0 = NaN) instead of 0/0 = 1 and x/0 = NaN
@@ -97,7 +137,27 @@ CITYLEARN_2_1 = Behaviour(
     wrapper_day_type_period=8.0,
 )
 
-PRESETS: dict[str, Behaviour] = {"corrected": CORRECTED, "citylearn-2.1": CITYLEARN_2_1}
+#: fields that only CityLearn 2.5 has a quirk for (CITYLEARN_2_1 keeps the corrected value)
+ONLY_IN_2_5 = ("battery_efficiency_from_request", "battery_action_fraction_of_nominal_power",
+               "battery_defaults_drawn", "ev_unwritten_soc_is_zero", "ev_step_starts_from_previous_soc",
+               "ev_data_from_range_start", "legacy_ev_drift_draws", "ev_reward_skips_unplugged_chargers",
+               "ev_reward_squares_soc_under_weight")
+#: CityLearn 2.5.0's physics (the v2.4.2 data sets and their EVs); step timing stays the 2.1 one (docs/ev.md)
+CITYLEARN_2_5 = Behaviour(
+    legacy_outage_draws=True,
+    battery_efficiency_from_request=True,
+    battery_action_fraction_of_nominal_power=True,
+    battery_defaults_drawn=True,
+    ev_unwritten_soc_is_zero=True,
+    ev_step_starts_from_previous_soc=True,
+    ev_data_from_range_start=True,
+    legacy_ev_drift_draws=True,
+    ev_reward_skips_unplugged_chargers=True,
+    ev_reward_squares_soc_under_weight=True,
+)
+
+PRESETS: dict[str, Behaviour] = {"corrected": CORRECTED, "citylearn-2.1": CITYLEARN_2_1,
+                                 "citylearn-2.5": CITYLEARN_2_5}
 
 
 def resolve(settings: Behaviour | str | None = None, compat: bool = False) -> Behaviour:

@@ -92,11 +92,46 @@ class BatteryRecord(Record):
 @dataclass(eq=False)
 class BuildingRecord(Record):
     """Whole-building quantities over an episode, (B, T): ``net_electricity_consumption`` [kWh, 0 during an
-    outage], ``non_shiftable_load_served`` [kWh] and ``indoor_dry_bulb_temperature`` [degC]."""
+    outage], ``non_shiftable_load_served`` [kWh], ``indoor_dry_bulb_temperature`` [degC] and the sums over the
+    building's EV chargers and washing machines, ``chargers_electricity_consumption`` and
+    ``washing_machines_electricity_consumption`` [kWh] (0 in a building without them)."""
 
     net_electricity_consumption: np.ndarray
     non_shiftable_load_served: np.ndarray
     indoor_dry_bulb_temperature: np.ndarray
+    chargers_electricity_consumption: np.ndarray
+    washing_machines_electricity_consumption: np.ndarray
+
+
+@dataclass(eq=False)
+class ChargerRecord(Record):
+    """The EV chargers over an episode, (C, T): grid-side ``electricity_consumption`` [kWh, < 0 when an EV
+    discharges into the building] and ``action_energy`` [kWh]: the charger-side energy the action asked for
+    (action x max power, held within the charger's limits; 0 for a zero action), recorded whether or not an
+    EV is plugged in (CityLearn 2.5's ``past_charging_action_values_kwh``, read by the EV reward)."""
+
+    electricity_consumption: np.ndarray
+    action_energy: np.ndarray
+
+
+@dataclass(eq=False)
+class ElectricVehicleRecord(Record):
+    """The EV batteries over an episode, (V, T): ``soc`` [-] (docs/ev.md section 4), the round-trip
+    ``efficiency`` [-] of the last battery step and the degraded ``capacity`` [kWh] after it."""
+
+    soc: np.ndarray
+    efficiency: np.ndarray
+    capacity: np.ndarray
+
+
+@dataclass(eq=False)
+class WashingMachineRecord(Record):
+    """The washing machines over an episode, (M, T): ``electricity_consumption`` [kWh] of started cycles
+    (booked ahead: a cycle started at t fills t, t + 1, ...) and ``running`` [0/1]: a cycle was started in the
+    current start window (set when it starts, cleared when the window changes)."""
+
+    electricity_consumption: np.ndarray
+    running: np.ndarray
 
 
 @dataclass(frozen=True, eq=False)
@@ -147,12 +182,19 @@ BUILDING_NAMES = (
     ("non_shiftable_load_electricity_consumption", "non_shiftable_load_served"),
     ("energy_to_non_shiftable_load", "non_shiftable_load_served"),
     ("indoor_dry_bulb_temperature", "indoor_dry_bulb_temperature"),
+    ("chargers_electricity_consumption", "chargers_electricity_consumption"),
+    ("washing_machines_electricity_consumption", "washing_machines_electricity_consumption"),
 )
 
 
+#: BUILDING_NAMES entries recorded only in a district with EV chargers or washing machines
+EV_BUILDING_NAMES = ("chargers_electricity_consumption", "washing_machines_electricity_consumption")
+
+
 def recorded_names(end_uses: Mapping[str, EndUseRecord], battery: BatteryRecord,
-                   building: BuildingRecord) -> dict[str, np.ndarray]:
-    """Every recorded (B, T) array under its CityLearn building-property name (arrays shared, not copied)."""
+                   building: BuildingRecord, *, with_ev: bool = False) -> dict[str, np.ndarray]:
+    """Every recorded (B, T) array under its CityLearn building-property name (arrays shared, not copied);
+    the charger and washing-machine sums only ``with_ev`` (a district that has chargers or machines)."""
     out: dict[str, np.ndarray] = {}
     for end_use, record in end_uses.items():
         for pattern, attr in END_USE_NAMES:
@@ -162,5 +204,6 @@ def recorded_names(end_uses: Mapping[str, EndUseRecord], battery: BatteryRecord,
     for name, attr in BATTERY_NAMES:
         out[name] = getattr(battery, attr)
     for name, attr in BUILDING_NAMES:
-        out[name] = getattr(building, attr)
+        if with_ev or name not in EV_BUILDING_NAMES:
+            out[name] = getattr(building, attr)
     return out

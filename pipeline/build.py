@@ -24,15 +24,14 @@ a temporary sibling folder and renamed into place only when complete and validat
 from __future__ import annotations
 
 import glob
-import hashlib
 import json
 import os
-import platform
 import re
 import shutil
 import time
 from collections.abc import Callable, Mapping
-from dataclasses import asdict, dataclass
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import asdict, dataclass, replace
 from importlib import metadata as importlib_metadata
 from pathlib import Path
 from typing import Any, Protocol
@@ -42,6 +41,14 @@ import pandas as pd
 
 from pipeline.config import BuildConfig
 from pipeline.errors import InputError
+from pipeline.manifest import (
+    make_world_readable,
+    split_surrogate_timings,
+    verify_district,  # noqa: F401  (re-exported: build.verify_district)
+    write_manifest,
+    write_timings,
+)
+from pipeline.manifest import sha256_file as _sha256
 
 OBSERVATIONS_SHARED = ("month", "day_type", "hour", "outdoor_dry_bulb_temperature",
                        "outdoor_dry_bulb_temperature_predicted_6h", "diffuse_solar_irradiance",
@@ -76,7 +83,13 @@ class InProcessRunner:
     """Plain calls, one after the other, in this process (tests, quick runs, no Prefect needed)."""
 
     def map(self, step: str, fn: Callable[..., Any], calls: Mapping[str, tuple]) -> dict[str, Any]:
-        return {label: fn(*args) for label, args in calls.items()}
+        from pipeline import progress
+
+        results = {}
+        for label, args in calls.items():
+            results[label] = fn(*args)
+            progress.advance(step, label)
+        return results
 
 
 def building_names(config: BuildConfig) -> list[str]:
@@ -154,24 +167,32 @@ class HouseSimulation:
     hit: bool
 
 
+def simulation_cache_parts(config: BuildConfig, row: Mapping[str, object]) -> dict:
+    """What a house's simulation is a function of (the cache key parts): the stock row, the weather file's
+    sha256, the calendar year of the period (the pass covers that whole year), the simulation settings (not
+    ``fuel_heating``: it acts after the simulation) and the generator's sources. Not the period's days."""
+    import surrogates
+    from pipeline.cache import files_digest
+
+    package = Path(surrogates.__file__).parent
+    return {"row": dict(row), "epw_sha256": _sha256(Path(config.inputs.weather)), "year": config.period.start.year,
+            "simulation": config.simulation.model_dump(exclude={"fuel_heating"}),
+            "generator_sha256": files_digest([package / f for f in ENERGYPLUS_SOURCES], package)}
+
+
 def simulate_building(config: BuildConfig, bldg_id: int) -> HouseSimulation:
     """The full-year EnergyPlus pass of one real stock row on the district's weather (loads + ILV), from the
     simulation cache (``<cache root>/simulations/<key>``; key: the row, the EPW's sha256, the simulation
     settings and the generator's sources) or simulated and stored."""
     import io
 
-    import surrogates
-    from pipeline.cache import FileCache, cache_key, cache_root, files_digest
+    from pipeline.cache import FileCache, cache_key, cache_root
     from surrogates.energyplus.ilv import ILVConfig
     from surrogates.sources.energyplus import simulate_house
 
-    package = Path(surrogates.__file__).parent
     row = read_characteristics_row(config.inputs.characteristics, bldg_id)
-    sim = config.simulation
-    year = config.period.start.year
-    parts = {"row": row, "epw_sha256": _sha256(Path(config.inputs.weather)), "year": year,
-             "simulation": sim.model_dump(exclude={"fuel_heating"}),
-             "generator_sha256": files_digest([package / f for f in ENERGYPLUS_SOURCES], package)}
+    parts = simulation_cache_parts(config, row)
+    sim, year = config.simulation, config.period.start.year
     key = cache_key(parts)
     cache = FileCache(cache_root(config.cache_dir) / "simulations")
     files = cache.get(key)
@@ -187,6 +208,30 @@ def simulate_building(config: BuildConfig, bldg_id: int) -> HouseSimulation:
              "house.json": json.dumps(summary).encode()}
     cache.put(key, files, inputs=parts)
     return HouseSimulation(loads, table, summary, key, False)
+
+
+@dataclass(frozen=True)
+class HouseWork:
+    """One house's per-building work: its simulation and, for ``surrogate.source = "energyplus"``, its
+    surrogate files (None otherwise: trained later, from tables that need the site's signals)."""
+
+    simulation: HouseSimulation
+    surrogate: SurrogateFiles | None
+
+
+def house_work(config: BuildConfig, bldg_id: int, name: str) -> HouseWork:
+    """Simulate a real stock row (:func:`simulate_building`) and train its surrogate on the simulated ILV table
+    (:func:`surrogate_files`) in ONE task: no barrier between the two stages across houses, so a worker that
+    finishes a simulation trains at once; each result is cached as soon as it exists (a rerun resumes)."""
+    from pipeline.progress import report
+
+    report(name, "simulate (EnergyPlus, full year)")
+    simulation = simulate_building(config, bldg_id)
+    surrogate = None
+    if config.surrogate.source == "energyplus":
+        surrogate = surrogate_files(config, bldg_id, name, simulation.ilv)
+        simulation = replace(simulation, ilv=simulation.ilv.iloc[:0])  # used: not sent back to the build process
+    return HouseWork(simulation, surrogate)
 
 
 def house_table(config: BuildConfig, simulation: HouseSimulation, solar: pd.Series) -> pd.DataFrame:
@@ -444,11 +489,13 @@ def train_files(table: pd.DataFrame, bldg_id: int, name: str, settings) -> dict[
     """
     import tempfile
 
+    from pipeline.progress import epochs
     from surrogates.export import train_and_export
 
     with tempfile.TemporaryDirectory(prefix="districtgen_surrogate_") as scratch:
         folder = Path(scratch) / "surrogates"
-        train_and_export(table, folder, name, settings, source=f"ILV table of building {bldg_id}")
+        train_and_export(table, folder, name, settings, source=f"ILV table of building {bldg_id}",
+                         progress=epochs(name))
         files = {f"surrogates/{p.name}": p.read_bytes() for p in sorted(folder.glob(f"{name}.*"))}
     files[f"{name}.pth"] = files.pop(f"surrogates/{name}.pth")
     return files
@@ -461,15 +508,19 @@ def surrogate_files(config: BuildConfig, bldg_id: int, name: str, table: pd.Data
     ``$DISTRICTGEN_CACHE_DIR``, else ``~/.cache/districtgen``; entries under ``surrogates/<key>/``.
     ``table``: the ILV table when the caller has it (a simulated house, an FMU run)."""
     from pipeline.cache import FileCache, cache_key, cache_root
+    from pipeline.progress import report
 
     parts, table = surrogate_cache_parts(config, bldg_id, name, table, weather)
     key = cache_key(parts)
     cache = FileCache(cache_root(config.cache_dir) / "surrogates")
     files = cache.get(key)
     if files is not None:
+        report(name, "surrogate from the cache")
         return SurrogateFiles(files, key, True)
     if table is None:
+        report(name, "simulate ILV runs (EnergyPlus)")
         table = energyplus_ilv(config, bldg_id)
+    report(name, "train", 0, config.surrogate.epochs)
     files = train_files(table, bldg_id, name, train_config(config))
     cache.put(key, files, inputs=parts)
     return SurrogateFiles(files, key, False)
@@ -524,44 +575,6 @@ def _resistance(size: Mapping[str, Mapping]) -> bool:
     return "heating_device" in size and "target_heating_temperature" not in size["heating_device"]
 
 
-def write_manifest(out: Path, config: BuildConfig, timings: dict[str, float],
-                   surrogate_cache: Mapping[str, Mapping[str, object]] | None = None) -> Path:
-    """``manifest.json``: sha256 of every output and input, versions, seeds, timings, surrogate cache use."""
-    files = {}
-    for path in sorted(p for p in out.rglob("*") if p.is_file() and p.name != "manifest.json"):
-        files[str(path.relative_to(out))] = {"sha256": _sha256(path), "bytes": path.stat().st_size}
-    inputs = {}
-    for key in ("weather", "tariff", "fuel_mix"):
-        path = Path(getattr(config.inputs, key))
-        inputs[key] = {"path": str(path), "sha256": _sha256(path)}
-    versions = {dist: _version(dist) for dist in
-                ("districtgen", "numpy", "pandas", "torch", "gymnasium", "prefect", "pvlib")}
-    manifest = {"district": config.name, "config": json.loads(config.model_dump_json()), "inputs": inputs,
-                "outputs": files, "versions": versions, "python": platform.python_version(),
-                "seeds": {"build": config.seed, "surrogate": config.surrogate.seed}, "timings_s": timings,
-                "surrogate_cache": dict(surrogate_cache or {})}
-    path = out / "manifest.json"
-    path.write_text(json.dumps(manifest, indent=2, default=str))
-    return path
-
-
-def verify_district(folder: str | Path) -> list[str]:
-    """Re-check every output hash of ``manifest.json``; return the problems (empty = intact)."""
-    folder = Path(folder)
-    try:
-        manifest = json.loads((folder / "manifest.json").read_text())
-    except FileNotFoundError:
-        raise InputError("no manifest.json: not a districtgen build", file=folder) from None
-    problems = []
-    for name, entry in manifest["outputs"].items():
-        path = folder / name
-        if not path.exists():
-            problems.append(f"{name}: missing")
-        elif _sha256(path) != entry["sha256"]:
-            problems.append(f"{name}: sha256 differs from the manifest")
-    return problems
-
-
 # ---------------------------------------------------------------------------------------------- validate
 def validate_district(schema_path: Path, report_dir: Path, name: str | None = None,
                       schema: Mapping[str, Any] | None = None) -> dict:
@@ -571,7 +584,7 @@ def validate_district(schema_path: Path, report_dir: Path, name: str | None = No
     """
     from citylearn_env import load_schema
     from pipeline.controllers import run_policy
-    from pipeline.report import write_report
+    from pipeline.report import report_series, write_report
 
     report_dir.mkdir(parents=True, exist_ok=True)
     district = load_schema(schema_path)
@@ -581,7 +594,7 @@ def validate_district(schema_path: Path, report_dir: Path, name: str | None = No
         kpis = env.evaluate()
         kpis.to_csv(report_dir / f"kpis_{policy}.csv", index=False)
         results[policy] = {"objectives": {k: v for k, v in env.objectives().items() if np.isscalar(v)},
-                           "kpis": kpis, "net": env.series()["net_electricity_consumption"].sum(axis=0)}
+                           "kpis": kpis, "series": report_series(env)}
     schema = dict(schema) if schema is not None else json.loads(Path(schema_path).read_text())
     write_report(report_dir, name or schema_path.parent.name, schema, results, schema_path.parent / "surrogates")
     return results
@@ -592,10 +605,13 @@ def run_build(config: BuildConfig, output_root: str | Path = "artifacts", runner
     """THE build: every step in order, per-building work through ``runner`` (default: in-process).
 
     Writes into a hidden sibling folder of ``output_root/<name>`` and renames it into place only when the
-    schema validated; returns ``output_root/<name>``. Timings [s] and the surrogate cache use (key, hit) per
-    building go into ``manifest.json``; the selection, each house's heating system and device and its
-    set-point repair go into ``selection.csv`` / ``buildings.json`` and the report.
+    schema validated; returns ``output_root/<name>``. Hashes, versions and the surrogate cache keys go into
+    ``manifest.json`` (reproducible); timings [s], training seconds and cache hits into ``timings.json``
+    (:mod:`pipeline.manifest`); every file 0644, every folder 0755; the selection, each house's heating
+    system and device and its set-point repair go into ``selection.csv`` / ``buildings.json`` and the report.
     """
+    from pipeline import progress
+
     runner = runner or InProcessRunner()
     timings: dict[str, float] = {}
     started = time.perf_counter()
@@ -605,19 +621,17 @@ def run_build(config: BuildConfig, output_root: str | Path = "artifacts", runner
     ids = dict(zip(names, config.inputs.buildings, strict=True))
     with staging(config, output_root) as out:
         started = time.perf_counter()
-        signals = site_signals(config)
+        signals, houses, early = signals_and_houses(config, ids, runner, timings)
         outdoor = signals.outdoor
-        houses: dict[str, HouseSimulation] = {}
-        systems: dict[str, str] = {}
         if config.inputs.characteristics is not None:
-            houses = runner.map("simulate", simulate_building, {n: (config, i) for n, i in ids.items()})
             frames = {n: house_table(config, houses[n], signals.solar) for n in names}
             systems = {n: houses[n].summary["heating_system"] for n in names}
-            timings["simulate"] = time.perf_counter() - started
         else:
+            progress.stage("ingest", len(names))
             frames = runner.map("ingest", ingest_building,
                                 {n: (config, i, signals.solar, outdoor) for n, i in ids.items()})
             systems = {n: eulp_heating_system(config, i) for n, i in ids.items()}
+            progress.end("ingest")
         write_tables(out, config.layout, {
             "weather.csv": ("weather", signals.weather), "pricing.csv": ("pricing", signals.pricing),
             "carbon_intensity.csv": ("carbon", signals.carbon),
@@ -626,17 +640,22 @@ def run_build(config: BuildConfig, output_root: str | Path = "artifacts", runner
         heating = heating_devices(config, frames, systems)
         sizes = size_buildings(config, frames, signals.weather, heating)
         started = time.perf_counter()
-        dynamics, cache_use = None, {}
+        dynamics, cache_use, trained = None, {}, {}
         if config.surrogate.source != "none":
             tables = {n: None for n in names}
             if config.surrogate.source == "energyplus" and houses:
                 tables = {n: houses[n].ilv for n in names}
             elif config.surrogate.source == "fmu":
                 tables = {n: fmu_ilv(config, frames[n], signals.weather) for n in names}
-            trained = runner.map("surrogate", surrogate_files,
-                                 {n: (config, i, n, tables[n], outdoor) for n, i in ids.items()})
-            dynamics = {n: write_surrogate_files(out, trained[n].files) for n in names}
-            cache_use = {n: {"key": trained[n].key, "hit": trained[n].hit} for n in names}
+            todo = {n: (config, i, n, tables[n], outdoor) for n, i in ids.items() if n not in early}
+            if todo:
+                progress.stage("surrogate", len(todo))
+            trained = early | runner.map("surrogate", surrogate_files, todo)
+            trained = {n: trained[n] for n in names}
+            progress.end("surrogate")
+            split = {n: split_surrogate_timings(trained[n].files) for n in names}  # seconds -> timings.json
+            dynamics = {n: write_surrogate_files(out, split[n][0]) for n in names}
+            cache_use = {n: {"hit": trained[n].hit, **split[n][1]} for n in names}
         timings["surrogates"] = time.perf_counter() - started
         schema = schema_dict(config, names, sizes, dynamics)
         schema_path = out / "schema.json"
@@ -647,11 +666,46 @@ def run_build(config: BuildConfig, output_root: str | Path = "artifacts", runner
         if selection is not None:
             selection.chosen.assign(building=names).to_csv(out / "selection.csv", index=False)
         started = time.perf_counter()
+        progress.stage("validate")
         validate_district(schema_path, out / "report", config.name, schema)
+        progress.end("validate")
         append_building_report(out / "report" / "summary.md", buildings, selection)
         timings["validate"] = time.perf_counter() - started
-        write_manifest(out, config, timings, cache_use)
+        write_manifest(out, config, {n: trained[n].key for n in cache_use})
+        write_timings(out, config, timings, cache_use)
+        make_world_readable(out)
     return Path(output_root) / config.name
+
+
+def signals_and_houses(config: BuildConfig, ids: Mapping[str, int], runner: Runner, timings: dict[str, float],
+                       ) -> tuple[Signals, dict[str, HouseSimulation], dict[str, SurrogateFiles]]:
+    """The site's signals (read in a thread) while the runner does the per-house work (:func:`house_work`:
+    simulation and, for ``energyplus`` surrogates, training) of buildings from real characteristics.
+
+    Returns the signals, the simulations and the surrogates already trained, by building name; records the
+    wall seconds of both in ``timings`` (``site_signals``, ``houses``)."""
+    from pipeline import progress
+
+    started = time.perf_counter()
+    houses: dict[str, HouseSimulation] = {}
+    early: dict[str, SurrogateFiles] = {}
+
+    def done(_) -> None:
+        timings["site_signals"] = time.perf_counter() - started
+        progress.end("site signals")
+
+    progress.stage("site signals")
+    with ThreadPoolExecutor(max_workers=1, thread_name_prefix="site_signals") as pool:
+        pending = pool.submit(site_signals, config)  # read while the houses simulate: serial time hidden
+        pending.add_done_callback(done)
+        if config.inputs.characteristics is not None:
+            progress.stage("house", len(ids))
+            work = runner.map("house", house_work, {n: (config, i, n) for n, i in ids.items()})
+            houses = {n: work[n].simulation for n in ids}
+            early = {n: work[n].surrogate for n in ids if work[n].surrogate is not None}
+            timings["houses"] = time.perf_counter() - started
+            progress.end("house")
+        return pending.result(), houses, early
 
 
 def eulp_heating_system(config: BuildConfig, bldg_id: int) -> str:
@@ -828,11 +882,3 @@ def _version(dist: str) -> str | None:
         return importlib_metadata.version(dist)
     except importlib_metadata.PackageNotFoundError:
         return None
-
-
-def _sha256(path: Path) -> str:
-    digest = hashlib.sha256()
-    with open(path, "rb") as handle:
-        for chunk in iter(lambda: handle.read(1 << 20), b""):
-            digest.update(chunk)
-    return digest.hexdigest()

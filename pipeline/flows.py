@@ -21,6 +21,7 @@ import signal
 import subprocess
 import sys
 import threading
+import time
 from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
 from pathlib import Path
@@ -32,15 +33,24 @@ from prefect.task_runners import ThreadPoolTaskRunner
 
 from pipeline import build
 from pipeline.config import BuildConfig, read_build_config
+from pipeline.errors import InputError
 
 
 class PrefectRunner:
     """Each call a Prefect task (named ``<step>-<label>``) of the running flow; waits for all, in order."""
 
     def map(self, step: str, fn: Callable[..., Any], calls: Mapping[str, tuple]) -> dict[str, Any]:
+        from prefect.futures import as_completed
+
+        from pipeline import progress
+
         work = task(fn, name=step, cache_policy=NO_CACHE, persist_result=False)
         futures = {label: work.with_options(task_run_name=f"{step}-{label}").submit(*args)
                    for label, args in calls.items()}
+        labels = {id(future): label for label, future in futures.items()}
+        for future in as_completed(list(futures.values())):
+            future.result()  # the first failure ends the build (its own error, one line in the CLI)
+            progress.advance(step, labels[id(future)])
         return {label: future.result() for label, future in futures.items()}
 
 
@@ -53,21 +63,53 @@ def build_district(config: BuildConfig | str | Path, output_root: str = "artifac
 
 
 def build_district_on_dask(config: BuildConfig | str | Path, output_root: str = "artifacts", *,
-                           address: str | None = None, workers: int = 2) -> Path:
+                           address: str | None = None, workers: int | None = None) -> Path:
     """The build flow on Dask: an existing scheduler at ``address``, else a local cluster of ``workers``
-    single-threaded processes (worth it for few, long per-building tasks such as EnergyPlus or training)."""
+    (default: the CPU count) single-threaded worker processes, started while Prefect's API starts.
+
+    Every worker runs one task at a time with one torch thread (training sets it; Dask sets OMP/MKL threads
+    to 1), so results do not depend on the worker count. Building reports (step, epochs) reach this process's
+    progress display as Dask events (:func:`pipeline.progress.forward_dask_events`)."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from distributed import Client
     from prefect_dask import DaskTaskRunner
 
-    if address:
-        runner = DaskTaskRunner(address=address)
-    else:
-        runner = DaskTaskRunner(cluster_kwargs={"n_workers": workers, "threads_per_worker": 1, "processes": True,
-                                                "dashboard_address": None})
-    with prefect_api():
-        return build_district.with_options(task_runner=runner)(config, output_root)
+    from pipeline.progress import forward_dask_events
+
+    with ThreadPoolExecutor(max_workers=1, thread_name_prefix="dask_cluster") as pool:
+        cluster = None if address else pool.submit(local_cluster, workers or os.cpu_count() or 1)
+        try:
+            with prefect_api():
+                if cluster is not None:
+                    address = cluster.result().scheduler_address
+                with Client(address) as client:
+                    forward_dask_events(client)
+                    runner = DaskTaskRunner(address=address)
+                    return build_district.with_options(task_runner=runner)(config, output_root)
+        finally:
+            if cluster is not None:
+                cluster.result().close()
+
+
+def local_cluster(workers: int):
+    """A local Dask cluster of ``workers`` worker processes, one thread each, no dashboard, quiet logs."""
+    import dask
+    from distributed import LocalCluster
+
+    with dask.config.set({"logging.distributed": "error"}):
+        return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None)
 
 
 # ------------------------------------------------------------------------------- Prefect server lifetime
+#: default wall-clock seconds the temporary API server may take to start (Prefect's default: 20 s of sleeps)
+STARTUP_TIMEOUT_S = 600.0
+
+
+class OrchestrationError(InputError):
+    """Prefect or Dask could not run the build (not the inputs' fault); the CLI prints it as one line, exit 2."""
+
+
 #: run by the watchdog: poll the parent (argv[1]) every 0.5 s; when it is gone, stop the server (argv[2])
 _WATCHDOG = """
 import os, signal, sys, time
@@ -95,6 +137,8 @@ def prefect_api() -> Iterator[str]:
         return
     from prefect.server.api.server import SubprocessASGIServer
 
+    from pipeline import progress
+
     server = SubprocessASGIServer()
     previous = _exit_on_signals()
     watchdog = None
@@ -104,11 +148,13 @@ def prefect_api() -> Iterator[str]:
         own_database = any(name in os.environ for name in (
             "PREFECT_SERVER_DATABASE_CONNECTION_URL", "PREFECT_API_DATABASE_CONNECTION_URL"))
         memory = {} if own_database else {PREFECT_SERVER_DATABASE_CONNECTION_URL: "sqlite+aiosqlite:///:memory:"}
-        with temporary_settings(updates=memory):  # run records in memory: nothing written to ~/.prefect
-            server.start()
+        with temporary_settings(updates={**memory, **patient_settings()}):  # records in memory, patient
+            progress.stage("prefect api")
+            start_server(server, startup_timeout())
+            progress.end("prefect api")
         watchdog = subprocess.Popen([sys.executable, "-c", _WATCHDOG, str(os.getpid()), str(server.server_process.pid)],
                                     stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-        with temporary_settings(updates={PREFECT_API_URL: server.api_url}):
+        with temporary_settings(updates={PREFECT_API_URL: server.api_url, **patient_settings()}):
             yield server.api_url
     finally:
         if server.running:  # send the runs' queued logs while the server is still there
@@ -120,6 +166,66 @@ def prefect_api() -> Iterator[str]:
             watchdog.terminate()
             watchdog.wait()
         _restore_signals(previous)
+
+
+def startup_timeout() -> float:
+    """Wall-clock seconds the temporary server may take to answer: ``$DISTRICTGEN_PREFECT_STARTUP_TIMEOUT``
+    (seconds), else :data:`STARTUP_TIMEOUT_S`."""
+    text = os.environ.get("DISTRICTGEN_PREFECT_STARTUP_TIMEOUT")
+    if not text:
+        return STARTUP_TIMEOUT_S
+    try:
+        return float(text)
+    except ValueError:
+        raise InputError("not a number of seconds", file="environment",
+                         column="DISTRICTGEN_PREFECT_STARTUP_TIMEOUT") from None
+
+
+def patient_settings() -> dict:
+    """Prefect settings for a busy machine, where not set by the user: API requests may take 5 minutes, the
+    server's database statements and connections 1 minute (Prefect's defaults: 60, 10 and 5 s)."""
+    from prefect.settings import (
+        PREFECT_API_REQUEST_TIMEOUT,
+        PREFECT_SERVER_DATABASE_CONNECTION_TIMEOUT,
+        PREFECT_SERVER_DATABASE_TIMEOUT,
+    )
+
+    wanted = {PREFECT_API_REQUEST_TIMEOUT: 300.0, PREFECT_SERVER_DATABASE_TIMEOUT: 60.0,
+              PREFECT_SERVER_DATABASE_CONNECTION_TIMEOUT: 60.0}
+    return {setting: value for setting, value in wanted.items() if setting.name not in os.environ}
+
+
+def start_server(server: Any, timeout_s: float) -> None:
+    """Start Prefect's temporary server and wait until ``/health`` answers, by the wall clock, up to
+    ``timeout_s``; raise :class:`OrchestrationError` (one line) if it does not.
+
+    Prefect's own wait (``SubprocessASGIServer.start``) counts only its sleeps and gives up when a health
+    request is slow to answer (a loaded machine); its server process is still starting then, so this keeps
+    asking it (each request may take 30 s) until the deadline, and stops it only on giving up."""
+    import httpx
+
+    deadline = time.monotonic() + timeout_s
+    try:
+        server.start(timeout=max(1, int(timeout_s)))
+        return
+    except Exception:  # noqa: BLE001 - Prefect's wait gave up; the process may still come up
+        pass
+    with httpx.Client(timeout=30.0) as client:
+        while time.monotonic() < deadline:
+            process = server.server_process
+            if process is None or process.poll() is not None:
+                break
+            try:
+                if client.get(f"{server.api_url}/health").status_code == 200:
+                    server.running = True
+                    return
+            except httpx.HTTPError:
+                pass
+            time.sleep(0.5)
+    server.stop()
+    raise OrchestrationError(f"Prefect's temporary API server did not answer within {timeout_s:.0f} s (a very "
+                             "busy machine?): retry, raise DISTRICTGEN_PREFECT_STARTUP_TIMEOUT, run a Prefect "
+                             "server and set PREFECT_API_URL, or build with --no-prefect")
 
 
 def _exit_on_signals() -> dict:

@@ -1,7 +1,7 @@
 """The 17 control benchmarks of the SimBuild 2024 CityLearn paper, on any district, with one command.
 
     districtgen paper artifacts/default/schema.json -o artifacts/default/paper [--buildings B1 B2]
-        [--rules described|published] [--compat] [--sac torch|torch-bf16|sbx|sb3] [--seeds N] [--workers W]
+        [--rules described|published] [--compat] [--sac fast|torch|torch-bf16|sbx|sb3] [--seeds N] [--workers W]
 
 Each benchmark derives its variant from the district, loaded once as a typed configuration (which
 buildings play the paper's B1 and B2, which devices exist, which actions and observations are active,
@@ -165,13 +165,15 @@ def load_district(schema_path: str | Path, settings: str | None = None) -> Distr
 class RunOptions:
     """How the benchmarks run. ``roles``: buildings playing B1 [B2] (None = the first two); ``rules``:
     "described" or "published" (:data:`pipeline.controllers.RULE_SETS`); ``compat``: the CityLearn 2.1
-    preset (``settings="citylearn-2.1"``); ``sac``: the SAC back end (:data:`pipeline.paper_sac.BACKENDS`)."""
+    preset (``settings="citylearn-2.1"``); ``sac``: the SAC back end (:data:`pipeline.paper_sac.BACKENDS`);
+    ``sac_threads``: torch threads of one SAC training (workers x threads = cores is the sensible choice)."""
 
     sac_episodes: int = 150
     roles: tuple[str, ...] | None = None
     rules: str = "described"
     compat: bool = False
-    sac: str = "torch"
+    sac: str = "fast"
+    sac_threads: int = 1
 
     @property
     def settings(self) -> str | None:
@@ -207,7 +209,7 @@ def run_benchmark(district: DistrictConfig, b: Benchmark, *, seed: int = 0, mult
     if b.control == "sac":
         policy, train_seconds, train_cpu = sac_policy(
             CityLearnEnv(benchmark_schema(district, b, train, multiplier, options.roles), settings=options.settings),
-            options.sac_episodes, seed, options.sac)
+            options.sac_episodes, seed, options.sac, options.sac_threads)
     rules, lookahead = RULE_SETS[options.rules]
     rule = rules[RULES[b.objective]] if b.control == "rbc" else None
     obs, _ = env.reset(seed=seed)
@@ -253,14 +255,14 @@ def trace(env, series: Mapping[str, np.ndarray], actions: Sequence[np.ndarray]) 
     return out
 
 
-def sac_policy(env, episodes: int, seed: int, backend: str):
+def sac_policy(env, episodes: int, seed: int, backend: str, threads: int = 1):
     """SAC trained on ``env`` (the paper's normalisation: periodic encoding, min-max; [0, 1] actions);
     returns (raw observation -> environment action, training wall seconds, training CPU seconds)."""
     from citylearn_env.wrappers import NormalizedActionWrapper, NormalizedObservationWrapper
     from pipeline.paper_sac import train_sac
 
     wrapped = NormalizedActionWrapper(NormalizedObservationWrapper(env))
-    trained = train_sac(wrapped, episodes, seed, backend)
+    trained = train_sac(wrapped, episodes, seed, backend, threads)
     obs_wrapper = wrapped.env
     low, span = wrapped.low, wrapped.span
 

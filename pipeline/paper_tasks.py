@@ -6,7 +6,8 @@ from the current run is not reused. Learning rows run once per seed and are repo
 standard deviation over the seeds; rule-based and no-control rows are deterministic and run once.
 
 Runners follow the build's ``Runner`` protocol (``map(step, fn, {label: args})``, pipeline/build.py):
-:class:`pipeline.build.InProcessRunner` (``workers=1``) or :class:`ProcessRunner` (one process per core).
+:class:`pipeline.build.InProcessRunner` (``workers=1``), :class:`ProcessRunner` (one process per core) or
+:class:`DaskRunner` (a local Dask cluster of worker processes, or an existing cluster's scheduler).
 """
 
 from __future__ import annotations
@@ -124,6 +125,28 @@ class ProcessRunner:
 
         with ProcessPoolExecutor(self.workers, mp_context=multiprocessing.get_context("spawn")) as pool:
             futures = {label: pool.submit(fn, *args) for label, args in calls.items()}
+            return {label: future.result() for label, future in futures.items()}
+
+
+class DaskRunner:
+    """The build's runner protocol on Dask: the scheduler at ``address``, else a local cluster of ``workers``
+    single-threaded worker processes (started and stopped by each ``map``). Task files are written by the
+    workers, so a remote cluster needs the output folder on a shared file system."""
+
+    def __init__(self, address: str | None = None, workers: int = 2):
+        self.address, self.workers = address, workers
+
+    def map(self, step: str, fn: Callable[..., Any], calls: Mapping[str, tuple]) -> dict[str, Any]:
+        from contextlib import ExitStack
+
+        from dask.distributed import Client, LocalCluster
+
+        with ExitStack() as stack:
+            target = self.address or stack.enter_context(LocalCluster(
+                n_workers=self.workers, threads_per_worker=1, processes=True, dashboard_address=None))
+            client = stack.enter_context(Client(target))
+            futures = {label: client.submit(fn, *args, key=f"{step}-{label}", pure=False)
+                       for label, args in calls.items()}
             return {label: future.result() for label, future in futures.items()}
 
 

@@ -1,59 +1,219 @@
-"""The build report: ``report/summary.md`` (sizing, surrogate fit, objectives) and ``report/district_net.png``."""
+"""The build report: ``report/summary.md`` (tables) and the PNG figures it shows (:mod:`pipeline.report_figures`).
+
+``summary.md`` holds the devices the sizing chose, the surrogates' held-out fit, the no-control vs cost-RBC
+objectives (absolute units, district and per building) and the district KPIs of ``kpis_<policy>.csv``
+(CityLearn's ``evaluate``: ratios to the no-storage baseline), then the figures. It holds no timings and no
+dates, so two builds of the same configuration write the same bytes.
+"""
 
 from __future__ import annotations
 
 import json
+import math
+from collections.abc import Mapping
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
+from pipeline import report_figures as figures
+
+#: episode series the report needs (env.series() names), (B, T)
+SERIES = ("net_electricity_consumption", "solar_generation", "electricity_pricing", "carbon_intensity",
+          "indoor_dry_bulb_temperature", "indoor_dry_bulb_temperature_set_point", "outdoor_dry_bulb_temperature",
+          *(key for key, _, _ in figures.END_USES))
+#: data columns the report needs for its calendar (env.data() names), (B, T)
+CALENDAR = ("hour", "month", "day_type")
+#: objective -> (unit, decimals) of :func:`citylearn_env.kpis.objectives`
+OBJECTIVES = {"cost": ("$", 2), "emissions": ("kg CO2", 1), "discomfort": ("degC h", 1),
+              "consumption": ("kWh", 1), "average_daily_peak": ("kW", 3)}
+#: KPI name prefix -> unit of the KPI table (first match; else a ratio to the no-storage baseline)
+KPI_UNITS = (("discomfort_delta", "degC"), ("discomfort", "fraction of occupied hours"),
+             ("one_minus_thermal_resilience", "fraction of outage hours"))
+POLICY_NAMES = {"no_control": "no control", "cost_rbc": "cost RBC"}
+
+
+def report_series(env: Any) -> dict[str, np.ndarray]:
+    """What the report needs of a finished episode of ``env`` (a CityLearnEnv): name -> (B, T) arrays."""
+    series = env.series()
+    return {**{k: series[k] for k in SERIES}, **{k: env.data(k) for k in CALENDAR}}
+
 
 def write_report(report_dir: Path, name: str, schema: dict, results: dict, surrogates_dir: Path) -> Path:
-    """Write summary.md and the district net-load plot; ``results`` maps policy -> objectives and net (T,)."""
-    lines = [f"# District {name}", "", "## Devices (sized by pipeline/sizing.py)", "",
-             "| building | heat pump kW | DHW heater kW | DHW tank kWh | battery kWh / kW | PV kWp |",
-             "|---|---|---|---|---|---|"]
-    for building, spec in schema["buildings"].items():
-        if not spec.get("include", True):
-            continue
-        attrs = {k: (spec.get(k) or {}).get("attributes", {}) for k in
-                 ("cooling_device", "dhw_device", "dhw_storage", "electrical_storage", "pv")}
-        lines.append(f"| {building} | {attrs['cooling_device'].get('nominal_power', 0):.2f} | "
-                     f"{attrs['dhw_device'].get('nominal_power', 0):.2f} | {attrs['dhw_storage'].get('capacity', 0):.2f} | "
-                     f"{attrs['electrical_storage'].get('capacity', 0):.1f} / "
-                     f"{attrs['electrical_storage'].get('nominal_power', 0):.2f} | {attrs['pv'].get('nominal_power', 0):.2f} |")
-    metrics = sorted(surrogates_dir.glob("*.metrics.json")) if surrogates_dir.is_dir() else []
-    if metrics:
-        lines += ["", "## Surrogates (held-out runs, closed loop)", "",
-                  "| building | monthly RMSE median / max degC | training s |", "|---|---|---|"]
-        for path in metrics:
-            m = json.loads(path.read_text())
-            rmse = m["test"]["monthly_rmse_c"]
-            lines.append(f"| {m['building']} | {rmse['median']:.2f} / {rmse['max']:.2f} | "
-                         f"{m['training'].get('train_seconds', float('nan')):.1f} |")
-    policies = list(results)
-    lines += ["", "## Objectives over the period", "", "| objective | " + " | ".join(policies) + " |",
-              "|---|" + "---|" * len(policies)]
-    for key in results[policies[0]]["objectives"]:
-        lines.append(f"| {key} | " + " | ".join(f"{results[p]['objectives'][key]:.3f}" for p in policies) + " |")
-    lines += ["", "![district net consumption](district_net.png)"]
-    (report_dir / "summary.md").write_text("\n".join(lines) + "\n")
-    _plot(report_dir / "district_net.png", {p: r["net"] for p, r in results.items()})
-    return report_dir / "summary.md"
+    """Write ``summary.md`` and its figures into ``report_dir``; return the summary's path.
+
+    ``results``: policy ("no_control", "cost_rbc") -> {"objectives": name -> float, "kpis": the KPI table
+    (cost_function, value, name, level), "series": :func:`report_series` of the finished episode}.
+    """
+    buildings = included_buildings(schema)
+    series = {p: r["series"] for p, r in results.items()}
+    steps = next(iter(series.values()))["net_electricity_consumption"].shape[1]
+    lines = [f"# District {name}", "",
+             f"{len(buildings)} buildings, {steps} hourly time steps; each policy runs once over the period with "
+             "the heat pumps serving the ideal load (pipeline/controllers.py).", ""]
+    lines += sizing_table(schema, buildings)
+    lines += surrogate_table(read_surrogate_metrics(surrogates_dir))
+    lines += objectives_table({p: r["objectives"] for p, r in results.items()})
+    lines += building_objectives_table(series, buildings)
+    lines += kpi_table({p: r["kpis"] for p, r in results.items()})
+    lines += figure_section(write_figures(report_dir, buildings, series))
+    path = report_dir / "summary.md"
+    path.write_text("\n".join(lines) + "\n")
+    return path
 
 
-def _plot(path: Path, series: dict[str, np.ndarray]) -> None:
-    import matplotlib
+def included_buildings(schema: Mapping[str, Any]) -> list[str]:
+    """Names of the schema's included buildings, in schema order."""
+    return [b for b, spec in schema["buildings"].items() if spec.get("include", True)]
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(10, 3.2))
-    for label, values in series.items():
-        ax.plot(np.arange(values.size), values, lw=0.8, label=label.replace("_", " "))
-    ax.set_xlabel("time step [h]")
-    ax.set_ylabel("district net consumption [kWh]")
-    ax.legend(loc="upper right")
-    fig.tight_layout()
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
+def _table(header: list[str], rows: list[list[str]]) -> list[str]:
+    return ["| " + " | ".join(header) + " |", "|" + "---|" * len(header),
+            *("| " + " | ".join(row) + " |" for row in rows)]
+
+
+def _attribute(spec: Mapping[str, Any], device: str, key: str, decimals: int) -> str:
+    """A device attribute of a building's schema entry, "-" when the building has no such device."""
+    block = spec.get(device)
+    return "-" if not block else f"{block.get('attributes', {}).get(key, 0.0):.{decimals}f}"
+
+
+def _heating(spec: Mapping[str, Any]) -> str:
+    """The heating device: its kind and nominal power [kW], "-" when the building has none."""
+    block = spec.get("heating_device")
+    if not block:
+        return "-"
+    kind = {"HeatPump": "heat pump", "ElectricHeater": "electric heater"}.get(block["type"].rsplit(".", 1)[-1],
+                                                                             block["type"])
+    return f"{kind} {block.get('attributes', {}).get('nominal_power', 0.0):.2f}"
+
+
+def sizing_table(schema: Mapping[str, Any], buildings: list[str]) -> list[str]:
+    """The devices of each building as sized by pipeline/sizing.py [kW, kWh, kWp]; "-": no such device."""
+    rows = []
+    for building in buildings:
+        spec = schema["buildings"][building]
+        rows.append([building, _attribute(spec, "cooling_device", "nominal_power", 2), _heating(spec),
+                     _attribute(spec, "dhw_device", "nominal_power", 2), _attribute(spec, "dhw_storage", "capacity", 2),
+                     f"{_attribute(spec, 'electrical_storage', 'capacity', 1)} / "
+                     f"{_attribute(spec, 'electrical_storage', 'nominal_power', 2)}",
+                     _attribute(spec, "pv", "nominal_power", 2)])
+    return ["## Devices (sized by pipeline/sizing.py)", "",
+            *_table(["building", "heat pump kW", "heating device kW", "DHW heater kW", "DHW tank kWh",
+                     "battery kWh / kW", "PV kWp"], rows), ""]
+
+
+def read_surrogate_metrics(surrogates_dir: Path) -> list[dict]:
+    """The ``*.metrics.json`` of the build's surrogates (sorted by file name); none without surrogates."""
+    if not surrogates_dir.is_dir():
+        return []
+    return [json.loads(path.read_text()) for path in sorted(surrogates_dir.glob("*.metrics.json"))]
+
+
+def surrogate_table(metrics: list[dict]) -> list[str]:
+    """Held-out closed-loop fit of each surrogate [degC]: monthly RMSE median / max, whole-run RMSE, one-step
+    RMSE and the held-out hours; empty without surrogates."""
+    if not metrics:
+        return []
+    rows = []
+    for m in metrics:
+        test, training = m["test"], m.get("training", {})
+        epochs = training.get("config", {}).get("epochs")
+        best = training.get("best_epoch")
+        rows.append([m["building"], f"{test['monthly_rmse_c']['median']:.2f} / {test['monthly_rmse_c']['max']:.2f}",
+                     f"{test['closed_loop_rmse_c']:.2f}", f"{test['one_step_rmse_c']:.3f}", f"{test['hours']}",
+                     "-" if best is None else f"{best + 1} of {epochs}"])
+    return ["## Surrogates (held-out runs, closed loop)", "",
+            *_table(["building", "monthly RMSE median / max degC", "closed-loop RMSE degC", "one-step RMSE degC",
+                     "held-out hours", "best epoch"], rows), ""]
+
+
+def _change(new: float, old: float) -> str:
+    return "-" if old == 0 or not math.isfinite(old) else f"{100.0 * (new - old) / abs(old):+.1f} %"
+
+
+def objectives_table(objectives: Mapping[str, Mapping[str, float]]) -> list[str]:
+    """The paper's five objectives (to minimise) per policy, with units and the change from the first."""
+    policies = list(objectives)
+    first = policies[0]
+    rows = []
+    for key, (unit, decimals) in OBJECTIVES.items():
+        values = [objectives[p][key] for p in policies]
+        rows.append([key.replace("_", " "), unit, *(f"{v:.{decimals}f}" for v in values),
+                     *(_change(v, values[0]) for v in values[1:])])
+    header = ["objective", "unit", *(POLICY_NAMES.get(p, p) for p in policies),
+              *(f"change {POLICY_NAMES.get(p, p)}" for p in policies[1:])]
+    return ["## Objectives over the period (district)", "",
+            f"Cost, emissions and consumption count grid imports only; discomfort is the sum of |indoor - set "
+            f"point| over the hours; change relative to {POLICY_NAMES.get(first, first)}.", "",
+            *_table(header, rows), ""]
+
+
+def building_objectives_table(series: Mapping[str, Mapping[str, np.ndarray]], buildings: list[str]) -> list[str]:
+    """Cost [$], emissions [kg CO2], consumption [kWh] and discomfort [degC h] per building and policy."""
+    from citylearn_env.kpis import objectives
+
+    per = {p: objectives(s)["per_building"] for p, s in series.items()}
+    policies = list(per)
+    names = " / ".join(POLICY_NAMES.get(p, p) for p in policies)
+    keys = ("cost", "emissions", "consumption", "discomfort")
+    rows = [[building, *(" / ".join(f"{per[p][k][b]:.{OBJECTIVES[k][1]}f}" for p in policies) for k in keys)]
+            for b, building in enumerate(buildings)]
+    return [f"## Objectives per building ({names})", "",
+            *_table(["building", *(f"{k} {OBJECTIVES[k][0]}" for k in keys)], rows), ""]
+
+
+def kpi_unit(kpi: str) -> str:
+    """The unit of a CityLearn KPI of the district table."""
+    return next((unit for prefix, unit in KPI_UNITS if kpi.startswith(prefix)), "ratio to no-storage baseline")
+
+
+def kpi_table(kpis: Mapping[str, Any]) -> list[str]:
+    """The district rows of each policy's KPI table (``kpis_<policy>.csv``), 4 decimals, "n/a" for NaN."""
+    policies = list(kpis)
+    district = {p: t[t["level"] == "district"].set_index("cost_function")["value"] for p, t in kpis.items()}
+    rows = []
+    for kpi in district[policies[0]].index:
+        values = [float(district[p].get(kpi, float("nan"))) for p in policies]
+        rows.append([kpi, kpi_unit(kpi), *("n/a" if math.isnan(v) else f"{v:.4f}" for v in values)])
+    return ["## KPIs (CityLearn evaluate, district level; kpis_<policy>.csv)", "",
+            "Ratios compare each policy's run with its own run without storage (1 = no change, lower is "
+            "better); n/a: not defined for the period (no outage).", "",
+            *_table(["KPI", "unit", *(POLICY_NAMES.get(p, p) for p in policies)], rows), ""]
+
+
+def write_figures(report_dir: Path, buildings: list[str], series: Mapping[str, Mapping[str, np.ndarray]]
+                  ) -> list[tuple[str, str, str]]:
+    """Draw every figure into ``report_dir``; return (section, caption, file name) in report order."""
+    baseline = series["no_control"] if "no_control" in series else next(iter(series.values()))
+    calendar = figures.parse_calendar(baseline["hour"][0], baseline["month"][0], baseline["day_type"][0])
+    nets = {p: s["net_electricity_consumption"].sum(axis=0) for p, s in series.items()}
+    window = figures.peak_week(nets.get("no_control", next(iter(nets.values()))), calendar)
+    out = [("District", "district net load, no control vs cost RBC (daily energy, daily peak, peak week)",
+            figures.policies_figure(report_dir / "district_net.png", nets, baseline["electricity_pricing"][0],
+                                    calendar, window).name),
+           ("District", "district net load by day and hour of day (heat maps)",
+            figures.heatmap_figure(report_dir / "district_heatmap.png", nets, calendar).name)]
+    for b, building in enumerate(buildings):
+        stem = figures.safe_name(building)
+        out.append((building, f"{building}: electricity by end use with tariff and carbon intensity",
+                    figures.load_figure(report_dir / f"load_{stem}.png", building, b, baseline, calendar,
+                                        window).name))
+        out.append((building, f"{building}: indoor temperature vs set point",
+                    figures.temperature_figure(report_dir / f"temperature_{stem}.png", building, b, baseline,
+                                               calendar, window).name))
+    return out
+
+
+def figure_section(figures_written: list[tuple[str, str, str]]) -> list[str]:
+    """Markdown image links of the figures, under one heading per section."""
+    lines = ["## Figures", "", "Daily values over the whole period and hourly values over the peak week (the "
+             "seven days around the day of the highest no-control district net load); no control unless named.",
+             ""]
+    section = None
+    for name, caption, filename in figures_written:
+        if name != section:
+            lines += [f"### {name}", ""]
+            section = name
+        lines += [f"![{caption}]({filename})", ""]
+    return lines[:-1]

@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from pipeline.errors import InputError
+from pipeline.paper_sac import BACKENDS
 
 ARTIFACTS = Path("artifacts")
 
@@ -34,6 +35,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     build.add_argument("--no-prefect", action="store_true", help="run the steps in-process, without Prefect")
     build.add_argument("--dask", nargs="?", const="local", metavar="ADDRESS",
                        help="run the flow's tasks on Dask: a local cluster, or the scheduler at ADDRESS")
+    build.add_argument("--workers", type=int, metavar="N",
+                       help="worker processes of the local Dask cluster (default: the CPU count)")
+    build.add_argument("--quiet", action="store_true", help="print nothing but errors (no progress, no summary)")
     build.add_argument("--cache-dir", type=Path, metavar="DIR",
                        help="surrogate cache root (default: the configuration's cache_dir, else "
                             "$DISTRICTGEN_CACHE_DIR, else ~/.cache/districtgen)")
@@ -52,9 +56,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     paper.add_argument("--rules", choices=("described", "published"), default="described",
                        help="the RBCs as the paper describes them, or as its published code has them")
     paper.add_argument("--compat", action="store_true", help="the CityLearn 2.1 preset (bugs included)")
-    paper.add_argument("--sac", choices=("torch", "torch-bf16", "sbx", "sb3"), default="torch",
+    paper.add_argument("--sac", choices=BACKENDS, default="fast",
                        help="SAC back end, all with SB3's defaults (see docs/paper.md)")
     paper.add_argument("--sac-episodes", type=int, default=150, help="SAC training episodes (paper: 150)")
+    paper.add_argument("--dask", nargs="?", const="local", metavar="ADDRESS",
+                       help="run the tasks on Dask: a local cluster of --workers processes, or a scheduler ADDRESS")
+    paper.add_argument("--sac-threads", type=int, metavar="N",
+                       help="torch threads per SAC training (default: cores // workers)")
     paper.add_argument("--multiplier", type=float, default=3.0, help="over-cooling multiplier m of d_o")
     paper.add_argument("--seed", type=int, default=0, help="first seed")
     paper.add_argument("--seeds", type=int, default=1, help="run the learning rows with N seeds (mean ± std)")
@@ -109,44 +117,82 @@ def build_command(args: argparse.Namespace) -> int:
         data["surrogate"]["source"] = args.surrogate_source
         config = parse_build_config(data, file=f"{args.config} (--surrogate-source)")
     staging(config, args.output_root).check()  # a bad output folder: one line before any work
-    if args.no_prefect:
-        from pipeline.build import build_district_local
+    if args.workers is not None and (args.workers < 1 or not args.dask or args.dask != "local"):
+        raise InputError("--workers N (N >= 1) sizes the local Dask cluster: use it with --dask and no ADDRESS",
+                         column="--workers")
+    from pipeline import progress
 
-        folder = build_district_local(config, args.output_root)
-    elif args.dask:
-        from pipeline.flows import build_district_on_dask
-
-        address = None if args.dask == "local" else args.dask
-        folder = build_district_on_dask(config, str(args.output_root), address=address)
-    else:
-        from pipeline.flows import build_district, prefect_api
-
-        with prefect_api():  # no Prefect server outlives the build
-            folder = build_district(config, str(args.output_root))
-    print(f"built {folder}")
-    print((folder / "report" / "summary.md").read_text())
+    with progress.active(progress.make_reporter("quiet" if args.quiet else "auto")):
+        folder = _build(config, args)
+    if not args.quiet:
+        print(f"built {folder}")
+        print((folder / "report" / "summary.md").read_text())
     return 0
 
 
+def _build(config, args: argparse.Namespace) -> Path:
+    """Run the build the way ``args`` asks; any failure that is not already one located error becomes one
+    line (:class:`InputError` naming the configuration), never a traceback."""
+    from citylearn_env.errors import SchemaError
+
+    _quiet_orchestration()
+    try:
+        if args.no_prefect:
+            from pipeline.build import build_district_local
+
+            return build_district_local(config, args.output_root)
+        if args.dask:
+            from pipeline.flows import build_district_on_dask
+
+            address = None if args.dask == "local" else args.dask
+            return build_district_on_dask(config, str(args.output_root), address=address, workers=args.workers)
+        from pipeline.flows import build_district, prefect_api
+
+        with prefect_api():  # no Prefect server outlives the build
+            return build_district(config, str(args.output_root))
+    except (InputError, SchemaError, OSError, ModuleNotFoundError):
+        raise
+    except Exception as error:  # noqa: BLE001 - Prefect, Dask or a bug: one line, exit 2
+        text = " ".join(str(error).split()) or "(no message)"
+        raise InputError(f"build failed: {type(error).__name__}: {text[:400]}", file=args.config) from None
+
+
+def _quiet_orchestration() -> None:
+    """Prefect and Dask log failures with tracebacks on stderr; the CLI reports them itself in one line, so
+    Prefect's console handlers show only critical messages (its run logs still go to its API) and Dask's
+    console logs likewise, unless the user set these variables. Must run before Prefect is imported."""
+    for name in ("PREFECT_LOGGING_HANDLERS_CONSOLE_LEVEL", "PREFECT_LOGGING_HANDLERS_DEBUG_LEVEL"):
+        os.environ.setdefault(name, "CRITICAL")
+    os.environ.setdefault("DASK_LOGGING__DISTRIBUTED", "critical")
+
+
 def verify_command(args: argparse.Namespace) -> int:
-    from pipeline.build import validate_district, verify_district
+    """Re-hash every artifact and input of a district against its manifest (pipeline.manifest.check_district):
+    one line per problem or warning, naming the file; exit 2 when anything differs, else a validation run."""
+    from pipeline.build import validate_district
+    from pipeline.manifest import check_district
 
     if not args.folder.is_dir():
         raise InputError("not a folder (verify takes a built district's folder)", file=args.folder, column="folder")
     try:
-        problems = verify_district(args.folder)
+        result = check_district(args.folder)
     except (KeyError, TypeError, AttributeError, ValueError) as error:
         if isinstance(error, InputError):
             raise
         raise InputError(f"manifest.json is not a districtgen manifest ({type(error).__name__}: {error})",
                          file=args.folder / "manifest.json") from None
-    for problem in problems:
+    for warning in result.warnings:
+        print(f"districtgen: warning: {args.folder}: {warning}")
+    for problem in result.problems:
         print(f"districtgen: {args.folder}: {problem}")
-    if problems:
-        return 1
+    if result.problems:
+        print(f"districtgen: {args.folder}: {len(result.problems)} problem(s): the district differs from its "
+              "manifest")
+        return 2
     with tempfile.TemporaryDirectory() as scratch:
         validate_district(args.folder / "schema.json", Path(scratch))
-    print(f"{args.folder}: {len(problems)} problems; hashes match the manifest and the environment runs it")
+    print(f"{args.folder}: every artifact and input matches the manifest ({len(result.warnings)} warning(s)); "
+          "the environment runs it")
     return 0
 
 
@@ -155,11 +201,17 @@ def paper_command(args: argparse.Namespace) -> int:
     from pipeline.paper_tasks import run_paper
 
     options = RunOptions(sac_episodes=args.sac_episodes, roles=tuple(args.buildings) if args.buildings else None,
-                         rules=args.rules, compat=args.compat, sac=args.sac)
+                         rules=args.rules, compat=args.compat, sac=args.sac,
+                         sac_threads=args.sac_threads or max(1, (os.cpu_count() or 1) // max(args.workers, 1)))
     sweep = (1.0, 3.0, 6.0, 12.0) if args.full and not args.sweep else tuple(args.sweep or ())
     only = args.only if args.only or args.full or not args.sweep else []
+    runner = None
+    if args.dask:
+        from pipeline.paper_tasks import DaskRunner
+
+        runner = DaskRunner(None if args.dask == "local" else args.dask, args.workers)
     run_paper(args.schema, args.output, only=only, sweep=sweep, seed=args.seed, seeds=args.seeds,
-              multiplier=args.multiplier, options=options, workers=args.workers)
+              multiplier=args.multiplier, options=options, workers=args.workers, runner=runner)
     for name in ("results.md", "multiplier_sweep.md"):
         if (args.output / name).is_file():
             print((args.output / name).read_text())

@@ -116,7 +116,7 @@ def plot_predictions(hours: pd.DataFrame, path: str | os.PathLike, title: str = 
     axes[0].legend(loc="upper right", fontsize=8)
     fig.tight_layout()
     temp = path.with_name(f".{path.stem}.tmp.png")
-    fig.savefig(temp, dpi=90)
+    fig.savefig(temp, dpi=90, format="png", metadata={"Software": None})  # no version tag: reproducible
     plt.close(fig)
     os.replace(temp, path)
     return path

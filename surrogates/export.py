@@ -102,7 +102,7 @@ def load_surrogate(pth: str | os.PathLike, dynamics: dict | str | os.PathLike | 
 
 
 def train_and_export(table, out_dir: str | os.PathLike, name: str, config=None,
-                     source: object = "<ILV table>") -> dict:
+                     source: object = "<ILV table>", progress=None) -> dict:
     """Train on an ILV table, evaluate on its held-out test segments, and write ``<name>.pth``,
     ``<name>.dynamics.json``, ``<name>.metrics.json`` and ``<name>.png`` into ``out_dir``.
 
@@ -111,7 +111,7 @@ def train_and_export(table, out_dir: str | os.PathLike, name: str, config=None,
     from surrogates.evaluate import evaluate_segments, plot_predictions
     from surrogates.train import TrainConfig, train_surrogate
 
-    trained = train_surrogate(table, config or TrainConfig(), source=source)
+    trained = train_surrogate(table, config or TrainConfig(), source=source, progress=progress)
     from surrogates.ilv import validate_ilv
 
     clean = validate_ilv(table, source=source)

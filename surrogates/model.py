@@ -145,3 +145,47 @@ def rollout(model: LSTMModel, x: torch.Tensor, lookback: int, closed_loop: bool 
         predictions.append(y)
         history.append(y if closed_loop else x[:, t, -1])
     return torch.stack(predictions, dim=1)
+
+
+def merge_ensemble(members: Sequence[LSTMModel]) -> LSTMModel:
+    """One LSTM equal to the average of ``members`` (same input size and layers, hidden ``h`` each): hidden
+    ``K h`` with block-diagonal weights, and a head that averages the members' heads.
+
+    Member ``k`` owns hidden units ``k h .. (k+1) h - 1`` of every gate block (PyTorch's gate order i, f, g, o
+    is kept: gate ``g`` of the merged LSTM occupies rows ``g K h .. (g+1) K h - 1``); the first layer reads the
+    same inputs in every member, deeper layers and the recurrence only their own member's units, so the
+    members' states evolve independently inside the merged state. Head: weights ``w_k / K`` side by side,
+    bias ``mean(b_k)``. For any window and state, the merged prediction is the mean of the members' (to float
+    rounding), and the result is an ordinary ``LSTMModel`` (CityLearn's state-dict keys, any reader).
+    """
+    if not members:
+        raise ValueError("no member to merge")
+    first = members[0]
+    if any((m.input_size, m.hidden_size, m.num_layers) != (first.input_size, first.hidden_size, first.num_layers)
+           for m in members):
+        raise ValueError("ensemble members must share input size, hidden size and layers")
+    k, h = len(members), first.hidden_size
+    merged = LSTMModel(first.input_size, k * h, first.num_layers).to(next(first.parameters()).dtype)
+    states = [m.state_dict() for m in members]
+    out = {}
+    for name, value in merged.state_dict().items():
+        block = torch.zeros_like(value)
+        for j, state in enumerate(states):
+            part = state[name].detach().to(value.dtype)
+            if name.startswith("l_linear.weight"):
+                block[:, j * h:(j + 1) * h] = part / k
+            elif name.startswith("l_linear.bias"):
+                block += part / k
+            else:  # LSTM tensor: rows are 4 gate blocks of h units each
+                for gate in range(4):
+                    rows_out = slice(gate * k * h + j * h, gate * k * h + (j + 1) * h)
+                    rows_in = slice(gate * h, (gate + 1) * h)
+                    if value.dim() == 1:
+                        block[rows_out] = part[rows_in]
+                    elif name.startswith("l_lstm.weight_ih_l0"):
+                        block[rows_out] = part[rows_in]
+                    else:  # recurrent or deeper-layer input: own member's units only
+                        block[rows_out, j * h:(j + 1) * h] = part[rows_in]
+        out[name] = block
+    merged.load_state_dict(out)
+    return merged

@@ -17,8 +17,8 @@ from __future__ import annotations
 import copy
 import math
 import time
-from collections.abc import Sequence
-from dataclasses import asdict, dataclass, field
+from collections.abc import Callable, Sequence
+from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
 import pandas as pd
@@ -33,6 +33,7 @@ from surrogates.model import (
     Normalization,
     available_inputs,
     feature_matrix,
+    merge_ensemble,
     rollout,
     torch_threads,
 )
@@ -54,7 +55,7 @@ class TrainConfig:
     """Hyper-parameters (defaults tuned on the 2R2C benchmark houses; see docs/surrogates.md)."""
 
     inputs: tuple[str, ...] = DEFAULT_INPUTS
-    hidden_size: int = 16
+    hidden_size: int = 32
     num_layers: int = 2
     lookback: int = 6
     epochs: int = 60
@@ -76,6 +77,7 @@ class TrainConfig:
     use_ideal: bool = False
     test_runs: int = 1
     validation_hours: int = 336
+    ensemble: int = 1
     max_seconds: float | None = None
     threads: int = 1
     progress: bool = True
@@ -83,7 +85,8 @@ class TrainConfig:
     def __post_init__(self):
         if self.inputs and self.inputs[-1] != TARGET:
             raise InputError(f"the last input must be {TARGET!r}", column="inputs")
-        for key in ("hidden_size", "num_layers", "lookback", "epochs", "chunk_hours", "batch_size", "plateau"):
+        for key in ("hidden_size", "num_layers", "lookback", "epochs", "chunk_hours", "batch_size", "plateau",
+                    "ensemble"):
             if getattr(self, key) < 1:
                 raise InputError("must be >= 1", column=key)
 
@@ -208,8 +211,10 @@ def check_trainable(table: pd.DataFrame, splits: dict[str, list[Segment]], confi
 
 
 def train_surrogate(table: pd.DataFrame, config: TrainConfig = TrainConfig(),
-                    source: object = "<ILV table>") -> Trained:
-    """Validate ``table``, split it, and train one LSTM; deterministic on CPU for a given ``config.seed``."""
+                    source: object = "<ILV table>", progress: Callable[[int, int], None] | None = None) -> Trained:
+    """Validate ``table``, split it, and train one LSTM; deterministic on CPU for a given ``config.seed``.
+
+    ``progress``: optional ``progress(epochs_done, epochs)``, called after each epoch (progress bars)."""
     table = validate_ilv(table, source=source)
     inputs = available_inputs(table, config.inputs)
     missing = [n for n in config.inputs if n not in inputs and n != "indoor_dry_bulb_temperature_set_point"]
@@ -219,10 +224,25 @@ def train_surrogate(table: pd.DataFrame, config: TrainConfig = TrainConfig(),
     check_trainable(table, splits, config)
     started = time.perf_counter()
     with torch_threads(config.threads):
-        return _fit(table, inputs, splits, config, started)
+        if config.ensemble == 1:
+            return _fit(table, inputs, splits, config, started, progress)
+        members = [_fit(table, inputs, splits, replace(config, seed=config.seed + k), started, progress)
+                   for k in range(config.ensemble)]
+    return merge_trained(members, config, time.perf_counter() - started)
 
 
-def _fit(table, inputs, splits, config: TrainConfig, started: float) -> Trained:
+def merge_trained(members: Sequence[Trained], config: TrainConfig, seconds: float) -> Trained:
+    """One :class:`Trained` whose model is the exact average of the members' (:func:`merge_ensemble`: one
+    LSTM of hidden ``K h``); members share data, splits and normalisation (same table and config but the
+    seed). History and best epoch are the first member's; CPU seconds add up."""
+    first = members[0]
+    model = merge_ensemble([m.model for m in members])
+    model.eval()
+    return Trained(model, first.normalization, first.inputs, config, first.splits, first.history, first.best_epoch,
+                   seconds, sum(m.cpu_seconds for m in members))
+
+
+def _fit(table, inputs, splits, config: TrainConfig, started: float, progress=None) -> Trained:
     cpu_started = time.process_time()
     torch.manual_seed(config.seed)
     rng = np.random.default_rng(config.seed)
@@ -262,6 +282,8 @@ def _fit(table, inputs, splits, config: TrainConfig, started: float) -> Trained:
         if bar is not None:
             bar.update(1)
             bar.set_postfix(train=f"{train_rmse:.3f}C", val=f"{val_rmse:.3f}C")
+        if progress is not None:
+            progress(epoch + 1, config.epochs)
         if val_rmse < best_rmse:
             best, best_rmse, best_epoch, stale = copy.deepcopy(averaged.state_dict()), val_rmse, epoch, 0
         else:

@@ -23,13 +23,23 @@ from citylearn_env.dynamics import LSTMBank, LSTMSpec
 from citylearn_env.errors import SchemaError
 from citylearn_env.outages import reliability_outage_signal
 from citylearn_env.schema import load_schema
-from citylearn_env.settings import CITYLEARN_2_1, CORRECTED, ONLY_BEFORE_2_1_2, PRESETS, Behaviour, resolve
+from citylearn_env.settings import (
+    CITYLEARN_2_1,
+    CITYLEARN_2_5,
+    CORRECTED,
+    ONLY_BEFORE_2_1_2,
+    ONLY_IN_2_5,
+    PRESETS,
+    Behaviour,
+    resolve,
+)
 from tests.citylearn_env.test_kpi_units import HAND_A, hand_series
 
 
 def flipped(field: str) -> Behaviour:
-    """CORRECTED with ``field`` alone set to its CityLearn 2.1 value."""
-    return replace(CORRECTED, **{field: getattr(CITYLEARN_2_1, field)})
+    """CORRECTED with ``field`` alone set to its CityLearn 2.1 value (2.5 value for the 2.5-only quirks)."""
+    preset = CITYLEARN_2_5 if field in ONLY_IN_2_5 else CITYLEARN_2_1
+    return replace(CORRECTED, **{field: getattr(preset, field)})
 
 
 # ------------------------------------------------------------------------------------------ the presets
@@ -43,7 +53,11 @@ def test_every_field_differs_between_the_presets(field):
     if field in ONLY_BEFORE_2_1_2:  # a CityLearn 2.1.0 quirk that 2.1.2 no longer has
         assert getattr(CORRECTED, field) == getattr(CITYLEARN_2_1, field)
         return
-    assert getattr(CORRECTED, field) != getattr(CITYLEARN_2_1, field)
+    if field in ONLY_IN_2_5:  # a CityLearn 2.5 quirk: 2.1 behaves as corrected
+        assert getattr(CORRECTED, field) == getattr(CITYLEARN_2_1, field)
+        assert getattr(CORRECTED, field) != getattr(CITYLEARN_2_5, field)
+    else:
+        assert getattr(CORRECTED, field) != getattr(CITYLEARN_2_1, field)
     assert flipped(field) != CORRECTED and replace(flipped(field), **{field: getattr(CORRECTED, field)}) == CORRECTED
 
 
@@ -52,7 +66,8 @@ def test_resolve():
     assert resolve("citylearn-2.1") is CITYLEARN_2_1 and resolve("corrected") is CORRECTED
     custom = flipped("lstm_float32")
     assert resolve(custom, True) is custom  # an explicit object wins over the shorthand
-    assert set(PRESETS) == {"corrected", "citylearn-2.1"}
+    assert set(PRESETS) == {"corrected", "citylearn-2.1", "citylearn-2.5"}
+    assert resolve("citylearn-2.5") is CITYLEARN_2_5 and CITYLEARN_2_5.legacy_outage_draws
     with pytest.raises(SchemaError, match="unknown behaviour preset"):
         resolve("citylearn-2.2")
     with pytest.raises(TypeError):
@@ -231,6 +246,34 @@ def test_storage_signal_reward_multiplies_by_delta():
     assert quirk(observation)[0][0] == pytest.approx(0.025)
 
 
+def _one_charger(connected: bool, gap: float) -> R.RewardContext:
+    """One building, one 7.4 kW charger asked for 1 kWh; when ``connected`` a 40 kWh EV leaving now (0 h) at
+    SOC 0.5 + ``gap`` for a required 0.5. Zero net consumption: no self-consumption terms; MARL is 0."""
+    step = R.ChargerStep(
+        building=np.array([0]), connected=np.array([connected]), action_energy=np.array([1.0]),
+        previous_soc=np.array([0.5]), soc=np.array([0.5 + gap]), capacity=np.array([40.0]),
+        min_capacity=np.array([4.0]), required_soc=np.array([0.5]), hours_until_departure=np.array([0.0]),
+        max_charging_power=np.array([7.4]), max_discharging_power=np.array([7.4]))
+    return R.RewardContext(central_agent=False, building_names=["a"], chargers=lambda: step)
+
+
+def test_ev_reward_skips_unplugged_chargers():
+    # no EV plugged in, 1 kWh > 0.1 asked: no_car_charging (-5) x 1 / (1 + 0); upstream never scores it
+    observation, context = {"net_electricity_consumption": np.array([0.0])}, _one_charger(False, 0.0)
+    assert R.make_reward("electric_vehicles", context)(observation)[0][0] == -5.0
+    quirk = R.make_reward("electric_vehicles", context, settings=flipped("ev_reward_skips_unplugged_chargers"))
+    assert quirk(observation)[0][0] == 0.0
+
+
+def test_ev_reward_squares_soc_under_weight():
+    # leaving 0.3 below the required SOC (12 kWh, none movable at 0 h): soc_under only, -5 x |-5| corrected,
+    # (-5) ** 2 = +25 upstream
+    observation, context = {"net_electricity_consumption": np.array([0.0])}, _one_charger(True, -0.3)
+    assert R.make_reward("electric_vehicles", context)(observation)[0][0] == -25.0
+    quirk = R.make_reward("electric_vehicles", context, settings=flipped("ev_reward_squares_soc_under_weight"))
+    assert quirk(observation)[0][0] == 25.0
+
+
 # ------------------------------------------------------------------------------------------ KPIs
 def test_kpi_plain_division():
     # a flat baseline: no ramping and no load-factor loss to compare against
@@ -343,3 +386,154 @@ def test_legacy_random_episode_split(tmp_path):
         corrected.reset()
         seen.add(corrected.episode_start)
     assert seen == {0, 12, 24, 36}  # the env's seeded generator reaches the last split too
+
+
+# ------------------------------------------------------------------------------------------ CityLearn 2.5
+#: one charger's rows (state, EV, departure time, required SOC %, arrival time, arrival SOC %); rows 6..23 away
+ARRIVING = [(3, "", "", "", "", ""), (2, "EV", "", "", 1, 40), (1, "EV", 3, 80, "", ""), (1, "EV", 2, 80, "", ""),
+            (1, "EV", 1, 80, "", ""), (3, "", "", "", "", "")]
+#: an arrival without an announcing state-2 row: away, away, then plugged in (required SOC 80 %)
+UNANNOUNCED = [(3, "", "", "", "", ""), (3, "", "", "", "", ""), (1, "EV", 3, 80, "", ""), (1, "EV", 2, 80, "", "")]
+
+
+def _ev_district(tmp_path, rows=ARRIVING, battery: dict | None = None, **top) -> str:
+    """The 24-step one-building district of :func:`_district_without_hvac_mode` with one 10 kW charger
+    (efficiency 1) serving one EV (50 kWh, 50 kW, initial SOC 0.5) on ``rows``, and optionally a battery."""
+    path = _district_without_hvac_mode(tmp_path)
+    rows = [*rows, *[(3, "", "", "", "", "")] * (24 - len(rows))]
+    pd.DataFrame(rows, columns=["electric_vehicle_charger_state", "electric_vehicle_id",
+                                "electric_vehicle_departure_time", "electric_vehicle_required_soc_departure",
+                                "electric_vehicle_estimated_arrival_time", "electric_vehicle_estimated_soc_arrival"]
+                 ).to_csv(tmp_path / "charger.csv", index=False)
+    schema = json.loads(open(path).read())
+    schema.update(random_seed=2022, **top)
+    schema["actions"] = {"electric_vehicle_storage": {"active": True}}
+    schema["electric_vehicles_def"] = {"EV": {"include": True, "battery": {"attributes": {
+        "capacity": 50, "nominal_power": 50, "initial_soc": 0.5, "depth_of_discharge": 0.9}}}}
+    schema["buildings"]["B"]["chargers"] = {"C": {"charger_simulation": "charger.csv", "attributes": {
+        "max_charging_power": 10, "max_discharging_power": 10, "efficiency": 1.0}}}
+    if battery is not None:
+        schema["actions"] = {"electrical_storage": {"active": True}, **schema["actions"]}
+        schema["buildings"]["B"]["electrical_storage"] = {"type": "citylearn.energy_model.Battery",
+                                                           "attributes": battery}
+    open(path, "w").write(json.dumps(schema))
+    return path
+
+
+def _ev_soc(path: str, settings: Behaviour, actions, seed: int = 0) -> np.ndarray:
+    """The EV's SOC over the steps after ``len(actions)`` step calls (action = the charger's, then others)."""
+    from citylearn_env import CityLearnEnv
+
+    env = CityLearnEnv(path, settings=settings)
+    env.reset(seed=seed)
+    for a in actions:
+        env.step(np.atleast_1d(np.asarray(a, dtype=float)))
+    return env.district.ev_record.soc[0, : len(actions) + 1]
+
+
+def test_ev_unwritten_soc_is_zero(tmp_path):
+    from citylearn_env.ev import upstream_uniform
+
+    path = _ev_district(tmp_path)
+    loss = 0.001 + 0.008 * upstream_uniform(2022)  # the EV's drawn standby loss per step
+    # the EV arrives at step 2 with the arrival SOC announced in row 1 (40 %) and every action is 0
+    corrected = _ev_soc(path, CORRECTED, [0.0] * 3)
+    assert corrected[2] == pytest.approx(0.4 * (1 - loss)) and corrected[3] == pytest.approx(0.4 * (1 - loss) ** 2)
+    upstream = _ev_soc(path, flipped("ev_unwritten_soc_is_zero"), [0.0] * 3)
+    assert upstream[2] == pytest.approx(0.4) and upstream[3] == 0.0  # forced at arrival, then never written
+
+
+def test_ev_step_starts_from_previous_soc(tmp_path):
+    from citylearn_env.ev import upstream_uniform
+
+    path = _ev_district(tmp_path, rows=UNANNOUNCED)
+    u = upstream_uniform(2022)
+    loss = 0.001 + 0.008 * u
+    # a 0.01 action asks 0.1 kWh of the EV plugged in at step 2; at x = 0.1 / 50 kW the drawn efficiency curve
+    # runs from e (0.85 + 0.05 u) at 0 to e (0.90 + 0.05 u) at 0.25 + 0.1 u (e = 0.90 + 0.08 u), and sqrt of it
+    # reaches the battery. The EV came without an announced arrival SOC: the connection rule sets 0.8 (the
+    # required SOC); the step starts there (corrected) or from the SOC of step 1, still the initial 0.5 (2.5)
+    e = 0.90 + 0.08 * u
+    efficiency = e * (0.85 + 0.05 * u) + e * 0.05 * (0.1 / 50.0) / (0.25 + 0.1 * u)
+    stored = 0.1 * math.sqrt(efficiency) / 50.0
+    corrected = _ev_soc(path, CORRECTED, [0.0, 0.01])
+    upstream = _ev_soc(path, flipped("ev_step_starts_from_previous_soc"), [0.0, 0.01])
+    assert corrected[2] == pytest.approx(0.8 * (1 - loss) + stored, abs=1e-9)
+    assert upstream[2] == pytest.approx(0.5 * (1 - loss) + stored, abs=1e-9)
+
+
+def test_ev_data_from_range_start(tmp_path):
+    from citylearn_env import CityLearnEnv
+
+    path = _ev_district(tmp_path, episode_time_steps=[[0, 2], [3, 5]])
+    states = {}
+    for settings in (CORRECTED, flipped("ev_data_from_range_start")):
+        env = CityLearnEnv(path, settings=settings)
+        env.reset(seed=0)
+        env.reset()  # the second episode: rows 3..5
+        states[settings.ev_data_from_range_start] = env.district.ev_data.state[0].tolist()
+    assert states[False] == [1, 1, 3]  # rows 3, 4, 5
+    assert states[True] == [3, 2, 1]  # rows 0, 1, 2 again (CityLearn 2.5 does not re-window)
+
+
+def test_legacy_ev_drift_draws(tmp_path):
+    path = _ev_district(tmp_path, rows=UNANNOUNCED[:1] * 3)  # away at steps 0..2: the SOC drifts at step 1
+    # SOC(1) = SOC(0) * clip(draw, 0.6, 1.4) with SOC(0) = 0.5; the draw from the env's generator (gymnasium's
+    # np_random(7) is numpy's default_rng(7)) or from RandomState(7) (CityLearn 2.5's global numpy seeded 7)
+    corrected = _ev_soc(path, CORRECTED, [0.0], seed=7)
+    legacy = _ev_soc(path, flipped("legacy_ev_drift_draws"), [0.0], seed=7)
+    assert corrected[1] == pytest.approx(0.5 * np.clip(np.random.default_rng(7).normal(1.0, 0.2), 0.6, 1.4))
+    assert legacy[1] == pytest.approx(0.5 * np.clip(np.random.RandomState(7).normal(1.0, 0.2), 0.6, 1.4))
+
+
+#: a 60 kWh / 50 kW lossless battery with a linear efficiency curve (0.8 at 0, 1.0 at full power)
+BATTERY = {"capacity": 60.0, "nominal_power": 50.0, "efficiency": 0.9, "loss_coefficient": 0.0,
+           "capacity_loss_coefficient": 0.0, "depth_of_discharge": 1.0,
+           "power_efficiency_curve": [[0.0, 0.8], [1.0, 1.0]], "capacity_power_curve": [[0.0, 1.0], [1.0, 1.0]]}
+
+
+def _battery_step(path: str, settings: Behaviour, action: float) -> tuple[float, float, float]:
+    """(energy balance [kWh], efficiency, upper action bound) of the battery's first step under ``action``."""
+    from citylearn_env import CityLearnEnv
+
+    env = CityLearnEnv(path, settings=settings)
+    env.reset(seed=0)
+    env.step(np.array([action, 0.0]))  # electrical_storage, then the charger
+    r = env.district.battery_record
+    return float(r.energy_balance[0, 1]), float(r.efficiency[0, 1]), float(env.action_space.high[0])
+
+
+def test_battery_efficiency_from_request(tmp_path):
+    path = _ev_district(tmp_path, battery={**BATTERY, "initial_soc": 0.95})
+    # asked for 10/60 of capacity = 10 kWh, held to the 3 kWh still free: the efficiency is read at 3/50 = 0.06
+    # (0.8 + 0.2 * 0.06 = 0.812) or at the request, min(10, 50)/50 = 0.2 (0.84, CityLearn 2.5)
+    balance, efficiency, _ = _battery_step(path, CORRECTED, 10 / 60)
+    assert balance == pytest.approx(3.0) and efficiency == pytest.approx(0.812)
+    _, efficiency, _ = _battery_step(path, flipped("battery_efficiency_from_request"), 10 / 60)
+    assert efficiency == pytest.approx(0.84)
+
+
+def test_battery_action_fraction_of_nominal_power(tmp_path):
+    path = _ev_district(tmp_path, battery={**BATTERY, "initial_soc": 0.0})
+    # action 0.5 of an empty battery: 0.5 x 60 kWh capacity = 30 kWh (bound 50/60), or 0.5 x 50 kW x 1 h = 25 kWh
+    balance, _, high = _battery_step(path, CORRECTED, 0.5)
+    assert balance == pytest.approx(30.0) and high == pytest.approx(50 / 60)
+    balance, _, high = _battery_step(path, flipped("battery_action_fraction_of_nominal_power"), 0.5)
+    assert balance == pytest.approx(25.0) and high == 1.0
+
+
+def test_battery_defaults_drawn(tmp_path):
+    from citylearn_env.config import DEFAULT_CAPACITY_POWER_CURVE, DEFAULT_POWER_EFFICIENCY_CURVE
+
+    path = _ev_district(tmp_path, battery={"capacity": 6.4, "nominal_power": 5.0, "efficiency": 0.9})
+    fixed = load_schema(path).buildings[0].electrical_storage
+    assert fixed.power_efficiency_curve == DEFAULT_POWER_EFFICIENCY_CURVE and fixed.loss_coefficient == 0.006
+    assert fixed.capacity_power_curve == DEFAULT_CAPACITY_POWER_CURVE
+    drawn = load_schema(path, settings=flipped("battery_defaults_drawn")).buildings[0].electrical_storage
+    # CityLearn 2.5 draws within its ranges (one number u per device): loss 0.001..0.009, curves around the
+    # given efficiency 0.9 (kept): efficiency 0.9 at the fourth point, 0.85..0.9 of it at zero power
+    assert drawn.efficiency == 0.9 and 0.001 <= drawn.loss_coefficient <= 0.009
+    u = (drawn.loss_coefficient - 0.001) / 0.008
+    assert drawn.power_efficiency_curve[3] == pytest.approx((0.75 + 0.1 * u, 0.9))
+    assert drawn.power_efficiency_curve[0] == pytest.approx((0.0, 0.9 * (0.85 + 0.05 * u)))
+    assert drawn.capacity_power_curve[-1] == pytest.approx((1.0, 0.2 + 0.1 * u))

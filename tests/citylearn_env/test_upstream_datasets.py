@@ -1,5 +1,6 @@
-"""Every upstream CityLearn dataset in ../shared loads and runs (zero actions), in the corrected default and, for
-the v2.1.2 data, the CityLearn 2.1 preset; and a no-control energy checked against an upstream reference run.
+"""Every upstream CityLearn dataset in ../shared loads and runs (zero actions), in the corrected default and in the
+preset of its upstream version (CityLearn 2.1 for the v2.1.2 data, 2.5 for v2.4.2, the EV set included); and a
+no-control energy checked against an upstream reference run.
 
 The datasets are upstream's own, unchanged (../shared/data/citylearn/upstream/<tag>/<name>/); every test skips
 with a stated reason when ../shared is absent.
@@ -28,12 +29,10 @@ V21 = (
 V24 = (*V21, "citylearn_challenge_2022_phase_all_plus_evs", "citylearn_challenge_2023_phase_3_1")
 
 #: datasets that need work outside this test's scope, with the reason (xfail, not strict: they pass once it lands)
-PENDING = {
-    ("v2.4.2", "citylearn_challenge_2022_phase_all_plus_evs"): "v2.2+ vocabulary pending (EV chargers)",
-}
+PENDING: dict[tuple[str, str], str] = {}
 
 CASES = [(tag, name, settings) for tag, names in (("v2.1.2", V21), ("v2.4.2", V24)) for name in names
-         for settings in (("corrected", "citylearn-2.1") if tag == "v2.1.2" else ("corrected",))]
+         for settings in (("corrected", "citylearn-2.1") if tag == "v2.1.2" else ("corrected", "citylearn-2.5"))]
 
 
 def _case(tag: str, name: str, settings: str, marks=()):
@@ -46,7 +45,7 @@ def _run(tag: str, name: str, settings: str, steps: int | None) -> CityLearnEnv:
     """Zero actions for ``steps`` steps (None: the whole episode); every observation and reward finite."""
     schema = UPSTREAM / tag / name / "schema.json"
     need_shared(schema)
-    env = CityLearnEnv(schema, settings=settings)
+    env = CityLearnEnv(schema, settings=settings)  # each schema's own reward
     obs, _ = env.reset(seed=0)
     zeros = np.zeros(env.action_space.shape)
     n = env.episode_length - 1 if steps is None else steps

@@ -87,7 +87,9 @@ def one_building(tmp_path):
 
 
 def _cache_use(folder: Path) -> dict:
-    return json.loads((folder / "manifest.json").read_text())["surrogate_cache"]["Building_1"]
+    """The surrogate cache key (manifest.json) and whether this run hit it (timings.json)."""
+    key = json.loads((folder / "manifest.json").read_text())["surrogate_cache"]["Building_1"]["key"]
+    return {"key": key, "hit": json.loads((folder / "timings.json").read_text())["surrogates"]["Building_1"]["hit"]}
 
 
 def test_the_key_ignores_what_training_does_not_use(one_building):

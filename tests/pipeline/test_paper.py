@@ -204,3 +204,24 @@ def test_lean_sac_squashed_gaussian_matches_torch_distributions():
     assert torch.allclose(log_prob, reference.sum(1), atol=1e-3)
     assert agent.actor[0].abs().max() <= 1 / 5 ** 0.5 and agent.critic[2].abs().max() <= 1 / 256 ** 0.5
     assert agent.act(np.zeros(5)).shape == (2,) and 0.0 <= agent.act(np.zeros(5)).min() <= 1.0
+
+
+@pytest.mark.slow
+def test_tasks_on_a_local_dask_cluster_equal_in_process(district, tmp_path):
+    """The same tasks on a 2-process Dask LocalCluster give the in-process results (rule rows are
+    deterministic), written as task files the in-process run then resumes from."""
+    pytest.importorskip("dask.distributed")
+    from pipeline.paper_tasks import DaskRunner
+
+    path, _ = district
+    ids = ["x-b1_b2-x-pv", "rbc-b1-c-bess_pv", "rbc-b1-e-bess_pv"]
+    options = RunOptions(sac_episodes=1)
+    here = {r["id"]: r for r in run_paper(path, tmp_path / "here", only=ids, sweep=(), options=options,
+                                          log=lambda *_: None)["results"]}
+    dask = {r["id"]: r for r in run_paper(path, tmp_path / "dask", only=ids, sweep=(), options=options,
+                                          runner=DaskRunner(workers=2), log=lambda *_: None)["results"]}
+    assert sorted(p.name for p in (tmp_path / "dask" / "tasks").glob("*.json")) == sorted(
+        p.name for p in (tmp_path / "here" / "tasks").glob("*.json"))
+    for key in ids:
+        for metric in ("cost", "emissions", "consumption"):
+            assert dask[key][metric] == here[key][metric]

@@ -1,0 +1,475 @@
+"""What a built district is made of, and checks that it still is: ``manifest.json``, ``timings.json``,
+``verify`` and ``surrogate install``.
+
+A district folder holds two record files:
+
+* ``manifest.json`` -- a pure function of the configuration and the inputs: the configuration (paths
+  relative to the configuration file's folder, no cache location), the sha256 and size of every input file
+  the build read (weather, tariff, fuel mix, stock / characteristics file, EULP files, ILV tables of
+  ``surrogate.source = "csv"``, the FMU) and of every artifact (building timeseries, weather, pricing,
+  carbon, schema, surrogates, report, selection, ...), package versions, seeds and each building's surrogate
+  cache key. Two builds of the same configuration write the same bytes.
+* ``timings.json`` -- what only this run knows: seconds per stage, the surrogates' training seconds (taken
+  out of their ``.metrics.json``), surrogate cache hits, where the configuration file and the cache were.
+  It is the one file that differs between two builds, and it is not hashed.
+
+Every file of a district is mode 0644 and every folder 0755 whatever the umask
+(:func:`make_world_readable`). Paths in the records are POSIX, relative (``Building_1.csv``,
+``surrogates/Building_1.metrics.json``).
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import hashlib
+import json
+import os
+import platform
+import shutil
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from importlib import metadata as importlib_metadata
+from pathlib import Path
+from typing import Any
+
+from pipeline.config import BuildConfig
+from pipeline.errors import InputError
+
+MANIFEST = "manifest.json"
+TIMINGS = "timings.json"
+#: record files: not listed among the outputs (the manifest cannot hash itself; the timings differ per run)
+RECORDS = (MANIFEST, TIMINGS)
+#: keys of a surrogate ``.metrics.json`` ``training`` block that are wall-clock or CPU seconds
+TRAINING_SECONDS = ("train_seconds", "train_cpu_seconds")
+VERSIONED = ("districtgen", "numpy", "pandas", "torch", "gymnasium", "prefect", "pvlib", "matplotlib")
+FILE_MODE, FOLDER_MODE = 0o644, 0o755
+
+
+# ---------------------------------------------------------------------------------------------- hashing
+def sha256_file(path: str | os.PathLike) -> str:
+    """sha256 (hex) of a file's bytes, read in 1 MiB chunks."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as handle:
+        for chunk in iter(lambda: handle.read(1 << 20), b""):
+            digest.update(chunk)
+    return digest.hexdigest()
+
+
+def file_entry(path: Path) -> dict[str, object]:
+    """``{"sha256": hex, "bytes": size}`` of one file."""
+    return {"sha256": sha256_file(path), "bytes": path.stat().st_size}
+
+
+def district_files(folder: Path) -> list[str]:
+    """Every file under ``folder`` except the two record files, as sorted POSIX relative paths."""
+    return sorted(p.relative_to(folder).as_posix() for p in folder.rglob("*")
+                  if p.is_file() and p.relative_to(folder).as_posix() not in RECORDS)
+
+
+def output_hashes(folder: Path) -> dict[str, dict[str, object]]:
+    """:func:`file_entry` of every artifact of a district folder, by relative path (sorted)."""
+    return {name: file_entry(folder / name) for name in district_files(folder)}
+
+
+# ---------------------------------------------------------------------------------------------- inputs
+def portable_path(path: str | os.PathLike, base: Path) -> str:
+    """``path`` relative to ``base`` (POSIX; ``..`` where needed); a URL or another drive stays as it is."""
+    text = str(path)
+    if text.startswith(("http://", "https://")):
+        return text
+    try:
+        return Path(os.path.relpath(Path(text).absolute(), base.absolute())).as_posix()
+    except ValueError:
+        return Path(text).as_posix()
+
+
+def config_folder(config: BuildConfig) -> Path:
+    """The folder relative paths of the configuration resolve against (the file's folder; cwd for a dict)."""
+    source = Path(config.source)
+    return source.parent.resolve() if source.name != "<dict>" else Path.cwd()
+
+
+def portable_config(config: BuildConfig) -> dict[str, Any]:
+    """The configuration as plain JSON without where it was built: every path relative to the configuration
+    file's folder, ``source`` its file name, ``cache_dir`` left out (it changes no artifact)."""
+    base = config_folder(config)
+    data = json.loads(config.model_dump_json(exclude={"cache_dir"}))
+    data["source"] = Path(config.source).name
+    inputs = data["inputs"]
+    for key in ("weather", "tariff", "fuel_mix", "ilv", "characteristics", "eulp"):
+        if inputs.get(key) is not None:
+            inputs[key] = portable_path(inputs[key], base)
+    if data.get("selection") and data["selection"].get("metadata") is not None:
+        data["selection"]["metadata"] = portable_path(data["selection"]["metadata"], base)
+    if data["surrogate"].get("fmu") is not None:
+        data["surrogate"]["fmu"] = portable_path(data["surrogate"]["fmu"], base)
+    return data
+
+
+def input_files(config: BuildConfig) -> dict[str, Path]:
+    """Every local input file the build reads, by label: ``weather``, ``tariff``, ``fuel_mix``,
+    ``characteristics``, ``selection_metadata``, ``fmu``, ``eulp_metadata`` and ``eulp_timeseries/<bldg_id>``
+    (a local EULP folder), ``ilv/<bldg_id>`` (``surrogate.source = "csv"``)."""
+    i = config.inputs
+    files: dict[str, Path] = {"weather": Path(i.weather), "tariff": Path(i.tariff), "fuel_mix": Path(i.fuel_mix)}
+    if i.characteristics is not None:
+        files["characteristics"] = Path(i.characteristics)
+    if config.selection is not None and config.selection.metadata is not None:
+        files["selection_metadata"] = Path(config.selection.metadata)
+    if config.surrogate.source == "fmu" and config.surrogate.fmu is not None:
+        files["fmu"] = Path(config.surrogate.fmu)
+    ids = [int(b) for b in (i.buildings or [])]
+    if i.eulp is not None and not i.eulp.startswith(("http://", "https://")):
+        from pipeline.ingest.eulp import locate_building
+
+        for bldg_id in ids:
+            metadata_path, series_path = locate_building(i.eulp, bldg_id, upgrade=i.upgrade, state=i.state)
+            files["eulp_metadata"] = Path(metadata_path)
+            files[f"eulp_timeseries/{bldg_id}"] = Path(series_path)
+    if config.surrogate.source == "csv" and i.ilv is not None:
+        for bldg_id in ids:
+            found = [i.ilv / f"{bldg_id}{s}" for s in (".parquet", ".csv") if (i.ilv / f"{bldg_id}{s}").exists()]
+            if found:
+                files[f"ilv/{bldg_id}"] = found[0]
+    return files
+
+
+def input_hashes(config: BuildConfig) -> dict[str, dict[str, object]]:
+    """Label -> ``{"path": relative to the configuration's folder, "sha256", "bytes"}`` of every input."""
+    base = config_folder(config)
+    return {label: {"path": portable_path(path, base), **file_entry(path)}
+            for label, path in input_files(config).items()}
+
+
+# ---------------------------------------------------------------------------------------------- writing
+def _version(dist: str) -> str | None:
+    try:
+        return importlib_metadata.version(dist)
+    except importlib_metadata.PackageNotFoundError:
+        return None
+
+
+def write_json_file(path: Path, data: Mapping[str, Any]) -> Path:
+    """Write ``data`` as indented JSON (one trailing newline) atomically, mode 0644."""
+    from citylearn_env.dataset import write_atomically
+
+    return write_atomically(path, lambda stream: stream.write(json.dumps(data, indent=2, default=str) + "\n"))
+
+
+def manifest_document(out: Path, config: BuildConfig,
+                      surrogate_keys: Mapping[str, str | None] | None = None) -> dict[str, Any]:
+    """The manifest of the district in ``out`` (see the module docstring); deterministic."""
+    return {"district": config.name, "config": portable_config(config), "inputs": input_hashes(config),
+            "outputs": output_hashes(out), "versions": {d: _version(d) for d in VERSIONED},
+            "python": platform.python_version(),
+            "seeds": {"build": config.seed, "surrogate": config.surrogate.seed},
+            "surrogate_cache": {name: {"key": key} for name, key in (surrogate_keys or {}).items()},
+            "run_record": TIMINGS}
+
+
+def write_manifest(out: Path, config: BuildConfig,
+                   surrogate_keys: Mapping[str, str | None] | None = None) -> Path:
+    """Write ``out/manifest.json`` (:func:`manifest_document`); returns its path."""
+    return write_json_file(out / MANIFEST, manifest_document(out, config, surrogate_keys))
+
+
+def write_timings(out: Path, config: BuildConfig, seconds: Mapping[str, float],
+                  surrogates: Mapping[str, Mapping[str, object]] | None = None) -> Path:
+    """Write ``out/timings.json``: ``seconds`` per build stage [s, wall clock], per building the surrogate's
+    training seconds and whether the cache had it, the configuration file's and the cache's locations and the
+    UTC time it was written. The one file of a district that is not reproducible (and not hashed)."""
+    from pipeline.cache import cache_root
+
+    record = {"finished_utc": dt.datetime.now(dt.UTC).isoformat(timespec="seconds"),
+              "config_file": str(Path(config.source).resolve()) if Path(config.source).name != "<dict>" else None,
+              "config_folder": str(config_folder(config)), "cache_root": str(cache_root(config.cache_dir)),
+              "stages_s": {k: round(float(v), 3) for k, v in seconds.items()},
+              "surrogates": {k: dict(v) for k, v in (surrogates or {}).items()}}
+    return write_json_file(out / TIMINGS, record)
+
+
+def split_metrics_timings(metrics: Mapping[str, Any]) -> tuple[dict[str, Any], dict[str, Any]]:
+    """A surrogate metrics report without its seconds, and those seconds.
+
+    Returns ``(metrics without training.train_seconds / train_cpu_seconds and the per-epoch
+    training.history[*].seconds, {"train_seconds": s, "train_cpu_seconds": s, "epoch_seconds": [s, ...]})``.
+    Pure: the argument is not changed.
+    """
+    clean = json.loads(json.dumps(metrics))
+    training = clean.get("training") or {}
+    timings: dict[str, Any] = {k: training.pop(k) for k in TRAINING_SECONDS if k in training}
+    history = training.get("history") or []
+    epochs = [epoch.pop("seconds") for epoch in history if isinstance(epoch, dict) and "seconds" in epoch]
+    if epochs:
+        timings["epoch_seconds"] = epochs
+    return clean, timings
+
+
+def split_surrogate_timings(files: Mapping[str, bytes]) -> tuple[dict[str, bytes], dict[str, Any]]:
+    """A building's surrogate files (relative path -> bytes) with the seconds taken out of its
+    ``*.metrics.json`` (:func:`split_metrics_timings`; written back as ``json.dumps(indent=2)`` + newline, the
+    trainer's own format), and those seconds."""
+    out, timings = dict(files), {}
+    for name, data in files.items():
+        if name.endswith(".metrics.json"):
+            clean, timings = split_metrics_timings(json.loads(data))
+            out[name] = (json.dumps(clean, indent=2) + "\n").encode()
+    return out, timings
+
+
+def make_world_readable(folder: Path) -> None:
+    """Mode 0755 on ``folder`` and every folder under it, 0644 on every file (symlinks untouched), whatever
+    the umask and the temporary-folder modes the build went through."""
+    os.chmod(folder, FOLDER_MODE)
+    for root, dirs, files in os.walk(folder):
+        for name in dirs:
+            if not os.path.islink(os.path.join(root, name)):
+                os.chmod(os.path.join(root, name), FOLDER_MODE)
+        for name in files:
+            if not os.path.islink(os.path.join(root, name)):
+                os.chmod(os.path.join(root, name), FILE_MODE)
+
+
+# ---------------------------------------------------------------------------------------------- verify
+@dataclass(frozen=True)
+class Verification:
+    """Problems (an artifact or an input differs from the manifest, an artifact is missing) and warnings (an
+    unknown file, an input not at hand); each one line starting with the file it is about."""
+
+    problems: list[str] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
+
+
+def read_manifest(folder: Path) -> dict[str, Any]:
+    """``folder/manifest.json``; a missing or malformed one is an :class:`InputError`."""
+    try:
+        manifest = json.loads((folder / MANIFEST).read_text())
+    except FileNotFoundError:
+        raise InputError("no manifest.json: not a districtgen build", file=folder) from None
+    except (OSError, ValueError) as error:
+        raise InputError(f"manifest.json is not a districtgen manifest ({error})", file=folder / MANIFEST) from None
+    if not isinstance(manifest, dict) or not isinstance(manifest.get("outputs"), dict):
+        raise InputError("manifest.json is not a districtgen manifest (no 'outputs' table)", file=folder / MANIFEST,
+                         column="outputs")
+    return manifest
+
+
+def recorded_config_folder(folder: Path) -> Path | None:
+    """Where the build's configuration file was (from ``timings.json``), or None when not recorded."""
+    try:
+        where = json.loads((folder / TIMINGS).read_text()).get("config_folder")
+    except (OSError, ValueError, AttributeError):
+        return None
+    return Path(where) if where else None
+
+
+def check_outputs(folder: Path, outputs: Mapping[str, Mapping[str, object]]) -> Verification:
+    """Every listed artifact present with its sha256 (problems); files not listed (warnings)."""
+    problems = []
+    for name, entry in outputs.items():
+        path = folder / name
+        if not path.is_file():
+            problems.append(f"{name}: missing")
+        elif sha256_file(path) != entry["sha256"]:
+            problems.append(f"{name}: sha256 differs from the manifest")
+    warnings = [f"{name}: not in the manifest (an unknown file)" for name in district_files(folder)
+                if name not in outputs]
+    return Verification(problems, warnings)
+
+
+def check_inputs(inputs: Mapping[str, Mapping[str, object]], base: Path | None) -> Verification:
+    """Each input re-hashed at ``base / path`` (an absolute path as it is): a different sha256 is a problem;
+    an input not found (or no ``base`` for a relative path) is a warning (not checked)."""
+    problems, warnings = [], []
+    for label, entry in inputs.items():
+        recorded = Path(str(entry["path"]))
+        if base is None and not recorded.is_absolute():
+            warnings.append(f"{recorded} (input {label}): not checked, the configuration's folder is not "
+                            f"recorded ({TIMINGS} missing)")
+            continue
+        path = recorded if recorded.is_absolute() else (base / recorded)
+        if not path.is_file():
+            warnings.append(f"{path} (input {label}): not found here, not checked")
+        elif sha256_file(path) != entry["sha256"]:
+            problems.append(f"{path} (input {label}): sha256 differs from the manifest (the district was "
+                            "built from other data)")
+    return Verification(problems, warnings)
+
+
+def check_district(folder: str | Path, config_folder: Path | None = None) -> Verification:
+    """Re-hash every artifact and every input of a district against its manifest.
+
+    ``config_folder``: where the inputs' relative paths resolve (default: the folder recorded in
+    ``timings.json``). Raises :class:`InputError` when there is no readable manifest.
+    """
+    folder = Path(folder)
+    manifest = read_manifest(folder)
+    outputs = check_outputs(folder, manifest["outputs"])
+    inputs = check_inputs(manifest.get("inputs") or {}, config_folder or recorded_config_folder(folder))
+    return Verification(outputs.problems + inputs.problems, outputs.warnings + inputs.warnings)
+
+
+def verify_district(folder: str | Path) -> list[str]:
+    """The problems of :func:`check_district` (empty: every artifact and input matches the manifest)."""
+    return check_district(folder).problems
+
+
+# ---------------------------------------------------------------------------------------------- install
+@dataclass(frozen=True)
+class ModelFiles:
+    """A trained surrogate as ``surrogate train`` writes it: ``<stem>.pth`` and ``<stem>.dynamics.json``,
+    optionally ``<stem>.metrics.json`` and ``<stem>.png``, all in one folder."""
+
+    pth: Path
+    dynamics: Path
+    metrics: Path | None
+    plot: Path | None
+
+
+def find_model_files(model: str | os.PathLike, building: str) -> ModelFiles:
+    """The files of a trained model from its ``.pth`` or its folder (one ``.pth``, or ``<building>.pth``)."""
+    model = Path(model)
+    if model.is_dir():
+        candidates = sorted(model.glob("*.pth"))
+        named = [p for p in candidates if p.stem == building]
+        if len(named) == 1 or len(candidates) == 1:
+            model = (named or candidates)[0]
+        else:
+            raise InputError(f"expected one .pth (or {building}.pth) in the folder, found "
+                             f"{len(candidates)}", file=model)
+    if model.suffix != ".pth" or not model.is_file():
+        raise InputError("not a model file (the .pth written by 'surrogate train') or its folder", file=model)
+    sibling = {s: model.with_name(f"{model.stem}{s}") for s in (".dynamics.json", ".metrics.json", ".png")}
+    if not sibling[".dynamics.json"].is_file():
+        raise InputError("no dynamics block beside the model (written by 'surrogate train')",
+                         file=sibling[".dynamics.json"])
+    return ModelFiles(model, sibling[".dynamics.json"],
+                      sibling[".metrics.json"] if sibling[".metrics.json"].is_file() else None,
+                      sibling[".png"] if sibling[".png"].is_file() else None)
+
+
+def check_model_fits(block: Mapping[str, Any], current: Mapping[str, Any] | None, *, building: str,
+                     model: Path) -> None:
+    """Refuse (one line) a model whose LSTM inputs (names, order, count) are not the building's: ``block`` is
+    the new model's dynamics block, ``current`` the schema's dynamics entry of the building (None: none)."""
+    if not current:
+        raise InputError(f"{building} has no LSTM dynamics entry in the schema: nothing to replace (build the "
+                         "district with a surrogate source)", file=model, column="dynamics")
+    new, old = block.get("attributes", {}), current.get("attributes", {})
+    if list(new.get("input_observation_names", [])) != list(old.get("input_observation_names", [])):
+        raise InputError(f"the model's LSTM inputs {new.get('input_observation_names')} are not {building}'s "
+                         f"{old.get('input_observation_names')}", file=model, column="input_observation_names")
+    if new.get("input_size") != old.get("input_size"):
+        raise InputError(f"the model's input size {new.get('input_size')} is not {building}'s "
+                         f"{old.get('input_size')}", file=model, column="input_size")
+
+
+def place_model(folder: Path, building: str, files: ModelFiles, schema: dict) -> dict[str, Any]:
+    """Copy a checked model into a district folder as ``<building>.pth`` and ``surrogates/<building>.*``
+    (metrics without their seconds), point the schema's dynamics entry at it and rewrite ``schema.json``;
+    returns the seconds taken out of the metrics (for ``timings.json``)."""
+    block = json.loads(files.dynamics.read_text())
+    block["attributes"]["filename"] = f"{building}.pth"
+    (folder / "surrogates").mkdir(exist_ok=True)
+    shutil.copyfile(files.pth, folder / f"{building}.pth")
+    write_json_file(folder / "surrogates" / f"{building}.dynamics.json", block)
+    seconds: dict[str, Any] = {}
+    if files.metrics is not None:
+        metrics, seconds = split_metrics_timings(json.loads(files.metrics.read_text()))
+        source = Path(str(metrics.get("source", ""))).name  # the training table's name, not where it was
+        write_json_file(folder / "surrogates" / f"{building}.metrics.json",
+                        {**metrics, "building": building, "source": source})
+    if files.plot is not None:
+        shutil.copyfile(files.plot, folder / "surrogates" / f"{building}.png")
+    schema["buildings"][building]["dynamics"] = block
+    write_json_file(folder / "schema.json", schema)
+    return seconds
+
+
+def revalidate(folder: Path, name: str, schema: dict) -> None:
+    """Run the district validation (no control + the cost RBC) and replace ``report/`` with its report,
+    keeping the old summary's sections from ``## Buildings`` on (the build appends them)."""
+    import tempfile
+
+    from pipeline.build import validate_district
+
+    summary = folder / "report" / "summary.md"
+    old = summary.read_text() if summary.is_file() else ""
+    tail = old[old.index("\n## Buildings"):] if "\n## Buildings" in old else ""
+    with tempfile.TemporaryDirectory(prefix="districtgen_install_") as scratch:
+        report = Path(scratch) / "report"
+        validate_district(folder / "schema.json", report, name, schema)
+        shutil.rmtree(folder / "report", ignore_errors=True)
+        shutil.copytree(report, folder / "report")
+    if tail:
+        with open(summary, "a") as handle:
+            handle.write(tail if tail.endswith("\n") else tail + "\n")
+
+
+def install_surrogate(district: str | os.PathLike, building: str, model: str | os.PathLike) -> Path:
+    """Put a retrained surrogate (``surrogate train`` output) into a built district for ``building``.
+
+    Checks the model's LSTM inputs against the schema's dynamics entry, copies the files, updates
+    ``schema.json``, re-runs the validation (report included) and rewrites ``manifest.json`` (inputs and
+    configuration as built; surrogate_cache of the building: the installed model's sha256) and ``timings.json``
+    (the training seconds), all in a copy of the district that replaces it only when everything succeeded.
+    Errors are one :class:`InputError` naming the district, the building or the model file. Returns the
+    district folder.
+    """
+    from surrogates.export import load_surrogate
+
+    folder = Path(district)
+    manifest = read_manifest(folder)
+    try:
+        schema = json.loads((folder / "schema.json").read_text())
+    except (OSError, ValueError) as error:
+        raise InputError(f"cannot read the schema: {error}", file=folder / "schema.json") from None
+    if building not in schema.get("buildings", {}):
+        raise InputError(f"no building {building!r} in the district (it has "
+                         f"{', '.join(schema.get('buildings', {}))})", file=folder / "schema.json",
+                         column="buildings")
+    files = find_model_files(model, building)
+    block = json.loads(files.dynamics.read_text())
+    load_surrogate(files.pth, block)  # the weights match their block (else one InputError)
+    check_model_fits(block, schema["buildings"][building].get("dynamics"), building=building, model=files.pth)
+    work = folder.with_name(f".{folder.name}.install-{os.getpid()}")
+    shutil.rmtree(work, ignore_errors=True)
+    shutil.copytree(folder, work, symlinks=True)
+    try:
+        seconds = place_model(work, building, files, schema)
+        revalidate(work, manifest.get("district") or folder.name, schema)
+        manifest["outputs"] = output_hashes(work)
+        manifest.setdefault("surrogate_cache", {})[building] = {"key": None, "installed": files.pth.name,
+                                                              "sha256": sha256_file(files.pth)}
+        write_json_file(work / MANIFEST, manifest)
+        write_install_timings(work, building, files.pth, seconds)
+        make_world_readable(work)
+        swap_in(work, folder)
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+    return folder
+
+
+def swap_in(new: Path, folder: Path) -> None:
+    """Replace ``folder`` by ``new`` (a sibling): rename the old one aside, the new one in, delete the old one;
+    the old one is put back when the second rename fails."""
+    old = folder.with_name(f".{folder.name}.old-{os.getpid()}")
+    folder.rename(old)
+    try:
+        new.rename(folder)
+    except OSError:
+        old.rename(folder)
+        raise
+    shutil.rmtree(old, ignore_errors=True)
+
+
+def write_install_timings(folder: Path, building: str, pth: Path, seconds: Mapping[str, Any]) -> Path:
+    """Record an installed model in ``timings.json``: its training seconds, where it came from, when."""
+    try:
+        record = json.loads((folder / TIMINGS).read_text())
+    except (OSError, ValueError):
+        record = {}
+    record.setdefault("surrogates", {})[building] = {**seconds, "installed_from": str(pth.resolve()),
+                                                     "installed_utc": dt.datetime.now(dt.UTC)
+                                                     .isoformat(timespec="seconds")}
+    return write_json_file(folder / TIMINGS, record)

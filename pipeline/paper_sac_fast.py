@@ -1,0 +1,202 @@
+"""SB3's SAC update with hand-written gradients: the ``fast`` back end of :mod:`pipeline.paper_sac`.
+
+:class:`FastSAC` runs exactly the update of :class:`pipeline.paper_sac.LeanSAC` (the same parameters, random
+draws, losses and Adam steps; the module docstring there lists the stable-baselines3 defaults reproduced)
+without autograd: every gradient is written out below, so one update is ~25 matrix products and a few dozen
+element-wise operations instead of a recorded graph. With ``bf16=True`` (the default) the matrix products
+take bfloat16 operands (the CPU's AMX units), while parameters, Adam state, losses and every element-wise
+step stay float32; weights are rounded to bfloat16 once per update, not per product.
+
+Shapes: B batch rows, D observation size, A action size, H = 256 hidden units, K = 2 critics (one stacked
+ensemble). ``tests/pipeline/test_paper_sac_fast.py`` checks the float32 gradients against autograd's.
+
+Gradients, for the losses of ``LeanSAC.train_step`` (per row b; sums run over the action dimensions):
+
+* entropy coefficient: d/d log(alpha) of -mean(log(alpha) (log pi + target)) is -mean(log pi + target);
+* critics: L = 1/2 sum_k mean_b (Q_k - y)^2, so dL/dQ_k = (Q_k - y) / B, then back through each MLP;
+* actor: L = mean_b(alpha log pi - min_k Q_k(s, a)), a = tanh(u), u = mu + sigma eps, sigma = exp(s):
+  dL/da = -[k is the minimum] dQ_k/da / B + (alpha / B) 2a / (1 - a^2 + 1e-6) (the squashing correction),
+  dL/du = dL/da (1 - a^2), dL/dmu = dL/du, dL/ds = dL/du sigma eps - alpha / B where s is inside its clamp
+  [-20, 2] (else 0) -- the Gaussian term -eps^2/2 does not depend on mu or s once u is reparameterised.
+"""
+
+from __future__ import annotations
+
+import math
+
+from pipeline.paper_sac import GAMMA, LEARNING_RATE, LOG_STD_MAX, LOG_STD_MIN, SQUASH_EPSILON, TAU, LeanSAC
+
+_HALF_LOG_2PI = 0.5 * math.log(2 * math.pi)
+#: torch.optim.Adam's defaults (SB3 leaves them)
+BETA1, BETA2, ADAM_EPS = 0.9, 0.999, 1e-8
+
+
+class FusedAdam:
+    """torch's Adam with its defaults on float32 tensors, as one fused kernel per step: torch.optim.Adam
+    (fused=True) without its per-call bookkeeping. ``step(grads)`` takes the gradients in parameter order
+    (kept as ``last_grads`` for inspection)."""
+
+    def __init__(self, params, lr: float = LEARNING_RATE):
+        import torch
+
+        self.torch, self.params, self.lr = torch, list(params), lr
+        self.exp_avg = [torch.zeros_like(p) for p in self.params]
+        self.exp_avg_sq = [torch.zeros_like(p) for p in self.params]
+        self.count = torch.zeros((), dtype=torch.float32)
+
+    def step(self, grads) -> None:
+        torch = self.torch
+        self.count.add_(1)
+        self.last_grads = grads = [g.float() for g in grads]
+        torch._fused_adam_(self.params, grads, self.exp_avg, self.exp_avg_sq, [], [self.count] * len(grads),
+                           lr=self.lr, beta1=BETA1, beta2=BETA2, weight_decay=0.0, eps=ADAM_EPS, amsgrad=False,
+                           maximize=False)
+
+
+class ScalarAdam:
+    """The same Adam for one scalar parameter, in Python floats (the entropy coefficient's logarithm)."""
+
+    def __init__(self, value: float, lr: float = LEARNING_RATE):
+        self.value, self.lr, self.m, self.v, self.t = value, lr, 0.0, 0.0, 0
+
+    def step(self, grad: float) -> float:
+        self.last_grad = grad
+        self.t += 1
+        self.m = BETA1 * self.m + (1 - BETA1) * grad
+        self.v = BETA2 * self.v + (1 - BETA2) * grad * grad
+        denom = math.sqrt(self.v) / math.sqrt(1 - BETA2 ** self.t) + ADAM_EPS
+        self.value -= self.lr / (1 - BETA1 ** self.t) * self.m / denom
+        return self.value
+
+
+class FastSAC(LeanSAC):
+    """:class:`LeanSAC` with hand-written gradients (see the module docstring); same constructor."""
+
+    def __init__(self, obs_dim: int, act_dim: int, *, seed: int = 0, bf16: bool = True, threads: int = 1):
+        super().__init__(obs_dim, act_dim, seed=seed, bf16=False, threads=threads)
+        torch = self.torch
+        self.bf16 = bf16
+        self.dtype = torch.bfloat16 if bf16 else torch.float32
+        for p in (*self.actor, *self.critic, self.log_ent_coef):
+            p.requires_grad_(False)
+        self.actor_adam, self.critic_adam = FusedAdam(self.actor), FusedAdam(self.critic)
+        self.ent_adam = ScalarAdam(float(self.log_ent_coef))
+        self._cast_actor()
+        self._cast_critic()
+        self._cast_target()
+
+    # ------------------------------------------------------------------ low-precision copies of the weights
+    def _cast(self, params):
+        return [p.to(self.dtype) for p in params]
+
+    def _cast_actor(self) -> None:
+        self.actor_lp = self._cast(self.actor)
+
+    def _cast_critic(self) -> None:
+        self.critic_lp = self._cast(self.critic)
+
+    def _cast_target(self) -> None:
+        self.target_lp = self._cast(self.critic_target)
+
+    # ------------------------------------------------------------------ networks
+    def _actor_forward(self, obs):
+        """Actor MLP on (N, D) float32 observations: (out (N, 2A) float32, saved activations)."""
+        torch = self.torch
+        w1, b1, w2, b2, w3, b3 = self.actor_lp
+        x = obs.to(self.dtype)
+        h1 = torch.addmm(b1, x, w1).relu_()
+        h2 = torch.addmm(b2, h1, w2).relu_()
+        return torch.addmm(b3, h2, w3).float(), (x, h1, h2)
+
+    def _actor_params(self, obs):
+        """Mean and clamped log-std for acting (a few rows): float32 weights, where bfloat16 products of a
+        single row are slower, not faster."""
+        torch = self.torch
+        w1, b1, w2, b2, w3, b3 = self.actor
+        h = torch.addmm(b1, obs, w1).relu_()
+        out = torch.addmm(b3, torch.addmm(b2, h, w2).relu_(), w3)
+        return out[:, :self.act_dim], out[:, self.act_dim:].clamp(LOG_STD_MIN, LOG_STD_MAX)
+
+    def _squash(self, out, noise):
+        """Squashed Gaussian sample from actor outputs (N, 2A) and noise (N, A): action, log-prob (N,),
+        and what the actor gradient needs."""
+        torch = self.torch
+        raw_log_std = out[:, self.act_dim:]
+        log_std = raw_log_std.clamp(LOG_STD_MIN, LOG_STD_MAX)
+        std = log_std.exp()
+        action = torch.tanh(out[:, :self.act_dim] + std * noise)
+        one_minus_a2 = 1 - action.square()
+        log_prob = (-0.5 * noise.square() - log_std - _HALF_LOG_2PI).sum(1)
+        log_prob = log_prob - torch.log(one_minus_a2 + SQUASH_EPSILON).sum(1)
+        inside = (raw_log_std >= LOG_STD_MIN) & (raw_log_std <= LOG_STD_MAX)
+        return action, log_prob, (std, one_minus_a2, inside)
+
+    def _critic_forward(self, params, obs, action):
+        """Both critics on (B, D) observations and (B, A) actions: (Q (K, B, 1) float32, saved activations)."""
+        torch = self.torch
+        v1, c1, v2, c2, v3, c3 = params
+        z = torch.cat([obs, action], dim=1).to(self.dtype).expand(v1.shape[0], -1, -1)
+        g1 = torch.baddbmm(c1, z, v1).relu_()
+        g2 = torch.baddbmm(c2, g1, v2).relu_()
+        return torch.baddbmm(c3, g2, v3).float(), (z, g1, g2)
+
+    def _critic_backward(self, dq, saved, *, weights: bool):
+        """Back through both critics from dL/dQ (K, B, 1): weight gradients (``weights``) or dL/d(action)."""
+        torch = self.torch
+        threshold_backward = torch.ops.aten.threshold_backward
+        z, g1, g2 = saved
+        v1, _, v2, _, v3, _ = self.critic_lp
+        dq_lp = dq.to(self.dtype)
+        dg2 = threshold_backward(torch.bmm(dq_lp, v3.transpose(1, 2)), g2, 0)
+        dg1 = threshold_backward(torch.bmm(dg2, v2.transpose(1, 2)), g1, 0)
+        if not weights:
+            return torch.bmm(dg1, v1[:, self.obs_dim:].transpose(1, 2)).float().sum(0)
+        return [torch.bmm(z.transpose(1, 2), dg1), dg1.sum(1, keepdim=True),
+                torch.bmm(g1.transpose(1, 2), dg2), dg2.sum(1, keepdim=True),
+                torch.bmm(g2.transpose(1, 2), dq_lp), dq.sum(1, keepdim=True)]
+
+    def _actor_backward(self, dout, saved):
+        """Weight gradients of the actor MLP from dL/d(out) (B, 2A) float32 and the saved activations."""
+        torch = self.torch
+        threshold_backward = torch.ops.aten.threshold_backward
+        x, h1, h2 = saved
+        _, _, w2, _, w3, _ = self.actor_lp
+        dout_lp = dout.to(self.dtype)
+        dh2 = threshold_backward(torch.mm(dout_lp, w3.t()), h2, 0)
+        dh1 = threshold_backward(torch.mm(dh2, w2.t()), h1, 0)
+        return [torch.mm(x.t(), dh1), dh1.sum(0, keepdim=True), torch.mm(h1.t(), dh2), dh2.sum(0, keepdim=True),
+                torch.mm(h2.t(), dout_lp), dout.sum(0, keepdim=True)]
+
+    # ------------------------------------------------------------------ update
+    def train_step(self, obs, action, reward, next_obs, done) -> None:
+        """One SB3 SAC gradient step on a batch (float32 tensors; reward and done shaped (batch, 1))."""
+        torch = self.torch
+        with torch.no_grad():
+            batch = obs.shape[0]
+            # actor on s and s' in one pass; noise drawn in LeanSAC's order (s first, then s')
+            out, saved = self._actor_forward(torch.cat([obs, next_obs]))
+            noise = torch.randn((batch, self.act_dim), generator=self.generator)
+            action_pi, log_prob, (std, one_minus_a2, inside) = self._squash(out[:batch], noise)
+            # entropy coefficient (read before its own update, as SB3 does)
+            ent_coef = math.exp(self.ent_adam.value)
+            self.log_ent_coef.fill_(self.ent_adam.step(-float((log_prob + self.target_entropy).mean())))
+            # critic target and update
+            next_noise = torch.randn((batch, self.act_dim), generator=self.generator)
+            next_action, next_log_prob, _ = self._squash(out[batch:], next_noise)
+            next_q = self._critic_forward(self.target_lp, next_obs, next_action)[0].min(dim=0).values
+            target = reward + (1.0 - done) * GAMMA * (next_q - ent_coef * next_log_prob.unsqueeze(1))
+            q, critic_saved = self._critic_forward(self.critic_lp, obs, action)
+            self.critic_adam.step(self._critic_backward((q - target) / batch, critic_saved, weights=True))
+            self._cast_critic()
+            # actor update against the updated critics
+            q_pi, pi_saved = self._critic_forward(self.critic_lp, obs, action_pi)
+            lowest = (q_pi == q_pi.min(dim=0, keepdim=True).values).float()  # (K, B, 1): the minimum's member
+            d_action = self._critic_backward(lowest * (-1.0 / batch), pi_saved, weights=False)
+            d_action = d_action + (ent_coef / batch) * 2 * action_pi / (one_minus_a2 + SQUASH_EPSILON)
+            d_u = d_action * one_minus_a2
+            d_log_std = (d_u * std * noise - ent_coef / batch) * inside
+            actor_saved = tuple(t[:batch] for t in saved)
+            self.actor_adam.step(self._actor_backward(torch.cat([d_u, d_log_std], dim=1), actor_saved))
+            self._cast_actor()
+            torch._foreach_lerp_(self.critic_target, self.critic, TAU)
+            self._cast_target()

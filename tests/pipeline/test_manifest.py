@@ -1,0 +1,193 @@
+"""``manifest.json`` / ``timings.json``, ``districtgen verify`` and ``districtgen surrogate install`` on real
+builds of the synthetic fixture district (issue 15, part 5)."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import shutil
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+from pipeline import build
+from pipeline.cli import main
+from pipeline.config import read_build_config
+from pipeline.manifest import check_district, verify_district, write_manifest, write_timings
+
+ROOT = Path(__file__).resolve().parents[2]
+FIXTURE = ROOT / "tests" / "fixtures" / "synthetic_district"
+INPUTS = {"weather": "weather/USA_FL_Tampa.Intl.AP.722110_TMY3.epw", "tariff": "../../../raw/tariffs/"
+          "austin_energy_tou_2018.toml", "fuel_mix": "fuel_mix/IntGenbyFuel2018_synthetic.xlsx"}
+
+
+def district_config(folder: Path, *, source: str = "none") -> Path:
+    """The fixture district (1-3 June 2018) in ``folder``, with copies of its weather, tariff and fuel mix and
+    its ILV tables cut to 1-21 June under ``folder/inputs`` (relative paths, as a user writes them)."""
+    inputs = folder / "inputs"
+    (inputs / "ilv").mkdir(parents=True, exist_ok=True)
+    for relative in INPUTS.values():
+        shutil.copyfile(FIXTURE / relative, inputs / Path(relative).name)
+    for path in sorted((FIXTURE / "ilv").glob("*.parquet")):
+        table = pd.read_parquet(path)
+        stamp = pd.to_datetime(table["timestamp"])
+        table[(stamp >= "2018-06-01") & (stamp < "2018-06-22")].reset_index(drop=True).to_parquet(
+            inputs / "ilv" / path.name, index=False)
+    text = FIXTURE.joinpath("district.toml").read_text().replace("end = 2018-06-30", "end = 2018-06-03")
+    for key, relative in INPUTS.items():
+        text = text.replace(f'{key} = "{relative}"', f'{key} = "inputs/{Path(relative).name}"')
+    text = text.replace('eulp = "eulp/', f'eulp = "{FIXTURE}/eulp/').replace('ilv = "ilv"', 'ilv = "inputs/ilv"')
+    text = text.replace('source = "csv"', f'source = "{source}"').replace("epochs = 40", "epochs = 1")
+    path = folder / "district.toml"
+    path.write_text(text)
+    return path
+
+
+def verify_lines(folder: Path, capsys) -> tuple[int, list[str]]:
+    """``districtgen verify FOLDER``: exit status and the printed lines."""
+    status = main(["verify", str(folder)])
+    out = capsys.readouterr()
+    return status, (out.out + out.err).strip().splitlines()
+
+
+@pytest.fixture(scope="module")
+def built(tmp_path_factory):
+    """One short build without surrogates (relative input paths); tests work on copies of it."""
+    tmp = tmp_path_factory.mktemp("manifest")
+    return build.build_district_local(read_build_config(district_config(tmp)), tmp / "out")
+
+
+@pytest.fixture()
+def district(built, tmp_path):
+    """A copy of the build beside it (so the inputs' folder recorded in timings.json still holds)."""
+    copy = built.parent / f"copy-{tmp_path.name}"
+    shutil.copytree(built, copy)
+    yield copy
+    shutil.rmtree(copy, ignore_errors=True)
+
+
+def test_intact_build_verifies_with_exit_0(district, capsys):
+    assert check_district(district).problems == [] and check_district(district).warnings == []
+    status, lines = verify_lines(district, capsys)
+    assert status == 0 and "every artifact and input matches the manifest" in lines[-1]
+    manifest = json.loads((district / "manifest.json").read_text())
+    assert manifest["inputs"]["weather"]["path"] == "inputs/USA_FL_Tampa.Intl.AP.722110_TMY3.epw"
+    assert {"eulp_metadata", "eulp_timeseries/900001", "eulp_timeseries/900002"} <= set(manifest["inputs"])
+    for name in ("Building_1.csv", "Building_2.csv", "schema.json", "report/summary.md", "buildings.json"):
+        data = (district / name).read_bytes()
+        assert manifest["outputs"][name] == {"sha256": hashlib.sha256(data).hexdigest(), "bytes": len(data)}
+
+
+def test_changed_building_timeseries_is_one_line_and_exit_2(district, capsys):
+    path = district / "Building_1.csv"
+    lines = path.read_text().splitlines()
+    lines[5] = lines[5].replace(",", ",1", 1)     # one value of one row changed
+    path.write_text("\n".join(lines) + "\n")
+    assert verify_district(district) == ["Building_1.csv: sha256 differs from the manifest"]
+    status, out = verify_lines(district, capsys)
+    assert status == 2 and any(line.endswith("Building_1.csv: sha256 differs from the manifest") for line in out)
+
+
+def test_deleted_artifact_is_reported(district, capsys):
+    (district / "report" / "kpis_cost_rbc.csv").unlink()
+    assert verify_district(district) == ["report/kpis_cost_rbc.csv: missing"]
+    assert verify_lines(district, capsys)[0] == 2
+
+
+def test_unknown_file_is_a_warning_only(district, capsys):
+    (district / "notes.txt").write_text("mine\n")
+    result = check_district(district)
+    assert result.problems == [] and result.warnings == ["notes.txt: not in the manifest (an unknown file)"]
+    status, lines = verify_lines(district, capsys)
+    assert status == 0 and any("warning" in line and "notes.txt" in line for line in lines)
+
+
+def test_changed_input_file_is_reported(built, district, capsys):
+    tariff = built.parent.parent / "inputs" / "austin_energy_tou_2018.toml"
+    original = tariff.read_bytes()
+    try:
+        tariff.write_bytes(original + b"\n# edited\n")
+        problems = verify_district(district)
+        assert len(problems) == 1 and "austin_energy_tou_2018.toml (input tariff): sha256 differs" in problems[0]
+        assert verify_lines(district, capsys)[0] == 2
+    finally:
+        tariff.write_bytes(original)
+
+
+def test_changed_ilv_table_is_reported(tmp_path):
+    """A csv-surrogate configuration lists its ILV tables among the inputs; a changed table is a problem."""
+    config = read_build_config(district_config(tmp_path, source="csv"))
+    out = tmp_path / "district"
+    out.mkdir()
+    (out / "schema.json").write_text("{}\n")
+    write_manifest(out, config)
+    write_timings(out, config, {"ingest": 1.0})
+    assert verify_district(out) == []
+    table_path = tmp_path / "inputs" / "ilv" / "900002.parquet"
+    table = pd.read_parquet(table_path)
+    table.loc[10, "indoor_dry_bulb_temperature"] += 0.5
+    table.to_parquet(table_path, index=False)
+    problems = verify_district(out)
+    assert len(problems) == 1 and "900002.parquet (input ilv/900002): sha256 differs" in problems[0]
+
+
+def test_a_district_moved_away_from_its_inputs_warns(district, tmp_path):
+    moved = tmp_path / "moved"
+    shutil.copytree(district, moved)
+    (moved / "timings.json").unlink()
+    result = check_district(moved)
+    assert result.problems == [] and any("input weather" in w and "not checked" in w for w in result.warnings)
+
+
+# ---------------------------------------------------------------------------------------------- install
+def tiny_model(table: Path, out: Path, **settings) -> Path:
+    """Train a tiny LSTM with ``surrogates.cli.train`` (a few one-step updates, one closed-loop epoch)."""
+    from surrogates.cli import train
+    from surrogates.train import TrainConfig
+
+    config = TrainConfig(hidden_size=8, num_layers=1, lookback=6, epochs=1, pretrain_steps=30, batch_size=64,
+                         pretrain_batch_size=64, progress=False, **settings)
+    train(table, out, "retrained", config)
+    return out / "retrained.pth"
+
+
+@pytest.mark.slow  # one build with surrogates and two tiny trainings: about a minute on 2 cores
+def test_install_a_retrained_surrogate_then_verify(tmp_path, capsys):
+    path = district_config(tmp_path, source="csv")
+    config = read_build_config(path).model_copy(update={"cache_dir": tmp_path / "cache"})
+    district = build.build_district_local(config, tmp_path / "out")
+    table = tmp_path / "inputs" / "ilv" / "900001.parquet"
+    model = tiny_model(table, tmp_path / "model")
+
+    assert main(["surrogate", "install", str(district), "Building_1", str(model.parent)]) == 0
+    assert "verify passes" in capsys.readouterr().out
+    assert (district / "Building_1.pth").read_bytes() == model.read_bytes()
+    block = json.loads((district / "schema.json").read_text())["buildings"]["Building_1"]["dynamics"]
+    assert block["attributes"]["hidden_size"] == 8 and block["attributes"]["filename"] == "Building_1.pth"
+    assert block["attributes"]["num_layers"] == 1
+    assert "train_seconds" not in json.loads((district / "surrogates/Building_1.metrics.json").read_text())[
+        "training"]
+    assert json.loads((district / "timings.json").read_text())["surrogates"]["Building_1"]["train_seconds"] >= 0
+    assert check_district(district).problems == [] and check_district(district).warnings == []
+    assert verify_lines(district, capsys)[0] == 0
+    assert "## Buildings" in (district / "report" / "summary.md").read_text()   # the build's section is kept
+
+    before = (district / "manifest.json").read_bytes()
+    assert main(["surrogate", "install", str(district), "Building_9", str(model)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "no building 'Building_9'" in err[0]
+    narrow = tiny_model(table, tmp_path / "narrow", inputs=("outdoor_dry_bulb_temperature", "cooling_demand",
+                                                            "heating_demand", "indoor_dry_bulb_temperature"))
+    assert main(["surrogate", "install", str(district), "Building_2", str(narrow)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "LSTM inputs" in err[0] and "retrained.pth" in err[0]
+    assert (district / "manifest.json").read_bytes() == before   # a refused model changes nothing
+
+
+def test_install_refuses_a_folder_that_is_not_a_district(tmp_path):
+    from pipeline.errors import InputError
+    from pipeline.manifest import install_surrogate
+
+    with pytest.raises(InputError, match="no manifest.json"):
+        install_surrogate(tmp_path, "Building_1", tmp_path / "x.pth")
