@@ -31,7 +31,7 @@ def build_parser() -> argparse.ArgumentParser:
     run.register(sub)
     stock_selection.register(sub)
     ingest_commands.register(sub)
-    surrogate_commands.register(sub)
+    run.register_surrogate_install(surrogate_commands.register(sub))
     return parser
 
 

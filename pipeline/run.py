@@ -216,3 +216,30 @@ def paper_command(args: argparse.Namespace) -> int:
         if (args.output / name).is_file():
             print((args.output / name).read_text())
     return 0
+
+
+def register_surrogate_install(surrogate_commands: argparse._SubParsersAction) -> None:
+    """Add ``install`` to the ``districtgen surrogate`` sub-commands."""
+    install_parser = surrogate_commands.add_parser(
+        "install", help="put a retrained model into a built district (checked, validated, manifest rewritten)")
+    install_parser.add_argument("district", type=Path, help="a built district folder (with manifest.json)")
+    install_parser.add_argument("building", help="the schema building to replace the model of, e.g. Building_1")
+    install_parser.add_argument("model", type=Path, help="<name>.pth written by 'surrogate train' (dynamics JSON "
+                                                         "beside it), or its folder")
+    install_parser.set_defaults(func=_install_command)
+
+
+def _install_command(args: argparse.Namespace) -> int:
+    """``surrogate install DISTRICT BUILDING MODEL``: a retrained model into a built district, re-verified
+    (the work is :func:`pipeline.manifest.install_surrogate`)."""
+    from pipeline.manifest import install_surrogate, verify_district
+
+    folder = install_surrogate(args.district, args.building, args.model)
+    problems = verify_district(folder)
+    for problem in problems:
+        print(f"districtgen: {folder}: {problem}")
+    if problems:
+        return 2
+    print(f"installed {Path(args.model).name} as {args.building} in {folder}: validated, manifest rewritten, "
+          "verify passes")
+    return 0

@@ -67,24 +67,9 @@ def _evaluate_command(args: argparse.Namespace) -> int:
     return 0
 
 
-def _install_command(args: argparse.Namespace) -> int:
-    """``surrogate install DISTRICT BUILDING MODEL``: a retrained model into a built district, re-verified
-    (the work is :func:`pipeline.manifest.install_surrogate`; imported here, at the command's edge)."""
-    from pipeline.manifest import install_surrogate, verify_district
-
-    folder = install_surrogate(args.district, args.building, args.model)
-    problems = verify_district(folder)
-    for problem in problems:
-        print(f"districtgen: {folder}: {problem}")
-    if problems:
-        return 2
-    print(f"installed {Path(args.model).name} as {args.building} in {folder}: validated, manifest rewritten, "
-          "verify passes")
-    return 0
-
-
-def register(subparsers: argparse._SubParsersAction) -> None:
-    """Add the surrogate sub-commands to ``districtgen``."""
+def register(subparsers: argparse._SubParsersAction) -> argparse._SubParsersAction:
+    """Add the surrogate sub-commands to ``districtgen``; returns their sub-parsers (the pipeline adds
+    ``surrogate install`` there: putting a model into a built district is pipeline work)."""
     parser = subparsers.add_parser("surrogate", help="train or evaluate an LSTM indoor-temperature surrogate")
     sub = parser.add_subparsers(dest="surrogate_command", required=True)
     defaults = TrainConfig()
@@ -109,10 +94,4 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     eval_parser.add_argument("--plot", help="PNG of prediction vs simulation (default: <model>.evaluate.png)")
     eval_parser.add_argument("--json", action="store_true", help="print the metrics as JSON instead")
     eval_parser.set_defaults(func=_evaluate_command)
-    install_parser = sub.add_parser("install", help="put a retrained model into a built district (checked, "
-                                                    "validated, manifest rewritten)")
-    install_parser.add_argument("district", type=Path, help="a built district folder (with manifest.json)")
-    install_parser.add_argument("building", help="the schema building to replace the model of, e.g. Building_1")
-    install_parser.add_argument("model", type=Path, help="<name>.pth written by 'surrogate train' (dynamics JSON "
-                                                         "beside it), or its folder")
-    install_parser.set_defaults(func=_install_command)
+    return sub
