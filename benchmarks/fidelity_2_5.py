@@ -7,7 +7,7 @@ The upstream side is the stored reference run ``benchmarks/upstream_2_5_0/no_con
 every action inactive (the typed config's ``with_actions([])``), one episode, ``reset(seed=0)``, in two
 behaviour presets:
 
-* the CityLearn 2.5 preset (``settings="citylearn-2.5"``; while that preset does not exist yet,
+* the CityLearn 2.5 preset (``settings="citylearn-2.5"``; on a tree without that preset, its stand-in
   ``dataclasses.replace(CORRECTED, legacy_outage_draws=True)``, the one field that moves no-control energy);
 * the corrected default (``CORRECTED``).
 

@@ -88,7 +88,7 @@ def check_2_1_2(name: str) -> None:
     assert energy == pytest.approx(reference["district_energy_kwh"], rel=1e-4)
     ours = _kpis(env)
     off = [(k, n, ours.get((k, n)), v) for k, n, v in reference["kpis"]
-           if not _close(ours.get((k, n), math.nan), _value(v), 1e-4)]
+           if (k, n) not in ours or not _close(ours[(k, n)], _value(v), 1e-4)]
     assert not off, f"{len(off)} of {len(reference['kpis'])} KPI rows off by more than 1e-4: {off[:5]}"
 
 
