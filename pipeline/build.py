@@ -652,7 +652,8 @@ def run_build(config: BuildConfig, output_root: str | Path = "artifacts", runner
                 progress.stage("surrogate", len(todo))
             trained = early | runner.map("surrogate", surrogate_files, todo)
             trained = {n: trained[n] for n in names}
-            progress.end("surrogate")
+            if todo:
+                progress.end("surrogate")
             split = {n: split_surrogate_timings(trained[n].files) for n in names}  # seconds -> timings.json
             dynamics = {n: write_surrogate_files(out, split[n][0]) for n in names}
             cache_use = {n: {"hit": trained[n].hit, **split[n][1]} for n in names}

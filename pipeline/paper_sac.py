@@ -90,6 +90,7 @@ def _train_library(env, steps: int, seed: int, backend: str, threads: int = 1) -
         from stable_baselines3 import SAC
 
         torch.set_num_threads(threads)
+        torch.set_flush_denormal(True)  # as for LeanSAC: the same footing for every torch back end
         model = SAC("MlpPolicy", env, seed=seed, device="cpu", verbose=0, learning_starts=LEARNING_STARTS)
     else:
         try:
@@ -119,6 +120,9 @@ class LeanSAC:
         import torch
 
         torch.set_num_threads(threads)
+        # flush subnormal floats to zero: Adam's second moments and late-training gradients reach them, and
+        # x86 arithmetic on subnormals is ~100x slower (measured: 182 -> 250 steps per CPU second)
+        torch.set_flush_denormal(True)
         self.torch = torch
         self.generator = torch.Generator().manual_seed(seed)
         torch.manual_seed(seed)
@@ -220,8 +224,7 @@ class LeanSAC:
             if t < LEARNING_STARTS:
                 squashed = rng.uniform(-1.0, 1.0, self.act_dim)
             else:
-                with torch.no_grad():
-                    squashed = self._sample(torch.as_tensor(obs, dtype=torch.float32)[None])[0][0].numpy()
+                squashed = self.explore(obs)
             next_obs, reward, terminated, truncated, _ = env.step((squashed + 1.0) / 2.0)
             i = t % capacity
             row = replay[i]
@@ -233,6 +236,12 @@ class LeanSAC:
                 batch = table[idx]
                 self.train_step(batch[:, :o], batch[:, 2 * o:2 * o + a], batch[:, -2:-1], batch[:, o:2 * o],
                                 batch[:, -1:])
+
+    def explore(self, obs: np.ndarray) -> np.ndarray:
+        """A stochastic action in [-1, 1] for one observation (the rollout's draw)."""
+        torch = self.torch
+        with torch.no_grad():
+            return self._sample(torch.as_tensor(obs, dtype=torch.float32)[None])[0][0].numpy()
 
     def act(self, obs: np.ndarray) -> np.ndarray:
         """Deterministic action in [0, 1]: (tanh(mu) + 1) / 2."""

@@ -80,23 +80,25 @@ class FastSAC(LeanSAC):
         for p in (*self.actor, *self.critic, self.log_ent_coef):
             p.requires_grad_(False)
         self.actor_adam, self.critic_adam = FusedAdam(self.actor), FusedAdam(self.critic)
+        self.numpy_actor = [p.numpy() for p in self.actor]  # views: Adam's in-place updates show through
         self.ent_adam = ScalarAdam(float(self.log_ent_coef))
+        # bfloat16 copies of the target critics (members 0, 1) and the critics (members 2, 3) in one stack, so
+        # the target and current critics run as one batched product per layer
+        self.stack_lp = [torch.cat([t, c]).to(self.dtype) for t, c in zip(self.critic_target, self.critic,
+                                                                            strict=True)]
+        self.target_lp = [p[:2] for p in self.stack_lp]
+        self.critic_lp = [p[2:] for p in self.stack_lp]
         self._cast_actor()
-        self._cast_critic()
-        self._cast_target()
 
     # ------------------------------------------------------------------ low-precision copies of the weights
-    def _cast(self, params):
-        return [p.to(self.dtype) for p in params]
-
     def _cast_actor(self) -> None:
-        self.actor_lp = self._cast(self.actor)
+        self.actor_lp = [p.to(self.dtype) for p in self.actor]
 
     def _cast_critic(self) -> None:
-        self.critic_lp = self._cast(self.critic)
+        self.torch._foreach_copy_(self.critic_lp, self.critic)
 
     def _cast_target(self) -> None:
-        self.target_lp = self._cast(self.critic_target)
+        self.torch._foreach_copy_(self.target_lp, self.critic_target)
 
     # ------------------------------------------------------------------ networks
     def _actor_forward(self, obs):
@@ -117,6 +119,18 @@ class FastSAC(LeanSAC):
         out = torch.addmm(b3, torch.addmm(b2, h, w2).relu_(), w3)
         return out[:, :self.act_dim], out[:, self.act_dim:].clamp(LOG_STD_MIN, LOG_STD_MAX)
 
+    def explore(self, obs):
+        """LeanSAC's rollout draw for one observation in NumPy on the float32 weights (shared memory, no copy):
+        a batch of one costs more in torch's dispatch than in its arithmetic. Same noise draw, same stream."""
+        import numpy as np
+
+        w1, b1, w2, b2, w3, b3 = self.numpy_actor
+        h = np.maximum(np.asarray(obs, dtype=np.float32) @ w1 + b1[0], 0.0)
+        out = np.maximum(h @ w2 + b2[0], 0.0) @ w3 + b3[0]
+        log_std = np.clip(out[self.act_dim:], LOG_STD_MIN, LOG_STD_MAX)
+        noise = self.torch.randn((1, self.act_dim), generator=self.generator).numpy()[0]
+        return np.tanh(out[:self.act_dim] + np.exp(log_std) * noise)
+
     def _squash(self, out, noise):
         """Squashed Gaussian sample from actor outputs (N, 2A) and noise (N, A): action, log-prob (N,),
         and what the actor gradient needs."""
@@ -131,11 +145,13 @@ class FastSAC(LeanSAC):
         inside = (raw_log_std >= LOG_STD_MIN) & (raw_log_std <= LOG_STD_MAX)
         return action, log_prob, (std, one_minus_a2, inside)
 
-    def _critic_forward(self, params, obs, action):
-        """Both critics on (B, D) observations and (B, A) actions: (Q (K, B, 1) float32, saved activations)."""
+    def _critic_forward(self, params, obs, action, z=None):
+        """Both critics on (B, D) observations and (B, A) actions, or on the stacked inputs ``z`` (members, B,
+        D + A): (Q (members, B, 1) float32, saved activations)."""
         torch = self.torch
         v1, c1, v2, c2, v3, c3 = params
-        z = torch.cat([obs, action], dim=1).to(self.dtype).expand(v1.shape[0], -1, -1)
+        if z is None:
+            z = torch.cat([obs, action], dim=1).to(self.dtype).expand(v1.shape[0], -1, -1)
         g1 = torch.baddbmm(c1, z, v1).relu_()
         g2 = torch.baddbmm(c2, g1, v2).relu_()
         return torch.baddbmm(c3, g2, v3).float(), (z, g1, g2)
@@ -147,7 +163,7 @@ class FastSAC(LeanSAC):
         z, g1, g2 = saved
         v1, _, v2, _, v3, _ = self.critic_lp
         dq_lp = dq.to(self.dtype)
-        dg2 = threshold_backward(torch.bmm(dq_lp, v3.transpose(1, 2)), g2, 0)
+        dg2 = threshold_backward(dq_lp * v3.transpose(1, 2), g2, 0)  # (K, B, 1) x (K, 1, H): an outer product
         dg1 = threshold_backward(torch.bmm(dg2, v2.transpose(1, 2)), g1, 0)
         if not weights:
             return torch.bmm(dg1, v1[:, self.obs_dim:].transpose(1, 2)).float().sum(0)
@@ -183,9 +199,13 @@ class FastSAC(LeanSAC):
             # critic target and update
             next_noise = torch.randn((batch, self.act_dim), generator=self.generator)
             next_action, next_log_prob, _ = self._squash(out[batch:], next_noise)
-            next_q = self._critic_forward(self.target_lp, next_obs, next_action)[0].min(dim=0).values
+            # target critics on (s', a') and critics on (s, a): one pass over the stacked members
+            z = torch.cat([torch.cat([next_obs, next_action], dim=1).to(self.dtype).expand(2, -1, -1),
+                           torch.cat([obs, action], dim=1).to(self.dtype).expand(2, -1, -1)])
+            q_all, saved_all = self._critic_forward(self.stack_lp, None, None, z)
+            next_q = q_all[:2].min(dim=0).values
             target = reward + (1.0 - done) * GAMMA * (next_q - ent_coef * next_log_prob.unsqueeze(1))
-            q, critic_saved = self._critic_forward(self.critic_lp, obs, action)
+            q, critic_saved = q_all[2:], tuple(t[2:] for t in saved_all)
             self.critic_adam.step(self._critic_backward((q - target) / batch, critic_saved, weights=True))
             self._cast_critic()
             # actor update against the updated critics

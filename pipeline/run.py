@@ -61,8 +61,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     paper.add_argument("--sac-episodes", type=int, default=150, help="SAC training episodes (paper: 150)")
     paper.add_argument("--dask", nargs="?", const="local", metavar="ADDRESS",
                        help="run the tasks on Dask: a local cluster of --workers processes, or a scheduler ADDRESS")
-    paper.add_argument("--sac-threads", type=int, metavar="N",
-                       help="torch threads per SAC training (default: cores // workers)")
+    paper.add_argument("--sac-threads", type=int, metavar="N", default=1,
+                       help="torch threads per SAC training (default 1: more threads only help on idle cores)")
     paper.add_argument("--multiplier", type=float, default=3.0, help="over-cooling multiplier m of d_o")
     paper.add_argument("--seed", type=int, default=0, help="first seed")
     paper.add_argument("--seeds", type=int, default=1, help="run the learning rows with N seeds (mean ± std)")
@@ -202,7 +202,7 @@ def paper_command(args: argparse.Namespace) -> int:
 
     options = RunOptions(sac_episodes=args.sac_episodes, roles=tuple(args.buildings) if args.buildings else None,
                          rules=args.rules, compat=args.compat, sac=args.sac,
-                         sac_threads=args.sac_threads or max(1, (os.cpu_count() or 1) // max(args.workers, 1)))
+                         sac_threads=args.sac_threads)
     sweep = (1.0, 3.0, 6.0, 12.0) if args.full and not args.sweep else tuple(args.sweep or ())
     only = args.only if args.only or args.full or not args.sweep else []
     runner = None

@@ -55,7 +55,7 @@ class TrainConfig:
     """Hyper-parameters (defaults tuned on the 2R2C benchmark houses; see docs/surrogates.md)."""
 
     inputs: tuple[str, ...] = DEFAULT_INPUTS
-    hidden_size: int = 32
+    hidden_size: int = 16
     num_layers: int = 2
     lookback: int = 6
     epochs: int = 60
