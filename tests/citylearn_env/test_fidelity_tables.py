@@ -43,9 +43,9 @@ def _references(path: Path) -> dict:
     return json.loads(path.read_text()) if path.is_file() else {}
 
 
-def _names(path: Path, small: bool) -> list[str]:
-    """The datasets of a stored reference (the small ones only, with ``small``)."""
-    return [n for n in sorted(_references(path)) if not small or n in SMALL]
+def _cases(path: Path) -> list:
+    """The datasets of a stored reference as test cases: the small ones in the default run, the rest slow."""
+    return [pytest.param(n, marks=() if n in SMALL else pytest.mark.slow, id=n) for n in sorted(_references(path))]
 
 
 def _value(v) -> float:
@@ -92,14 +92,8 @@ def check_2_1_2(name: str) -> None:
     assert not off, f"{len(off)} of {len(reference['kpis'])} KPI rows off by more than 1e-4: {off[:5]}"
 
 
-@pytest.mark.parametrize("name", _names(REF_212, small=True))
-def test_small_datasets_match_citylearn_2_1_2(name):
-    check_2_1_2(name)
-
-
-@pytest.mark.slow
-@pytest.mark.parametrize("name", _names(REF_212, small=False))
-def test_every_dataset_matches_citylearn_2_1_2(name):
+@pytest.mark.parametrize("name", _cases(REF_212))
+def test_dataset_matches_citylearn_2_1_2(name):
     check_2_1_2(name)
 
 
@@ -171,14 +165,8 @@ def check_2_5_0(name: str) -> None:
     assert not off, f"{len(off)} of {compared} KPI rows off: {off[:5]}"
 
 
-@pytest.mark.parametrize("name", _names(REF_250, small=True))
-def test_small_datasets_match_citylearn_2_5_0(name):
-    check_2_5_0(name)
-
-
-@pytest.mark.slow
-@pytest.mark.parametrize("name", _names(REF_250, small=False))
-def test_every_dataset_matches_citylearn_2_5_0(name):
+@pytest.mark.parametrize("name", _cases(REF_250))
+def test_dataset_matches_citylearn_2_5_0(name):
     check_2_5_0(name)
 
 
