@@ -26,7 +26,8 @@ then uses the updated critic; target networks updated every step. Terminal steps
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 
 import numpy as np
@@ -70,6 +71,28 @@ def train_sac(env, episodes: int, seed: int, backend: str = "fast", threads: int
     env.reset(seed=seed)
     steps = max(episodes, 1) * (env.unwrapped.episode_length - 1)
     start, cpu = time.perf_counter(), time.process_time()
+    with flushed_subnormals():
+        act = _train(env, steps, seed, backend, threads)
+    return TrainedPolicy(act, backend, steps, time.perf_counter() - start, time.process_time() - cpu)
+
+
+@contextmanager
+def flushed_subnormals() -> Iterator[None]:
+    """Subnormal floats flushed to zero while training, restored after (a process-wide CPU setting that
+    other code, e.g. hypothesis, must not inherit). Late in training Adam's second moments and the gradients
+    reach subnormals, and x86 arithmetic on them is ~100x slower (measured on ``fast``: 182 -> 250 steps per
+    CPU second); every torch back end gets the same setting."""
+    import torch
+
+    torch.set_flush_denormal(True)
+    try:
+        yield
+    finally:
+        torch.set_flush_denormal(False)
+
+
+def _train(env, steps: int, seed: int, backend: str, threads: int) -> Callable[[np.ndarray], np.ndarray]:
+    """The training loop of ``backend``; returns the deterministic policy."""
     if backend in ("sb3", "sbx"):
         act = _train_library(env, steps, seed, backend, threads)
     else:
@@ -80,7 +103,7 @@ def train_sac(env, episodes: int, seed: int, backend: str = "fast", threads: int
             threads=threads)
         agent.learn(env, steps, seed)
         act = agent.act
-    return TrainedPolicy(act, backend, steps, time.perf_counter() - start, time.process_time() - cpu)
+    return act
 
 
 def _train_library(env, steps: int, seed: int, backend: str, threads: int = 1) -> Callable[[np.ndarray], np.ndarray]:
@@ -90,7 +113,6 @@ def _train_library(env, steps: int, seed: int, backend: str, threads: int = 1) -
         from stable_baselines3 import SAC
 
         torch.set_num_threads(threads)
-        torch.set_flush_denormal(True)  # as for LeanSAC: the same footing for every torch back end
         model = SAC("MlpPolicy", env, seed=seed, device="cpu", verbose=0, learning_starts=LEARNING_STARTS)
     else:
         try:
@@ -120,9 +142,6 @@ class LeanSAC:
         import torch
 
         torch.set_num_threads(threads)
-        # flush subnormal floats to zero: Adam's second moments and late-training gradients reach them, and
-        # x86 arithmetic on subnormals is ~100x slower (measured: 182 -> 250 steps per CPU second)
-        torch.set_flush_denormal(True)
         self.torch = torch
         self.generator = torch.Generator().manual_seed(seed)
         torch.manual_seed(seed)

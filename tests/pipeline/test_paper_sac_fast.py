@@ -93,3 +93,15 @@ def test_numpy_rollout_draw_equals_torch_draw():
     lean.train_step(*batch)
     fast.train_step(*batch)
     assert np.allclose(fast.explore(obs), lean.explore(obs), atol=1e-4)
+
+
+def test_subnormals_flushed_only_while_training():
+    """Training flushes subnormal floats to zero (a process-wide CPU flag) and gives the flag back: code that
+    runs after it (hypothesis, NumPy) sees IEEE subnormals again."""
+    from pipeline.paper_sac import flushed_subnormals
+
+    tiny = torch.tensor([1e-40], dtype=torch.float32)  # below float32's smallest normal, 1.18e-38
+    assert float(tiny * 1.0) > 0
+    with flushed_subnormals():
+        assert float(tiny * 1.0) == 0.0
+    assert float(tiny * 1.0) > 0
