@@ -18,8 +18,7 @@ Output (``--json``)::
      "efficiency": {"2": T1 / (2 T2), ...}}
 
 ``artifacts_sha256``: :func:`pipeline.cache.district_digest`, sha256 over every artifact's relative path and
-bytes except ``timings.json`` (JSON files without timing fields, for builds from before the timings moved
-there). The output folder and the cache folder have the same path in every run (emptied in between), as
+bytes except ``timings.json``. The output folder and the cache folder have the same path in every run (emptied in between), as
 ``manifest.json`` records the configuration. ``cpu_s``: user + system CPU seconds of the build process and all its
 children (Dask workers, EnergyPlus); ``peak_rss_mb``: the largest single process (``ru_maxrss`` of the
 children).
@@ -95,12 +94,9 @@ def _children_usage() -> tuple[float, float]:
 
 
 def _step_timings(folder: Path) -> dict:
-    for name in ("timings.json", "manifest.json"):
-        path = folder / name
-        if path.is_file():
-            data = json.loads(path.read_text())
-            return data.get("timings_s", data) if name == "manifest.json" else data
-    return {}
+    from pipeline.manifest import TIMINGS
+
+    return json.loads((folder / TIMINGS).read_text())
 
 
 def one_build(toml: Path, workers: int, scratch: Path, keep: Path | None = None) -> dict:

@@ -96,8 +96,9 @@ class District:
         self.signals = Signals(MappingProxyType(columns), pv, columns["power_outage"])
         self.end_use_params = tuple(self._end_use_params(k) for k in END_USES)
         self.battery = self._battery_params()
+        self.step_hours = config.seconds_per_time_step / 3600.0
         #: kWh per unit of battery action: capacity (CityLearn 2.1) or nominal power x step hours (2.5)
-        self._battery_scale = self.battery.nominal_power * (config.seconds_per_time_step / 3600.0) \
+        self._battery_scale = self.battery.nominal_power * self.step_hours \
             if settings.battery_action_fraction_of_nominal_power else self.battery.capacity
         self.dynamics = np.array([x.has_dynamics for x in b])
         self.thermal = None
@@ -112,7 +113,6 @@ class District:
         self.ev = config.electric_vehicles if config.electric_vehicles is not None and \
             config.electric_vehicles.chargers.names else None
         self.machines = config.washing_machines
-        self.step_hours = config.seconds_per_time_step / 3600.0
 
     # ------------------------------------------------------------------ construction
     def _end_use_params(self, k: str) -> EndUseParams:

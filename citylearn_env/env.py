@@ -60,6 +60,7 @@ class CityLearnEnv(gym.Env):
         allow_outside_paths: bool = False,
     ):
         self.settings = resolve(settings, compat)
+        self._legacy_drift: np.random.RandomState | None = None  # legacy_ev_drift_draws' stream
         config = schema if isinstance(schema, DistrictConfig) else load_schema(
             schema, settings=self.settings, allow_outside_paths=allow_outside_paths)
         self.config = config
@@ -323,7 +324,7 @@ class CityLearnEnv(gym.Env):
             return None
         if not self.settings.legacy_ev_drift_draws:
             return lambda k: self.np_random.normal(1.0, 0.2, k)
-        if seed is not None or getattr(self, "_legacy_drift", None) is None:
+        if seed is not None or self._legacy_drift is None:
             self._legacy_drift = np.random.RandomState(seed if seed is not None
                                                        else int(self.np_random.integers(2**31 - 1)))
         return lambda k, rs=self._legacy_drift: rs.normal(1.0, 0.2, k)

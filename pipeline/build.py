@@ -32,7 +32,6 @@ import time
 from collections.abc import Callable, Mapping
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import asdict, dataclass, replace
-from importlib import metadata as importlib_metadata
 from pathlib import Path
 from typing import Any, Protocol
 
@@ -43,6 +42,7 @@ from pipeline.config import BuildConfig
 from pipeline.errors import InputError
 from pipeline.manifest import (
     make_world_readable,
+    package_version,
     split_surrogate_timings,
     verify_district,  # noqa: F401  (re-exported: build.verify_district)
     write_manifest,
@@ -430,7 +430,7 @@ def surrogate_cache_parts(config: BuildConfig, bldg_id: int, name: str, table: p
     parts: dict[str, object] = {
         "building": name, "bldg_id": int(bldg_id), "train": settings,
         "trainer_sha256": files_digest([package / f for f in TRAINER_SOURCES], package),
-        "torch": _version("torch"),
+        "torch": package_version("torch"),
     }
     if table is not None:
         parts["ilv"] = {"source": config.surrogate.source, "table_sha256": table_digest(table)}
@@ -878,8 +878,3 @@ def _hours(config: BuildConfig) -> int:
     return ((config.period.end - config.period.start).days + 1) * 24
 
 
-def _version(dist: str) -> str | None:
-    try:
-        return importlib_metadata.version(dist)
-    except importlib_metadata.PackageNotFoundError:
-        return None

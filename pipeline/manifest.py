@@ -20,6 +20,7 @@ Every file of a district is mode 0644 and every folder 0755 whatever the umask
 
 from __future__ import annotations
 
+import copy
 import datetime as dt
 import hashlib
 import json
@@ -142,7 +143,8 @@ def input_hashes(config: BuildConfig) -> dict[str, dict[str, object]]:
 
 
 # ---------------------------------------------------------------------------------------------- writing
-def _version(dist: str) -> str | None:
+def package_version(dist: str) -> str | None:
+    """The installed version of distribution ``dist`` (None when not installed)."""
     try:
         return importlib_metadata.version(dist)
     except importlib_metadata.PackageNotFoundError:
@@ -160,7 +162,7 @@ def manifest_document(out: Path, config: BuildConfig,
                       surrogate_keys: Mapping[str, str | None] | None = None) -> dict[str, Any]:
     """The manifest of the district in ``out`` (see the module docstring); deterministic."""
     return {"district": config.name, "config": portable_config(config), "inputs": input_hashes(config),
-            "outputs": output_hashes(out), "versions": {d: _version(d) for d in VERSIONED},
+            "outputs": output_hashes(out), "versions": {d: package_version(d) for d in VERSIONED},
             "python": platform.python_version(),
             "seeds": {"build": config.seed, "surrogate": config.surrogate.seed},
             "surrogate_cache": {name: {"key": key} for name, key in (surrogate_keys or {}).items()},
@@ -364,11 +366,11 @@ def check_model_fits(block: Mapping[str, Any], current: Mapping[str, Any] | None
                          f"{old.get('input_size')}", file=model, column="input_size")
 
 
-def place_model(folder: Path, building: str, files: ModelFiles, schema: dict) -> dict[str, Any]:
-    """Copy a checked model into a district folder as ``<building>.pth`` and ``surrogates/<building>.*``
-    (metrics without their seconds), point the schema's dynamics entry at it and rewrite ``schema.json``;
-    returns the seconds taken out of the metrics (for ``timings.json``)."""
-    block = json.loads(files.dynamics.read_text())
+def place_model(folder: Path, building: str, files: ModelFiles, schema: dict, block: dict) -> dict[str, Any]:
+    """Copy a checked model (its parsed dynamics ``block``) into a district folder as ``<building>.pth`` and
+    ``surrogates/<building>.*`` (metrics without their seconds), point the schema's dynamics entry at it and
+    rewrite ``schema.json``; returns the seconds taken out of the metrics (for ``timings.json``)."""
+    block = copy.deepcopy(block)
     block["attributes"]["filename"] = f"{building}.pth"
     (folder / "surrogates").mkdir(exist_ok=True)
     shutil.copyfile(files.pth, folder / f"{building}.pth")
@@ -436,7 +438,7 @@ def install_surrogate(district: str | os.PathLike, building: str, model: str | o
     shutil.rmtree(work, ignore_errors=True)
     shutil.copytree(folder, work, symlinks=True)
     try:
-        seconds = place_model(work, building, files, schema)
+        seconds = place_model(work, building, files, schema, block)
         revalidate(work, manifest.get("district") or folder.name, schema)
         manifest["outputs"] = output_hashes(work)
         manifest.setdefault("surrogate_cache", {})[building] = {"key": None, "installed": files.pth.name,

@@ -106,7 +106,7 @@ def _train(env, steps: int, seed: int, backend: str, threads: int) -> Callable[[
     return act
 
 
-def _train_library(env, steps: int, seed: int, backend: str, threads: int = 1) -> Callable[[np.ndarray], np.ndarray]:
+def _train_library(env, steps: int, seed: int, backend: str, threads: int) -> Callable[[np.ndarray], np.ndarray]:
     """SB3 or SBX ``SAC("MlpPolicy", env)`` with defaults (``threads`` torch threads for SB3)."""
     if backend == "sb3":
         import torch
@@ -157,10 +157,14 @@ class LeanSAC:
         self.critic_target = [p.detach().clone() for p in self.critic]
         self.log_ent_coef = torch.zeros(1, requires_grad=True)
         self.target_entropy = -float(act_dim)
+        self._make_optimizers()
+
+    def _make_optimizers(self) -> None:
+        """torch's fused Adam (SB3's optimiser and learning rate) for actor, critics and entropy coefficient."""
         adam = dict(lr=LEARNING_RATE, fused=True)
-        self.actor_opt = torch.optim.Adam(self.actor, **adam)
-        self.critic_opt = torch.optim.Adam(self.critic, **adam)
-        self.ent_opt = torch.optim.Adam([self.log_ent_coef], **adam)
+        self.actor_opt = self.torch.optim.Adam(self.actor, **adam)
+        self.critic_opt = self.torch.optim.Adam(self.critic, **adam)
+        self.ent_opt = self.torch.optim.Adam([self.log_ent_coef], **adam)
 
     # ------------------------------------------------------------------ networks
     def _autocast(self):
@@ -178,15 +182,9 @@ class LeanSAC:
 
     def _sample(self, obs):
         """Squashed Gaussian sample and its log-probability (SB3's SquashedDiagGaussianDistribution)."""
-        torch = self.torch
         mu, log_std = self._actor_params(obs)
-        std = log_std.exp()
-        noise = torch.randn(mu.shape, generator=self.generator)
-        u = mu + std * noise
-        action = torch.tanh(u)
-        log_prob = (-0.5 * noise.square() - log_std - 0.5 * math.log(2 * math.pi)).sum(1)
-        log_prob = log_prob - torch.log(1 - action.square() + SQUASH_EPSILON).sum(1)
-        return action, log_prob
+        noise = self.torch.randn(mu.shape, generator=self.generator)
+        return squashed_gaussian(mu, log_std, noise)[:2]
 
     def _q(self, params, obs, action):
         """Both critics at once: (2, batch, 1)."""
@@ -268,6 +266,19 @@ class LeanSAC:
         with torch.no_grad():
             mu, _ = self._actor_params(torch.as_tensor(np.asarray(obs, dtype=np.float32))[None])
         return (torch.tanh(mu)[0].double().numpy() + 1.0) / 2.0
+
+
+def squashed_gaussian(mu, log_std, noise):
+    """tanh(mu + exp(log_std) noise) and its log-probability (N,) with SB3's squashing correction
+    log(1 - a^2 + 1e-6); also returns exp(log_std) and 1 - a^2 (what a hand-written gradient needs)."""
+    import torch
+
+    std = log_std.exp()
+    action = torch.tanh(mu + std * noise)
+    one_minus_a2 = 1 - action.square()
+    log_prob = (-0.5 * noise.square() - log_std - 0.5 * math.log(2 * math.pi)).sum(1)
+    log_prob = log_prob - torch.log(one_minus_a2 + SQUASH_EPSILON).sum(1)
+    return action, log_prob, std, one_minus_a2
 
 
 def _linear(n_in: int, n_out: int):

@@ -24,9 +24,17 @@ from __future__ import annotations
 
 import math
 
-from pipeline.paper_sac import GAMMA, LEARNING_RATE, LOG_STD_MAX, LOG_STD_MIN, SQUASH_EPSILON, TAU, LeanSAC
+from pipeline.paper_sac import (
+    GAMMA,
+    LEARNING_RATE,
+    LOG_STD_MAX,
+    LOG_STD_MIN,
+    SQUASH_EPSILON,
+    TAU,
+    LeanSAC,
+    squashed_gaussian,
+)
 
-_HALF_LOG_2PI = 0.5 * math.log(2 * math.pi)
 #: torch.optim.Adam's defaults (SB3 leaves them)
 BETA1, BETA2, ADAM_EPS = 0.9, 0.999, 1e-8
 
@@ -73,15 +81,10 @@ class FastSAC(LeanSAC):
     """:class:`LeanSAC` with hand-written gradients (see the module docstring); same constructor."""
 
     def __init__(self, obs_dim: int, act_dim: int, *, seed: int = 0, bf16: bool = True, threads: int = 1):
-        super().__init__(obs_dim, act_dim, seed=seed, bf16=False, threads=threads)
+        super().__init__(obs_dim, act_dim, seed=seed, bf16=bf16, threads=threads)
         torch = self.torch
-        self.bf16 = bf16
         self.dtype = torch.bfloat16 if bf16 else torch.float32
-        for p in (*self.actor, *self.critic, self.log_ent_coef):
-            p.requires_grad_(False)
-        self.actor_adam, self.critic_adam = FusedAdam(self.actor), FusedAdam(self.critic)
         self.numpy_actor = [p.numpy() for p in self.actor]  # views: Adam's in-place updates show through
-        self.ent_adam = ScalarAdam(float(self.log_ent_coef))
         # bfloat16 copies of the target critics (members 0, 1) and the critics (members 2, 3) in one stack, so
         # the target and current critics run as one batched product per layer
         self.stack_lp = [torch.cat([t, c]).to(self.dtype) for t, c in zip(self.critic_target, self.critic,
@@ -89,6 +92,14 @@ class FastSAC(LeanSAC):
         self.target_lp = [p[:2] for p in self.stack_lp]
         self.critic_lp = [p[2:] for p in self.stack_lp]
         self._cast_actor()
+
+    def _make_optimizers(self) -> None:
+        """No autograd: parameters are plain tensors, stepped by one fused Adam call per network and a float
+        Adam for the entropy coefficient."""
+        for p in (*self.actor, *self.critic, self.log_ent_coef):
+            p.requires_grad_(False)
+        self.actor_adam, self.critic_adam = FusedAdam(self.actor), FusedAdam(self.critic)
+        self.ent_adam = ScalarAdam(float(self.log_ent_coef))
 
     # ------------------------------------------------------------------ low-precision copies of the weights
     def _cast_actor(self) -> None:
@@ -134,24 +145,21 @@ class FastSAC(LeanSAC):
     def _squash(self, out, noise):
         """Squashed Gaussian sample from actor outputs (N, 2A) and noise (N, A): action, log-prob (N,),
         and what the actor gradient needs."""
-        torch = self.torch
         raw_log_std = out[:, self.act_dim:]
         log_std = raw_log_std.clamp(LOG_STD_MIN, LOG_STD_MAX)
-        std = log_std.exp()
-        action = torch.tanh(out[:, :self.act_dim] + std * noise)
-        one_minus_a2 = 1 - action.square()
-        log_prob = (-0.5 * noise.square() - log_std - _HALF_LOG_2PI).sum(1)
-        log_prob = log_prob - torch.log(one_minus_a2 + SQUASH_EPSILON).sum(1)
+        action, log_prob, std, one_minus_a2 = squashed_gaussian(out[:, :self.act_dim], log_std, noise)
         inside = (raw_log_std >= LOG_STD_MIN) & (raw_log_std <= LOG_STD_MAX)
         return action, log_prob, (std, one_minus_a2, inside)
 
-    def _critic_forward(self, params, obs, action, z=None):
-        """Both critics on (B, D) observations and (B, A) actions, or on the stacked inputs ``z`` (members, B,
-        D + A): (Q (members, B, 1) float32, saved activations)."""
+    def _critic_input(self, obs, action, members: int = 2):
+        """(s, a) rows as the critics' input, repeated for ``members`` stacked critics: (members, B, D + A)."""
+        return self.torch.cat([obs, action], dim=1).to(self.dtype).expand(members, -1, -1)
+
+    def _critic_forward(self, params, z):
+        """The stacked critics ``params`` on their inputs ``z`` (members, B, D + A): (Q (members, B, 1) float32,
+        saved activations)."""
         torch = self.torch
         v1, c1, v2, c2, v3, c3 = params
-        if z is None:
-            z = torch.cat([obs, action], dim=1).to(self.dtype).expand(v1.shape[0], -1, -1)
         g1 = torch.baddbmm(c1, z, v1).relu_()
         g2 = torch.baddbmm(c2, g1, v2).relu_()
         return torch.baddbmm(c3, g2, v3).float(), (z, g1, g2)
@@ -200,16 +208,15 @@ class FastSAC(LeanSAC):
             next_noise = torch.randn((batch, self.act_dim), generator=self.generator)
             next_action, next_log_prob, _ = self._squash(out[batch:], next_noise)
             # target critics on (s', a') and critics on (s, a): one pass over the stacked members
-            z = torch.cat([torch.cat([next_obs, next_action], dim=1).to(self.dtype).expand(2, -1, -1),
-                           torch.cat([obs, action], dim=1).to(self.dtype).expand(2, -1, -1)])
-            q_all, saved_all = self._critic_forward(self.stack_lp, None, None, z)
+            z = torch.cat([self._critic_input(next_obs, next_action), self._critic_input(obs, action)])
+            q_all, saved_all = self._critic_forward(self.stack_lp, z)
             next_q = q_all[:2].min(dim=0).values
             target = reward + (1.0 - done) * GAMMA * (next_q - ent_coef * next_log_prob.unsqueeze(1))
             q, critic_saved = q_all[2:], tuple(t[2:] for t in saved_all)
             self.critic_adam.step(self._critic_backward((q - target) / batch, critic_saved, weights=True))
             self._cast_critic()
             # actor update against the updated critics
-            q_pi, pi_saved = self._critic_forward(self.critic_lp, obs, action_pi)
+            q_pi, pi_saved = self._critic_forward(self.critic_lp, self._critic_input(obs, action_pi))
             lowest = (q_pi == q_pi.min(dim=0, keepdim=True).values).float()  # (K, B, 1): the minimum's member
             d_action = self._critic_backward(lowest * (-1.0 / batch), pi_saved, weights=False)
             d_action = d_action + (ent_coef / batch) * 2 * action_pi / (one_minus_a2 + SQUASH_EPSILON)

@@ -30,7 +30,6 @@ OBJECTIVES = {"cost": ("$", 2), "emissions": ("kg CO2", 1), "discomfort": ("degC
 #: KPI name prefix -> unit of the KPI table (first match; else a ratio to the no-storage baseline)
 KPI_UNITS = (("discomfort_delta", "degC"), ("discomfort", "fraction of occupied hours"),
              ("one_minus_thermal_resilience", "fraction of outage hours"))
-POLICY_NAMES = {"no_control": "no control", "cost_rbc": "cost RBC"}
 
 
 def report_series(env: Any) -> dict[str, np.ndarray]:
@@ -141,11 +140,11 @@ def objectives_table(objectives: Mapping[str, Mapping[str, float]]) -> list[str]
         values = [objectives[p][key] for p in policies]
         rows.append([key.replace("_", " "), unit, *(f"{v:.{decimals}f}" for v in values),
                      *(_change(v, values[0]) for v in values[1:])])
-    header = ["objective", "unit", *(POLICY_NAMES.get(p, p) for p in policies),
-              *(f"change {POLICY_NAMES.get(p, p)}" for p in policies[1:])]
+    header = ["objective", "unit", *(figures.POLICY_LABELS.get(p, p) for p in policies),
+              *(f"change {figures.POLICY_LABELS.get(p, p)}" for p in policies[1:])]
     return ["## Objectives over the period (district)", "",
             f"Cost, emissions and consumption count grid imports only; discomfort is the sum of |indoor - set "
-            f"point| over the hours; change relative to {POLICY_NAMES.get(first, first)}.", "",
+            f"point| over the hours; change relative to {figures.POLICY_LABELS.get(first, first)}.", "",
             *_table(header, rows), ""]
 
 
@@ -155,7 +154,7 @@ def building_objectives_table(series: Mapping[str, Mapping[str, np.ndarray]], bu
 
     per = {p: objectives(s)["per_building"] for p, s in series.items()}
     policies = list(per)
-    names = " / ".join(POLICY_NAMES.get(p, p) for p in policies)
+    names = " / ".join(figures.POLICY_LABELS.get(p, p) for p in policies)
     keys = ("cost", "emissions", "consumption", "discomfort")
     rows = [[building, *(" / ".join(f"{per[p][k][b]:.{OBJECTIVES[k][1]}f}" for p in policies) for k in keys)]
             for b, building in enumerate(buildings)]
@@ -179,7 +178,7 @@ def kpi_table(kpis: Mapping[str, Any]) -> list[str]:
     return ["## KPIs (CityLearn evaluate, district level; kpis_<policy>.csv)", "",
             "Ratios compare each policy's run with its own run without storage (1 = no change, lower is "
             "better); n/a: not defined for the period (no outage).", "",
-            *_table(["KPI", "unit", *(POLICY_NAMES.get(p, p) for p in policies)], rows), ""]
+            *_table(["KPI", "unit", *(figures.POLICY_LABELS.get(p, p) for p in policies)], rows), ""]
 
 
 def write_figures(report_dir: Path, buildings: list[str], series: Mapping[str, Mapping[str, np.ndarray]]

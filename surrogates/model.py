@@ -171,7 +171,7 @@ def merge_ensemble(members: Sequence[LSTMModel]) -> LSTMModel:
     for name, value in merged.state_dict().items():
         block = torch.zeros_like(value)
         for j, state in enumerate(states):
-            part = state[name].detach().to(value.dtype)
+            part = state[name].to(value.dtype)
             if name.startswith("l_linear.weight"):
                 block[:, j * h:(j + 1) * h] = part / k
             elif name.startswith("l_linear.bias"):
@@ -180,9 +180,7 @@ def merge_ensemble(members: Sequence[LSTMModel]) -> LSTMModel:
                 for gate in range(4):
                     rows_out = slice(gate * k * h + j * h, gate * k * h + (j + 1) * h)
                     rows_in = slice(gate * h, (gate + 1) * h)
-                    if value.dim() == 1:
-                        block[rows_out] = part[rows_in]
-                    elif name.startswith("l_lstm.weight_ih_l0"):
+                    if value.dim() == 1 or name.startswith("l_lstm.weight_ih_l0"):  # biases, model inputs
                         block[rows_out] = part[rows_in]
                     else:  # recurrent or deeper-layer input: own member's units only
                         block[rows_out, j * h:(j + 1) * h] = part[rows_in]
