@@ -114,6 +114,12 @@ def run_task(schema_path: str, task: Task, options: RunOptions, out_file: str,
     return result
 
 
+def gather(submit: Callable[..., Any], fn: Callable[..., Any], calls: Mapping[str, tuple]) -> dict[str, Any]:
+    """Submit every call (``submit(label, fn, *args)`` returns a future), then wait for each: {label: result}."""
+    futures = {label: submit(label, fn, *args) for label, args in calls.items()}
+    return {label: future.result() for label, future in futures.items()}
+
+
 class ProcessRunner:
     """The build's runner protocol on a pool of ``workers`` processes (spawned: no state shared)."""
 
@@ -124,8 +130,7 @@ class ProcessRunner:
         import multiprocessing
 
         with ProcessPoolExecutor(self.workers, mp_context=multiprocessing.get_context("spawn")) as pool:
-            futures = {label: pool.submit(fn, *args) for label, args in calls.items()}
-            return {label: future.result() for label, future in futures.items()}
+            return gather(lambda _, f, *args: pool.submit(f, *args), fn, calls)
 
 
 class DaskRunner:
@@ -145,9 +150,8 @@ class DaskRunner:
             target = self.address or stack.enter_context(LocalCluster(
                 n_workers=self.workers, threads_per_worker=1, processes=True, dashboard_address=None))
             client = stack.enter_context(Client(target))
-            futures = {label: client.submit(fn, *args, key=f"{step}-{label}", pure=False)
-                       for label, args in calls.items()}
-            return {label: future.result() for label, future in futures.items()}
+            return gather(lambda label, f, *args: client.submit(f, *args, key=f"{step}-{label}", pure=False),
+                          fn, calls)
 
 
 def run_paper(schema_path: str | Path, out_dir: str | Path, *, only: Sequence[str] | None = None,
