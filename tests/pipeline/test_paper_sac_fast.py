@@ -105,3 +105,21 @@ def test_subnormals_flushed_only_while_training():
     with flushed_subnormals():
         assert float(tiny * 1.0) == 0.0
     assert float(tiny * 1.0) > 0
+
+
+def test_bfloat16_relu_through_int16_view_equals_torch():
+    """The int16-view ReLU and its gradient give torch's bfloat16 results, on the values where a sign-bit
+    trick could go wrong: -0.0, the smallest subnormals of both signs, +-inf and ordinary values. The one
+    difference is the sign of zero: torch keeps -0.0, the clamp gives +0.0 (equal as numbers)."""
+    from pipeline.paper_sac_fast import relu_, relu_backward
+
+    tiny = 2.0 ** -133  # the smallest positive bfloat16 subnormal
+    special = torch.tensor([-0.0, 0.0, tiny, -tiny, 1e-38, -1e-38, float("inf"), -float("inf"), 3.5, -3.5])
+    values = torch.cat([special, torch.randn(4000, generator=torch.Generator().manual_seed(1))]).to(torch.bfloat16)
+    ours = relu_(values.clone())
+    expected = values.relu()
+    assert torch.equal(ours, expected)
+    assert int(ours.view(torch.int16).min()) >= 0  # no sign bit left, -0.0 included
+    grad = torch.randn(values.shape, generator=torch.Generator().manual_seed(2)).to(torch.bfloat16)
+    reference = torch.ops.aten.threshold_backward(grad, expected, 0)
+    assert torch.equal(relu_backward(grad.clone(), ours), reference)
