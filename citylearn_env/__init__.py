@@ -18,25 +18,27 @@ __all__ = ["CityLearnEnv", "SchemaError", "load_schema", "make_example_env"]
 __version__ = "0.1.0"
 
 
-def _example_schema(n_buildings: int, hours: int, seed: int):
+def _on_example(factory, n_buildings: int, hours: int, seed: int):
+    """``factory(schema_path)`` on the example district written to a temporary folder, removed afterwards
+    (the environment holds every series in memory once built)."""
     import tempfile
 
     from citylearn_env.example import write_example_district
 
-    folder = tempfile.mkdtemp(prefix="citylearn_env_example_")
-    return write_example_district(folder, n_buildings=n_buildings, hours=hours, seed=seed)
+    with tempfile.TemporaryDirectory(prefix="citylearn_env_example_") as folder:
+        return factory(write_example_district(folder, n_buildings=n_buildings, hours=hours, seed=seed))
 
 
 def make_example_env(n_buildings: int = 3, hours: int = 720, seed: int = 0, **kwargs) -> CityLearnEnv:
-    """An environment on the synthetic example district (written to a temporary folder)."""
-    return CityLearnEnv(_example_schema(n_buildings, hours, seed), **kwargs)
+    """An environment on the synthetic example district (written to a temporary folder, removed once read)."""
+    return _on_example(lambda schema: CityLearnEnv(schema, **kwargs), n_buildings, hours, seed)
 
 
 def make_example_vector_env(num_envs: int = 1, n_buildings: int = 3, hours: int = 720, seed: int = 0, **kwargs):
     """``num_envs`` batched copies of the synthetic example district (:class:`citylearn_env.vector.CityLearnVectorEnv`)."""
     from citylearn_env.vector import CityLearnVectorEnv
 
-    return CityLearnVectorEnv(_example_schema(n_buildings, hours, seed), num_envs, **kwargs)
+    return _on_example(lambda schema: CityLearnVectorEnv(schema, num_envs, **kwargs), n_buildings, hours, seed)
 
 
 for _id, _entry, _vector in (

@@ -113,7 +113,10 @@ def _train_library(env, steps: int, seed: int, backend: str, threads: int) -> Ca
         from stable_baselines3 import SAC
 
         torch.set_num_threads(threads)
+        from stable_baselines3.common.logger import Logger
+
         model = SAC("MlpPolicy", env, seed=seed, device="cpu", verbose=0, learning_starts=LEARNING_STARTS)
+        model.set_logger(Logger(None, []))  # SB3's default logger leaves an empty SB3-<time> folder in /tmp
     else:
         try:
             from sbx import SAC

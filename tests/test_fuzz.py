@@ -8,10 +8,12 @@ mutated key (or, for a changed file name, the file). Any other exception escapin
 
 from __future__ import annotations
 
+import atexit
 import copy
 import json
 import math
 import os
+import shutil
 import tempfile
 import tomllib
 from pathlib import Path
@@ -20,7 +22,9 @@ from typing import Any
 import pytest
 
 # hypothesis keeps caches in ./.hypothesis unless told otherwise: keep the working tree clean
-os.environ.setdefault("HYPOTHESIS_STORAGE_DIRECTORY", tempfile.mkdtemp(prefix="districtgen_hypothesis_"))
+if "HYPOTHESIS_STORAGE_DIRECTORY" not in os.environ:
+    os.environ["HYPOTHESIS_STORAGE_DIRECTORY"] = tempfile.mkdtemp(prefix="districtgen_hypothesis_")
+    atexit.register(shutil.rmtree, os.environ["HYPOTHESIS_STORAGE_DIRECTORY"], ignore_errors=True)
 hypothesis = pytest.importorskip("hypothesis")
 from hypothesis import HealthCheck, given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
