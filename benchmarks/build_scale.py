@@ -17,8 +17,9 @@ Output (``--json``)::
                "artifacts_sha256": "..."}, ...],
      "efficiency": {"2": T1 / (2 T2), ...}}
 
-``artifacts_sha256``: :func:`pipeline.cache.district_digest`, sha256 over every artifact's relative path and
-bytes except ``timings.json``. The output folder and the cache folder have the same path in every run (emptied in between), as
+``artifacts_sha256``: :func:`pipeline.cache.district_digest`, sha256 over the artifact hashes the manifest
+records (every file except ``manifest.json`` and ``timings.json``; the digests recorded before 2026-11-24 hashed
+the files directly and differ in value). The output folder and the cache folder have the same path in every run (emptied in between), as
 ``manifest.json`` records the configuration. ``cpu_s``: user + system CPU seconds of the build process and all its
 children (Dask workers, EnergyPlus); ``peak_rss_mb``: the largest single process (``ru_maxrss`` of the
 children).

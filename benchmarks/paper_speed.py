@@ -3,11 +3,14 @@
     .venv/bin/python benchmarks/paper_speed.py throughput [--episodes 5 --repeats 3]
     .venv/bin/python benchmarks/paper_speed.py quality [--episodes 150 --seeds 0 1 --backends torch sbx]
     .venv/bin/python benchmarks/paper_speed.py collection [--repeats 3]
+    .venv/bin/python benchmarks/paper_speed.py revision --against REV [--episodes 2 --repeats 3]
 
 ``throughput``: each back end trains SAC (SB3 defaults) on rlc-b1-c-bess_pv of the default district for
 ``episodes`` train-period episodes, round-robin over the back ends ``repeats`` times; the median
 environment+training steps per second of each. ``quality``: each back end's full benchmark run (training
 ``episodes`` episodes, then the deterministic test period) per seed: B1's test-period cost and the seconds.
+``revision``: the ``fast`` back end of the working tree against the one of git revision ``REV``
+(``pipeline/paper_sac_fast.py`` loaded from ``git show``), alternating, steps per CPU second of each.
 Prints markdown rows and the ``uptime`` load average (for benchmarks/README.md).
 """
 
@@ -83,6 +86,43 @@ def collection(repeats: int) -> None:
     print(f"environment alone: {statistics.median(rates):.0f} steps per CPU second (median of {repeats})")
 
 
+def revision(against: str, episodes: int, repeats: int) -> None:
+    import importlib.util
+    import tempfile
+
+    import pipeline.paper_sac_fast as current
+    from citylearn_env import CityLearnEnv
+    from citylearn_env.wrappers import NormalizedActionWrapper, NormalizedObservationWrapper
+    from pipeline.paper import TRAIN_DAYS, benchmark_schema
+    from pipeline.paper_sac import flushed_subnormals
+
+    source = subprocess.run(["git", "show", f"{against}:pipeline/paper_sac_fast.py"], capture_output=True,
+                            text=True, check=True).stdout
+    with tempfile.NamedTemporaryFile("w", suffix=".py") as handle:
+        handle.write(source)
+        handle.flush()
+        spec = importlib.util.spec_from_file_location("paper_sac_fast_at_revision", handle.name)
+        previous = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(previous)
+    district, bench = load()
+    config = benchmark_schema(district, bench, (0, TRAIN_DAYS * 24 - 1))
+    rates: dict[str, list[float]] = {against: [], "working tree": []}
+    for _ in range(repeats):
+        for name, module in ((against, previous), ("working tree", current)):
+            env = NormalizedActionWrapper(NormalizedObservationWrapper(CityLearnEnv(config)))
+            env.reset(seed=0)
+            agent = module.FastSAC(env.observation_space.shape[0], env.action_space.shape[0], seed=0)
+            steps = episodes * (env.unwrapped.episode_length - 1)
+            with flushed_subnormals():
+                cpu = time.process_time()
+                agent.learn(env, steps, 0)
+                rates[name].append(steps / (time.process_time() - cpu))
+            print(f"{name}: {rates[name][-1]:.1f} steps per CPU s", flush=True)
+    print(uptime())
+    for name, values in rates.items():
+        print(f"| fast at {name} | {statistics.median(values):.0f} ({', '.join(f'{v:.0f}' for v in values)}) |")
+
+
 def quality(backends: list[str], episodes: int, seeds: list[int]) -> None:
     from pipeline.paper import RunOptions, run_benchmark
 
@@ -106,7 +146,8 @@ def uptime() -> str:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("part", choices=("throughput", "quality", "collection"))
+    parser.add_argument("part", choices=("throughput", "quality", "collection", "revision"))
+    parser.add_argument("--against", default="HEAD", help="git revision of the anchor (revision)")
     parser.add_argument("--backends", nargs="+", default=["fast", "torch", "torch-bf16", "sbx", "sb3"])
     parser.add_argument("--episodes", type=int)
     parser.add_argument("--repeats", type=int, default=3)
@@ -115,6 +156,8 @@ def main() -> None:
     args = parser.parse_args()
     if args.part == "collection":
         collection(args.repeats)
+    elif args.part == "revision":
+        revision(args.against, args.episodes or 2, args.repeats)
     elif args.part == "throughput":
         throughput(args.backends, args.episodes or 5, args.repeats, args.threads)
     else:

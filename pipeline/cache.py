@@ -89,34 +89,14 @@ def files_digest(paths: Iterable[Path], base: Path) -> str:
     return digest.hexdigest()
 
 
-#: files of a built district that hold timings (and nothing a worker count or a rerun may change)
-TIMINGS_FILES = ("timings.json",)
-
-
-def _without_timings(data: object) -> object:
-    """JSON ``data`` without the mapping keys that hold timings (``timings_s`` or a name ending in ``seconds``)."""
-    if isinstance(data, dict):
-        return {k: _without_timings(v) for k, v in data.items()
-                if not (str(k).endswith("seconds") or str(k) == "timings_s")}
-    if isinstance(data, list):
-        return [_without_timings(v) for v in data]
-    return data
-
-
 def district_digest(folder: str | os.PathLike) -> str:
-    """sha256 over every file of a built district (relative path + content), in path order, except
-    :data:`TIMINGS_FILES`; JSON files enter without their timing fields (see :func:`_without_timings`: a
-    ``manifest.json`` or ``*.metrics.json`` written before timings moved into ``timings.json``).
+    """sha256 over the artifact hashes a district's manifest records (:func:`pipeline.manifest.output_hashes`:
+    every file's relative path, sha256 and size, except ``manifest.json`` and ``timings.json``).
 
     Two builds of the same configuration have the same digest whatever the runner or worker count."""
-    folder = Path(folder)
-    digest = hashlib.sha256()
-    for path in sorted(p for p in folder.rglob("*") if p.is_file() and p.name not in TIMINGS_FILES):
-        data = path.read_bytes()
-        if path.suffix == ".json":
-            data = json.dumps(_without_timings(json.loads(data)), sort_keys=True).encode()
-        digest.update(path.relative_to(folder).as_posix().encode() + b"\0" + hashlib.sha256(data).digest())
-    return digest.hexdigest()
+    from pipeline.manifest import output_hashes
+
+    return hashlib.sha256(json.dumps(output_hashes(Path(folder)), sort_keys=True).encode()).hexdigest()
 
 
 def _safe_relative(name: str) -> bool:

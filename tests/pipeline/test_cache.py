@@ -10,7 +10,7 @@ import pandas as pd
 import pytest
 
 from pipeline import build
-from pipeline.cache import CACHE_ENV, FileCache, cache_key, cache_root, table_digest
+from pipeline.cache import CACHE_ENV, FileCache, cache_key, cache_root, district_digest, table_digest
 from pipeline.config import read_build_config
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -45,6 +45,25 @@ def test_entry_cannot_point_outside_its_folder(tmp_path):
     listing["files"] = {"../../outside": {"sha256": SHA256_ABC, "bytes": 3}}
     (folder / "entry.json").write_text(json.dumps(listing))
     assert cache.get("k") is None
+
+
+def test_district_digest_covers_artifacts_not_records(tmp_path):
+    """Same artifacts -> same digest, whatever timings.json or manifest.json hold; one changed byte or a
+    renamed artifact -> another digest."""
+    def district(name: str, schema: bytes, timings: str) -> Path:
+        folder = tmp_path / name
+        (folder / "Building_1").mkdir(parents=True)
+        (folder / "schema.json").write_bytes(schema)
+        (folder / "Building_1" / "data.csv").write_text("a,b\n1,2\n")
+        (folder / "timings.json").write_text(timings)
+        (folder / "manifest.json").write_text(name)
+        return folder
+
+    first, second = district("a", b"{}", '{"s": 1}'), district("b", b"{}", '{"s": 2}')
+    assert district_digest(first) == district_digest(second)
+    assert district_digest(district("c", b"{ }", "{}")) != district_digest(first)
+    (second / "Building_1" / "data.csv").rename(second / "Building_1" / "other.csv")
+    assert district_digest(second) != district_digest(first)
 
 
 def test_cache_root_order(tmp_path, monkeypatch):
