@@ -371,9 +371,8 @@ class ElectricVehiclesReward(MARL):
         scores = ev_charger_scores(step, net, 1.0 / (1.0 + np.abs(base[step.building])), self.weights,
                                    skip_unplugged=self.settings.ev_reward_skips_unplugged_chargers,
                                    square_soc_under=self.settings.ev_reward_squares_soc_under_weight)
-        owner = np.zeros((step.building.size, marl.size))
-        owner[np.arange(step.building.size), step.building] = 1.0
-        per_building = np.array(list(scores.values())) @ owner  # (terms, B)
+        per_building = np.array([np.bincount(step.building, weights=v, minlength=marl.size)
+                                 for v in scores.values()])  # (terms, B): each building's chargers summed
         return per_building.sum(axis=0), {"marl": marl, **dict(zip(scores, per_building, strict=True))}
 
 
