@@ -41,19 +41,31 @@ EV_ACTION = "electric_vehicle_storage"
 WASHING_MACHINE_ACTION = "washing_machine"
 
 
+def device_actions(ev: EVSection | None, machines: WashingMachines | None) -> dict[str, tuple[str, int, int]]:
+    """The per-device action names, in device order: ``electric_vehicle_storage_<charger id>`` per charger
+    and the machine's own name per washing machine, each -> (kind ``"ev"`` or ``"wm"``, device index,
+    owning building index)."""
+    out: dict[str, tuple[str, int, int]] = {}
+    if ev is not None:
+        out.update({f"{EV_ACTION}_{c}": ("ev", i, int(b))
+                    for i, (c, b) in enumerate(zip(ev.chargers.names, ev.chargers.building, strict=True))})
+    if machines is not None:
+        out.update({m: ("wm", i, int(b)) for i, (m, b) in enumerate(zip(machines.names, machines.building,
+                                                                        strict=True))})
+    return out
+
+
 def expand_actions(active: Iterable[str], building: int, ev: EVSection | None,
                    machines: WashingMachines | None) -> tuple[str, ...]:
     """Building ``building``'s action names from the generic ``active`` ones (in that order): the EV action
-    becomes one name per charger of the building, the washing-machine action one per machine."""
+    becomes one name per charger of the building, the washing-machine action one per machine
+    (:func:`device_actions`)."""
+    generic = {EV_ACTION: "ev", WASHING_MACHINE_ACTION: "wm"}
+    devices = device_actions(ev, machines)
     out: list[str] = []
     for name in active:
-        if name == EV_ACTION:
-            if ev is not None:
-                out.extend(f"{EV_ACTION}_{c}" for c, b in zip(ev.chargers.names, ev.chargers.building, strict=True)
-                           if b == building)
-        elif name == WASHING_MACHINE_ACTION:
-            if machines is not None:
-                out.extend(m for m, b in zip(machines.names, machines.building, strict=True) if b == building)
+        if name in generic:
+            out.extend(n for n, (kind, _, b) in devices.items() if kind == generic[name] and b == building)
         else:
             out.append(name)
     return tuple(out)

@@ -17,7 +17,7 @@ import gymnasium as gym
 import numpy as np
 
 from citylearn_env import observations as obs_mod
-from citylearn_env.config import EV_ACTION, DistrictConfig
+from citylearn_env.config import DistrictConfig, device_actions
 from citylearn_env.district import Actions, District
 from citylearn_env.errors import SchemaError
 from citylearn_env.schema import load_schema
@@ -88,11 +88,11 @@ class CityLearnEnv(gym.Env):
         for b, building in enumerate(self.config.buildings):
             self.action_pairs.extend((name, b) for name in building.active_actions)
         lo, hi = [], []
-        ev_names = self._device_action_names()
+        ev_names = device_actions(d.ev, d.machines)
         for name, b in self.action_pairs:
             kind = ev_names.get(name)
             if kind is not None:  # a charger: -1 only if it can discharge; a washing machine: 0..1
-                owner = (d.ev.chargers.building if kind[0] == "ev" else d.machines.building)[kind[1]]
+                owner = kind[2]
                 if owner != b:  # e.g. copies of a district (vector env): devices index the original buildings
                     raise SchemaError(f"{self.config.building_names[b]} has no device {name!r} (it belongs to "
                                       f"{self.config.building_names[owner]})", column=f"actions.{name}")
@@ -294,15 +294,6 @@ class CityLearnEnv(gym.Env):
         if self._device_actions is None:
             return Actions(*table)
         return Actions(*table, *(self._device_action_vector(kind, a) for kind in ("ev", "wm")))
-
-    def _device_action_names(self) -> dict[str, tuple[str, int]]:
-        """Charger and washing-machine action names -> ("ev", charger index) or ("wm", machine index)."""
-        d, out = self.district, {}
-        if d.ev is not None:
-            out.update({f"{EV_ACTION}_{c}": ("ev", i) for i, c in enumerate(d.ev.chargers.names)})
-        if d.machines is not None:
-            out.update({m: ("wm", i) for i, m in enumerate(d.machines.names)})
-        return out
 
     def _device_action_vector(self, kind: str, a: np.ndarray) -> np.ndarray | None:
         """The (C,) charger or (M,) washing-machine actions of action vector ``a`` (0 where inactive)."""
