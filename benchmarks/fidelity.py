@@ -72,8 +72,9 @@ def _upstream_child(schema: str, out: str) -> None:
 
 
 # --------------------------------------------------------------------------- our side
-def run_ours(schema: str | Path, settings) -> dict:
-    """One no-control episode of citylearn_env with ``settings``: district energy [kWh] and the KPI table."""
+def no_control_episode(schema, settings):
+    """citylearn_env on ``schema`` (a path or a DistrictConfig) with ``settings`` after one episode of zero
+    actions (no storage use; no actions at all for a schema without them): (env, steps)."""
     import numpy as np
 
     from citylearn_env import CityLearnEnv
@@ -81,17 +82,25 @@ def run_ours(schema: str | Path, settings) -> dict:
     env = CityLearnEnv(schema, settings=settings)
     env.reset(seed=0)
     zeros = np.zeros(env.action_space.shape)
-    done, steps = False, 0
+    done, steps = env.episode_length <= 1, 0
     while not done:
         _, _, terminated, truncated, _ = env.step(zeros)
         done, steps = terminated or truncated, steps + 1
-    series = env.series()
-    kpis = env.evaluate()
-    return {
-        "steps": steps,
-        "district_energy_kwh": float(np.sum(series["net_electricity_consumption"])),
-        "kpis": [[r.cost_function, r.name, float(r.value)] for r in kpis.itertuples()],
-    }
+    return env, steps
+
+
+def kpi_rows(env) -> list[list]:
+    """The KPI table of a finished episode as rows ``[kpi, name, value]``."""
+    return [[r.cost_function, r.name, float(r.value)] for r in env.evaluate().itertuples()]
+
+
+def run_ours(schema: str | Path, settings) -> dict:
+    """One no-control episode of citylearn_env with ``settings``: district energy [kWh] and the KPI table."""
+    import numpy as np
+
+    env, steps = no_control_episode(schema, settings)
+    return {"steps": steps, "district_energy_kwh": float(np.sum(env.series()["net_electricity_consumption"])),
+            "kpis": kpi_rows(env)}
 
 
 #: KPI values smaller than this in magnitude count as 0 (upstream's float32 sizing leaves ~1e-11 of unserved

@@ -39,9 +39,9 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
-from fidelity import relative  # noqa: E402
+from fidelity import kpi_rows, no_control_episode, relative  # noqa: E402
 
-from citylearn_env import CityLearnEnv, SchemaError, load_schema  # noqa: E402
+from citylearn_env import SchemaError, load_schema  # noqa: E402
 from citylearn_env.settings import CORRECTED, PRESETS, Behaviour  # noqa: E402
 
 DATA = ROOT.parent / "shared" / "data" / "citylearn" / "upstream" / "v2.4.2"
@@ -63,18 +63,13 @@ def preset_2_5() -> Behaviour | str:
 
 def run_ours(schema: Path, settings: Behaviour | str) -> dict:
     """One episode with every action inactive: district energy [kWh] and the KPI rows ``[kpi, name, value]``."""
-    env = CityLearnEnv(load_schema(schema).with_actions([]), settings=settings)
-    env.reset(seed=0)
-    done = env.episode_length <= 1
-    while not done:
-        _, _, done, _, _ = env.step(np.zeros(0))
-    kpis = env.evaluate()
+    env, _ = no_control_episode(load_schema(schema).with_actions([]), settings)
     series = env.series()
     first = sum(np.asarray(series[f"{k}_electricity_consumption"])[:, 0].sum() for k in END_USES)
     return {"district_energy_kwh": float(series["net_electricity_consumption"].sum()),
             "upstream_bookkeeping_kwh": float(np.asarray(series["net_electricity_consumption"])[:, :-1].sum()
                                               + 2 * first),
-            "kpis": [[r.cost_function, r.name, float(r.value)] for r in kpis.itertuples()]}
+            "kpis": kpi_rows(env)}
 
 
 #: the end uses whose first-step consumption CityLearn 2.5.0 books three times
