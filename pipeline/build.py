@@ -593,8 +593,9 @@ def validate_district(schema_path: Path, report_dir: Path, name: str | None = No
         env = run_policy(district, policy)
         kpis = env.evaluate()
         kpis.to_csv(report_dir / f"kpis_{policy}.csv", index=False)
-        results[policy] = {"objectives": {k: v for k, v in env.objectives().items() if np.isscalar(v)},
-                           "kpis": kpis, "series": report_series(env)}
+        objectives = env.objectives()
+        results[policy] = {"objectives": {k: v for k, v in objectives.items() if np.isscalar(v)},
+                           "per_building": objectives["per_building"], "kpis": kpis, "series": report_series(env)}
     schema = dict(schema) if schema is not None else json.loads(Path(schema_path).read_text())
     write_report(report_dir, name or schema_path.parent.name, schema, results, schema_path.parent / "surrogates")
     return results

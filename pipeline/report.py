@@ -41,8 +41,9 @@ def report_series(env: Any) -> dict[str, np.ndarray]:
 def write_report(report_dir: Path, name: str, schema: dict, results: dict, surrogates_dir: Path) -> Path:
     """Write ``summary.md`` and its figures into ``report_dir``; return the summary's path.
 
-    ``results``: policy ("no_control", "cost_rbc") -> {"objectives": name -> float, "kpis": the KPI table
-    (cost_function, value, name, level), "series": :func:`report_series` of the finished episode}.
+    ``results``: policy ("no_control", "cost_rbc") -> {"objectives": name -> float, "per_building": name ->
+    (B,) array (:func:`citylearn_env.kpis.objectives`), "kpis": the KPI table (cost_function, value, name,
+    level), "series": :func:`report_series` of the finished episode}.
     """
     buildings = included_buildings(schema)
     series = {p: r["series"] for p, r in results.items()}
@@ -53,7 +54,7 @@ def write_report(report_dir: Path, name: str, schema: dict, results: dict, surro
     lines += sizing_table(schema, buildings)
     lines += surrogate_table(read_surrogate_metrics(surrogates_dir))
     lines += objectives_table({p: r["objectives"] for p, r in results.items()})
-    lines += building_objectives_table(series, buildings)
+    lines += building_objectives_table({p: r["per_building"] for p, r in results.items()}, buildings)
     lines += kpi_table({p: r["kpis"] for p, r in results.items()})
     lines += figure_section(write_figures(report_dir, buildings, series))
     path = report_dir / "summary.md"
@@ -148,11 +149,9 @@ def objectives_table(objectives: Mapping[str, Mapping[str, float]]) -> list[str]
             *_table(header, rows), ""]
 
 
-def building_objectives_table(series: Mapping[str, Mapping[str, np.ndarray]], buildings: list[str]) -> list[str]:
-    """Cost [$], emissions [kg CO2], consumption [kWh] and discomfort [degC h] per building and policy."""
-    from citylearn_env.kpis import objectives
-
-    per = {p: objectives(s)["per_building"] for p, s in series.items()}
+def building_objectives_table(per: Mapping[str, Mapping[str, np.ndarray]], buildings: list[str]) -> list[str]:
+    """Cost [$], emissions [kg CO2], consumption [kWh] and discomfort [degC h] per building and policy, from
+    ``per``: policy -> the ``per_building`` arrays of :func:`citylearn_env.kpis.objectives`."""
     policies = list(per)
     names = " / ".join(figures.POLICY_LABELS.get(p, p) for p in policies)
     keys = ("cost", "emissions", "consumption", "discomfort")
