@@ -118,7 +118,7 @@ class FastSAC(LeanSAC):
             self.critic_target, self.critic, strict=True)], self.dtype)
         self.target_lp = [p[:2] for p in self.stack_lp]
         self.critic_lp = [p[2:] for p in self.stack_lp]
-        self.target_first, self.critic_first = self.stack_first[:2], self.stack_first[2:]
+        self.critic_first = self.stack_first[2:]
         self.actor_first, self.actor_lp = _low_precision(self.actor, self.dtype)
 
     def _make_optimizers(self) -> None:
