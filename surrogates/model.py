@@ -115,8 +115,22 @@ class LSTMModel(nn.Module):
 
     def forward(self, window: torch.Tensor, state=None):
         """window (batch, lookback, input_size) -> (normalised temperature (batch,), new (h, c) state)."""
-        out, state = self.l_lstm(window, state)
-        return self.l_linear(out[:, -1]).squeeze(-1), state
+        return self.step(window, state, self.flat_weights())
+
+    def flat_weights(self) -> list[torch.Tensor]:
+        """The LSTM's parameters in ``torch.lstm``'s order (w_ih, w_hh, b_ih, b_hh per layer)."""
+        return [w for layer in self.l_lstm.all_weights for w in layer]
+
+    def step(self, window: torch.Tensor, state, weights: Sequence[torch.Tensor]):
+        """:meth:`forward` with the weights list given (``flat_weights()``, fetched once per rollout): the same
+        ``torch.lstm`` kernel ``nn.LSTM`` calls, without the module's per-call checks. A ``None`` state starts
+        at zeros, as in ``nn.LSTM``."""
+        if state is None:
+            zeros = window.new_zeros(self.num_layers, window.shape[0], self.hidden_size)
+            state = (zeros, zeros)
+        out, h, c = torch.lstm(window, state, weights, True, self.num_layers, 0.0, self.training, False, True)
+        y = nn.functional.linear(out[:, -1], self.l_linear.weight, self.l_linear.bias)
+        return y.squeeze(-1), (h, c)
 
 
 def rollout(model: LSTMModel, x: torch.Tensor, lookback: int, closed_loop: bool = True,
@@ -133,18 +147,47 @@ def rollout(model: LSTMModel, x: torch.Tensor, lookback: int, closed_loop: bool 
     Returns
     -------
     (batch, hours - lookback) normalised predictions for hours ``lookback .. hours-1``.
+
+    The exogenous rows of every window are views of one ``unfold`` of ``x`` (window ``k`` predicts hour
+    ``lookback + k`` from exogenous hours ``k+1 .. k+lookback``); the fed-back temperatures are kept as a list
+    and stacked per window (the same autograd graph, hence bit-identical gradients, as one history tensor per
+    hour). One-step mode builds all windows at once.
     """
-    hours = x.shape[1]
-    exogenous = x[:, :, :-1]
+    weights = model.flat_weights()
+    if closed_loop and not torch.is_grad_enabled():
+        return _rollout_no_grad(model, x, lookback, state, weights)
+    windows = x[:, 1:, :-1].unfold(1, lookback, 1).transpose(2, 3)  # (batch, hours - lookback, L, inputs - 1)
+    if not closed_loop:
+        temps = x[:, :-1, -1:].unfold(1, lookback, 1).transpose(2, 3)
+        windows = torch.cat([windows, temps], dim=3)
     history = list(x[:, :lookback, -1].unbind(1))
     predictions = []
-    for t in range(lookback, hours):
-        temps = torch.stack(history[t - lookback:t], dim=1).unsqueeze(-1)
-        window = torch.cat([exogenous[:, t - lookback + 1:t + 1], temps], dim=2)
-        y, state = model(window, state)
+    for k in range(x.shape[1] - lookback):
+        if closed_loop:
+            window = torch.cat([windows[:, k], torch.stack(history[k:k + lookback], dim=1).unsqueeze(-1)], dim=2)
+        else:
+            window = windows[:, k]
+        y, state = model.step(window, state, weights)
         predictions.append(y)
-        history.append(y if closed_loop else x[:, t, -1])
+        if closed_loop:
+            history.append(y)
     return torch.stack(predictions, dim=1)
+
+
+def _rollout_no_grad(model: LSTMModel, x: torch.Tensor, lookback: int, state,
+                     weights: Sequence[torch.Tensor]) -> torch.Tensor:
+    """Closed-loop :func:`rollout` without autograd (validation, evaluation): the same windows, values and
+    kernel, from one shifted copy of ``x`` whose row ``j`` holds the exogenous inputs of hour ``j+1`` and the
+    temperature of hour ``j``; window ``k`` is the view of rows ``k .. k+L-1`` and each prediction is written
+    into its row in place (no per-hour concatenation)."""
+    rows = torch.cat([x[:, 1:, :-1], x[:, :-1, -1:]], dim=2)
+    predictions = rows.new_empty(x.shape[0], x.shape[1] - lookback)
+    for k in range(x.shape[1] - lookback):
+        y, state = model.step(rows[:, k:k + lookback], state, weights)
+        predictions[:, k] = y
+        if k + lookback < rows.shape[1]:
+            rows[:, k + lookback, -1] = y
+    return predictions
 
 
 def merge_ensemble(members: Sequence[LSTMModel]) -> LSTMModel:
