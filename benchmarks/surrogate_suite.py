@@ -6,8 +6,12 @@ closed-loop, month by month, in the environment's and CityLearn 2.1's rollout se
     .venv/bin/python benchmarks/surrogate_suite.py run [--recipe default] [--houses ...] [--climates ...]
     .venv/bin/python benchmarks/surrogate_suite.py table [--recipe default]   # markdown table of the results
 
-Cache (ILV tables, exported models, results): ``$DISTRICTGEN_SUITE_CACHE`` or /tmp/districtgen_surrogate_suite;
-every step skips what is already there, so an interrupted run resumes. ``run`` trains in this one process
+``--loads`` (``net`` or ``gross``: how the zones' loads are aggregated in the ILV tables) and
+``--timesteps-per-hour`` (EnergyPlus zone timesteps) choose the data
+(:class:`surrogates.energyplus.reference_houses.SuiteSettings`, whose defaults are the suite's); results and
+models are kept apart per data variant (:func:`data_label`). Cache (ILV tables, exported models, results):
+``$DISTRICTGEN_SUITE_CACHE`` or /tmp/districtgen_surrogate_suite (``results/<label>/<recipe>.jsonl``,
+``models/<label>/<recipe>/``); every step skips what is already there, so an interrupted run resumes. ``run`` trains in this one process
 (one torch thread) and records wall seconds and the 1-minute load average at the end of each training.
 Recipes (``--recipe``) are :data:`RECIPES`, the ablations of docs/surrogates.md.
 """
@@ -57,7 +61,23 @@ def recipes() -> dict:
             "lookback6_ema": replace(previous, lookback=6, epochs=80, ema_decay=0.95),
             "lr6_batch128": replace(previous, finetune_learning_rate=0.006, lr_decay=0.5, batch_size=128, plateau=2,
                                     long_chunk_hours=(48,)),
-            "default_with_ideal": replace(base, use_ideal=True)}
+            "default_with_ideal": replace(base, use_ideal=True),
+            # early stopping on the restaurants' held rows (docs/surrogates.md section 9): patience 12, and
+            # patience = epochs (all 60 epochs run, i.e. a minimum of 60; the best validation epoch is kept)
+            "patience12": replace(base, patience=12),
+            "no_early_stop": replace(base, patience=base.epochs),
+            # hidden 32 with bfloat16 updates (~22 % cheaper per update: benchmarks/README.md, trainer speed)
+            "hidden32_bf16": replace(hidden32, bf16_updates=True)}
+
+
+def suite_settings(args: argparse.Namespace) -> rh.SuiteSettings:
+    """The generation settings the command line chose."""
+    return rh.SuiteSettings(loads=args.loads, timesteps_per_hour=args.timesteps_per_hour)
+
+
+def data_label(settings: rh.SuiteSettings) -> str:
+    """Folder name of one data variant's results and models, e.g. ``net_tph4``."""
+    return f"{settings.loads}_tph{settings.timesteps_per_hour}"
 
 
 def epw(climate: str) -> Path:
@@ -75,7 +95,8 @@ def generate(args: argparse.Namespace) -> None:
     for house in houses(args.houses):
         for climate in args.climates:
             started = time.perf_counter()
-            paths = rh.generate_reference_ilv(house, climate, epw(climate), CACHE, schemes=args.schemes)
+            paths = rh.generate_reference_ilv(house, climate, epw(climate), CACHE, schemes=args.schemes,
+                                              settings=suite_settings(args))
             print(f"{house.name} {climate}: {time.perf_counter() - started:.1f} s "
                   f"{[p.name for p in paths.values()]}", flush=True)
 
@@ -104,7 +125,8 @@ def run(args: argparse.Namespace) -> None:
     config = recipes()[args.recipe]
     if args.seed is not None:
         config = replace(config, seed=args.seed)
-    results = CACHE / "results" / f"{args.recipe}{'' if args.seed is None else f'_seed{args.seed}'}.jsonl"
+    label = data_label(suite_settings(args))
+    results = CACHE / "results" / label / f"{args.recipe}{'' if args.seed is None else f'_seed{args.seed}'}.jsonl"
     results.parent.mkdir(parents=True, exist_ok=True)
 
     def done() -> set[str]:  # re-read before every building: several workers may share the results file
@@ -112,7 +134,8 @@ def run(args: argparse.Namespace) -> None:
 
     for house in houses(args.houses):
         for climate in args.climates:
-            paths = rh.generate_reference_ilv(house, climate, epw(climate), CACHE, schemes=args.schemes)
+            paths = rh.generate_reference_ilv(house, climate, epw(climate), CACHE, schemes=args.schemes,
+                                              settings=suite_settings(args))
             for scheme, path in paths.items():
                 key = f"{house.name}/{climate}/{scheme}"
                 if key in done():
@@ -121,16 +144,17 @@ def run(args: argparse.Namespace) -> None:
                 train = table[table["reference"].isin(TRAIN_REFERENCES)].reset_index(drop=True)
                 trained = train_surrogate(train, config, source=path)
                 load = os.getloadavg()[0]
-                folder = CACHE / "models" / args.recipe
+                folder = CACHE / "models" / label / args.recipe
                 folder.mkdir(parents=True, exist_ok=True)
                 name = key.replace("/", "__")
                 pth = save_checkpoint(trained, folder / f"{name}.pth")
                 block = dynamics_block(trained, str(pth)).to_schema()
                 scores = evaluate_one(table, pth, block)
-                row = {"key": key, "house": house.name, "climate": climate, "scheme": scheme,
+                row = {"key": key, "house": house.name, "climate": climate, "scheme": scheme, "data": label,
                        "seconds": round(trained.seconds, 2), "cpu_seconds": round(trained.cpu_seconds, 2),
                        "load_average": round(load, 2),
-                       "epochs": len(trained.history), "best_epoch": trained.best_epoch, **scores}
+                       "epochs": len(trained.history), "best_epoch": trained.best_epoch,
+                       "val_rmse_c": [h["val_closed_loop_rmse_c"] for h in trained.history], **scores}
                 with results.open("a") as handle:
                     handle.write(json.dumps(row) + "\n")
                 print(f"{key}: {trained.seconds:.1f} s, cpu {trained.cpu_seconds:.1f} s (load {load:.1f}) env {scores['env']['median']:.3f}/"
@@ -138,17 +162,18 @@ def run(args: argparse.Namespace) -> None:
                       flush=True)
 
 
-def read_results(recipe: str) -> dict[str, dict]:
-    """key -> result row of one recipe (the last row of a key wins)."""
-    path = CACHE / "results" / f"{recipe}.jsonl"
+def read_results(recipe: str, label: str) -> dict[str, dict]:
+    """key -> result row of one recipe on one data variant (:func:`data_label`; the last row of a key wins)."""
+    path = CACHE / "results" / label / f"{recipe}.jsonl"
     rows = [json.loads(line) for line in path.read_text().splitlines()] if path.is_file() else []
     return {r["key"]: {**r, "recipe": recipe} for r in rows}
 
 
 def table(args: argparse.Namespace) -> None:
-    chosen = read_results(args.recipe)
+    label = data_label(suite_settings(args))
+    chosen = read_results(args.recipe, label)
     if args.fallback:  # rows the recipe has not run yet, from another recipe (marked in the last column)
-        chosen = {**read_results(args.fallback), **chosen}
+        chosen = {**read_results(args.fallback, label), **chosen}
     rows = list(chosen.values())
     print("| house | climate | scheme | env median / max, degC | CityLearn 2.1 median / max, degC | train wall s | "
           "train CPU s | load avg | goal | recipe |")
@@ -173,6 +198,10 @@ def main() -> None:
     parser.add_argument("--climates", nargs="*", default=list(CLIMATES))
     parser.add_argument("--schemes", nargs="*", default=list(rh.SCHEMES))
     parser.add_argument("--recipe", default="default")
+    parser.add_argument("--loads", choices=list(rh.LOAD_AGGREGATIONS), default=rh.SuiteSettings().loads,
+                        help="zone-load aggregation of the ILV tables (gross: per-direction sums; net: netted)")
+    parser.add_argument("--timesteps-per-hour", type=int, default=rh.SuiteSettings().timesteps_per_hour,
+                        help="EnergyPlus zone timesteps per hour of the generated tables")
     parser.add_argument("--seed", type=int)
     parser.add_argument("--fallback", help="table: recipe whose rows fill the keys --recipe has not run")
     args = parser.parse_args()

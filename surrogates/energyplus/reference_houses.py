@@ -30,8 +30,21 @@ Per model (an IDF of ``pyenergyplus/data/model``, converted to epJSON by the eng
    within ``max_replay_mad_c``), reference 1 (free float) is not simulated.
 
 The ILV table has the columns of :mod:`surrogates.ilv` (no set-point column: heating and cooling set points
-differ); temperatures are floor-area-weighted over the conditioned zones, loads are the summed injected
-heat (kWh per hour, cooling and heating netted), occupants the summed zone occupant count.
+differ); temperatures are floor-area-weighted over the conditioned zones, occupants the summed zone occupant
+count, and the loads the injected heat in kWh per hour, aggregated over the zones as ``SuiteSettings.loads``
+says (:func:`aggregate_loads`):
+
+======== ============================================================================================
+loads    ``cooling_demand`` / ``heating_demand``
+======== ============================================================================================
+net      ``clip(cool - heat, 0)`` / ``clip(heat - cool, 0)``: at most one is > 0 in an hour (the default,
+         and the aggregation of our own houses' tables and emitted demands, :mod:`surrogates.energyplus.ilv`)
+gross    sum of the zones' cooling / sum of the zones' heating (both can be > 0 in one hour: a kitchen
+         cooled while the dining room is heated); an ablation: on the fast-food restaurant, the only suite
+         house where it matters (14-27 % of hours), it trained worse surrogates (docs/surrogates.md)
+======== ============================================================================================
+
+Both aggregations come from the same replays, so one generation writes both tables.
 
 Everything is cached under ``cache_dir`` (one parquet file per house, climate and scheme, written
 atomically, plus the converted epJSON), so an interrupted suite resumes where it stopped.
@@ -45,7 +58,7 @@ import json
 import subprocess
 import tempfile
 from collections.abc import Iterable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, fields, replace
 from pathlib import Path
 
 import numpy as np
@@ -276,15 +289,40 @@ def replay_model(model: dict, zones: list[str], ground_c: list[float], load_file
     return out
 
 
-def parse_replay_hours(frame: pd.DataFrame, reference: int, zones: list[str], areas: Mapping[str, float]
-                       ) -> pd.DataFrame:
+LOAD_AGGREGATIONS = ("gross", "net")
+
+
+def aggregate_loads(cool_kwh: np.ndarray, heat_kwh: np.ndarray, loads: str) -> tuple[np.ndarray, np.ndarray]:
+    """(cooling, heating) demand in kWh per hour (both >= 0) from the zones' summed cooling and summed heating
+    (kWh per hour, >= 0). ``loads="gross"`` returns the sums; ``"net"`` nets them, so that at most one of the
+    two is non-zero in an hour. Pure."""
+    if loads not in LOAD_AGGREGATIONS:
+        raise InputError(f"unknown load aggregation {loads!r}; use one of {list(LOAD_AGGREGATIONS)}",
+                         column="loads")
+    cool, heat = np.asarray(cool_kwh, dtype=float), np.asarray(heat_kwh, dtype=float)
+    if loads == "gross":
+        return cool, heat
+    return np.clip(cool - heat, 0.0, None), np.clip(heat - cool, 0.0, None)
+
+
+def net_table(gross: pd.DataFrame) -> pd.DataFrame:
+    """The ``loads="net"`` version of an ILV table with gross loads (same rows; only the two load columns
+    change). Pure."""
+    cooling, heating = aggregate_loads(gross["cooling_demand"].to_numpy(), gross["heating_demand"].to_numpy(),
+                                       "net")
+    return gross.assign(cooling_demand=cooling, heating_demand=heating)
+
+
+def parse_replay_hours(frame: pd.DataFrame, reference: int, zones: list[str], areas: Mapping[str, float],
+                       loads: str = "gross") -> pd.DataFrame:
     """ILV rows of one hourly replay output (:func:`read_report_variables` frame); temperatures weighted by
-    the conditioned zones' floor areas."""
+    the conditioned zones' floor areas, loads (kWh in the hour) the zones' injected convective heat summed
+    per direction and aggregated by :func:`aggregate_loads` (``loads``: "gross" or "net")."""
     begin = frame.index - pd.Timedelta(hours=1)
     other = frame["Other Equipment Convective Heating Rate"].abs()
     cool = sum(other[f"{z} ILV cool".upper()].to_numpy() for z in zones) / 1000.0
     heat = sum(other[f"{z} ILV heat".upper()].to_numpy() for z in zones) / 1000.0
-    net = cool - heat
+    cooling, heating = aggregate_loads(cool, heat, loads)
     keys = [z.upper() for z in zones]
     temps = frame["Zone Mean Air Temperature"][keys]
     return pd.DataFrame({
@@ -294,7 +332,7 @@ def parse_replay_hours(frame: pd.DataFrame, reference: int, zones: list[str], ar
         "diffuse_solar_irradiance": frame[("Site Diffuse Solar Radiation Rate per Area", SITE)].to_numpy(),
         "outdoor_dry_bulb_temperature": frame[("Site Outdoor Air Drybulb Temperature", SITE)].to_numpy(),
         "occupant_count": frame["Zone People Occupant Count"][keys].sum(axis=1).to_numpy(),
-        "cooling_demand": np.clip(net, 0.0, None), "heating_demand": np.clip(-net, 0.0, None),
+        "cooling_demand": cooling, "heating_demand": heating,
         "indoor_dry_bulb_temperature": area_weighted(pd.concat({"t": temps}, axis=1), "t",
                                                      {k: areas[k] for k in keys}).to_numpy(),
     })
@@ -307,31 +345,48 @@ def _key(*parts: object) -> str:
 @dataclass(frozen=True)
 class SuiteSettings:
     """Generation settings shared by the suite: partial references ``2..2+partial_runs-1``, zone timesteps
-    per hour, calendar year (weekdays), multiplier range and probability, base seed, replay check (degC)."""
+    per hour, calendar year (weekdays), multiplier range and probability, base seed, replay check (degC),
+    and how the zones' loads are aggregated into the table's two load columns (``loads``: "net", the
+    default, or "gross"; see the module docstring).
+
+    ``timesteps_per_hour`` is 4, the reference models' own setting (4; the 2004 office has 6): with 1, the
+    suite's first tables, the hourly zone solution carried a white error that no input explains and the
+    surrogates of the restaurants could not go below about 0.5 degC (docs/surrogates.md, section 9)."""
 
     partial_runs: int = 6
-    timesteps_per_hour: int = 1
+    timesteps_per_hour: int = 4
     year: int = 2018
     multiplier_range: tuple[float, float] = (0.3, 1.7)
     probability: float = 0.6
     seed: int = 0
     max_replay_mad_c: float = 0.2
+    loads: str = "net"
+
+
+def settings_text(settings: SuiteSettings) -> str:
+    """The text the cache key hashes: the dataclass repr, without ``loads`` when it is "net" (so the net
+    tables written before the field existed keep their names)."""
+    shown = [f.name for f in fields(settings) if not (f.name == "loads" and settings.loads == "net")]
+    return f"SuiteSettings({', '.join(f'{name}={getattr(settings, name)!r}' for name in shown)})"
 
 
 def table_path(cache_dir: Path, house: ReferenceHouse, climate: str, scheme: str, settings: SuiteSettings) -> Path:
     """Cache file of one ILV table (the name carries a hash of the house and settings)."""
-    return Path(cache_dir) / "ilv" / f"{house.name}__{climate}__{scheme}__{_key(house, settings)}.parquet"
+    key = _key(house, settings_text(settings))
+    return Path(cache_dir) / "ilv" / f"{house.name}__{climate}__{scheme}__{key}.parquet"
 
 
 def generate_reference_ilv(house: ReferenceHouse, climate: str, epw: Path, cache_dir: Path,
                            schemes: Iterable[str] = tuple(SCHEMES), settings: SuiteSettings = SuiteSettings()
                            ) -> dict[str, Path]:
     """ILV tables (parquet paths, one per scheme) of ``house`` on weather ``epw``; tables already in the
-    cache are reused, missing ones generated (ideal run + multiplier-1 replay + partial replays).
+    cache are reused, missing ones generated (ideal run + multiplier-1 replay + partial replays); a
+    generation writes the tables of both load aggregations (``settings.loads`` and the other one).
 
     Raises :class:`ILVCheckError` when the multiplier-1 replay misses the ideal run's temperature by more
     than ``settings.max_replay_mad_c`` (mean absolute hourly deviation, degC)."""
     cache_dir = Path(cache_dir)
+    aggregate_loads(np.zeros(1), np.zeros(1), settings.loads)  # an unknown aggregation fails before any run
     wanted = {s: table_path(cache_dir, house, climate, s, settings) for s in schemes}
     unknown = [s for s in wanted if s not in SCHEMES]
     if unknown:
@@ -376,5 +431,9 @@ def generate_reference_ilv(house: ReferenceHouse, climate: str, epw: Path, cache
             for reference in range(2, 2 + settings.partial_runs):
                 frames.append(replay(reference, load_multipliers(
                     hours, reference, seed, settings.multiplier_range, settings.probability, SCHEMES[scheme])))
-            write_ilv(pd.concat(frames, ignore_index=True), wanted[scheme])
+            gross = pd.concat(frames, ignore_index=True)
+            for aggregation in LOAD_AGGREGATIONS:  # both aggregations from the same replays
+                path = table_path(cache_dir, house, climate, scheme, replace(settings, loads=aggregation))
+                if aggregation == settings.loads or not path.is_file():
+                    write_ilv(gross if aggregation == "gross" else net_table(gross), path)
     return wanted
