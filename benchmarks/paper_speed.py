@@ -87,8 +87,9 @@ def collection(repeats: int) -> None:
 
 
 def revision(against: str, episodes: int, repeats: int) -> None:
-    import importlib.util
     import tempfile
+
+    from revisions import import_source, source_at
 
     import pipeline.paper_sac_fast as current
     from citylearn_env import CityLearnEnv
@@ -96,14 +97,9 @@ def revision(against: str, episodes: int, repeats: int) -> None:
     from pipeline.paper import TRAIN_DAYS, benchmark_schema
     from pipeline.paper_sac import flushed_subnormals
 
-    source = subprocess.run(["git", "show", f"{against}:pipeline/paper_sac_fast.py"], capture_output=True,
-                            text=True, check=True).stdout
-    with tempfile.NamedTemporaryFile("w", suffix=".py") as handle:
-        handle.write(source)
-        handle.flush()
-        spec = importlib.util.spec_from_file_location("paper_sac_fast_at_revision", handle.name)
-        previous = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(previous)
+    with tempfile.TemporaryDirectory() as folder:
+        previous = import_source("paper_sac_fast_at_revision", source_at(against, "pipeline/paper_sac_fast.py"),
+                                 Path(folder))
     district, bench = load()
     config = benchmark_schema(district, bench, (0, TRAIN_DAYS * 24 - 1))
     rates: dict[str, list[float]] = {against: [], "working tree": []}

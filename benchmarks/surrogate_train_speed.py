@@ -28,7 +28,6 @@ import importlib.util
 import json
 import os
 import statistics
-import subprocess
 import sys
 import tempfile
 import time
@@ -40,6 +39,8 @@ import torch
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from revisions import import_source, source_at  # noqa: E402
+
 from surrogates import train as new_train  # noqa: E402
 from surrogates.ilv import read_ilv  # noqa: E402
 
@@ -49,22 +50,9 @@ TABLE = CACHE / "ilv" / "office2004__mixed_sterling__upstream__1f94dbc3c278.parq
 
 def load_revision(revision: str, folder: Path):
     """The trainer module of ``revision`` (its model module imported as ``old_surrogates_model``)."""
-    def module(name: str, source: str):
-        path = folder / f"{name}.py"
-        path.write_text(source)
-        spec = importlib.util.spec_from_file_location(name, path)
-        loaded = importlib.util.module_from_spec(spec)
-        sys.modules[name] = loaded
-        spec.loader.exec_module(loaded)
-        return loaded
-
-    def show(path: str) -> str:
-        return subprocess.run(["git", "show", f"{revision}:{path}"], cwd=ROOT, check=True, capture_output=True,
-                              text=True).stdout
-
-    module("old_surrogates_model", show("surrogates/model.py"))
-    return module("old_surrogates_train", show("surrogates/train.py").replace("from surrogates.model import",
-                                                                              "from old_surrogates_model import"))
+    import_source("old_surrogates_model", source_at(revision, "surrogates/model.py"), folder)
+    return import_source("old_surrogates_train", source_at(revision, "surrogates/train.py").replace(
+        "from surrogates.model import", "from old_surrogates_model import"), folder)
 
 
 def run_once(trainer, table, hidden: int, bf16: bool) -> dict:
