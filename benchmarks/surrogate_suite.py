@@ -45,13 +45,16 @@ TEST_REFERENCES = (6, 7)
 
 
 def recipes() -> dict:
-    """Named training configurations: ``default`` (TrainConfig()) and the ablations."""
+    """Named training configurations: ``default`` (TrainConfig(): hidden 32, bfloat16 updates, all 60 epochs)
+    and the ablations, most of them variations of ``hidden16`` (the default before 2026-11-24: hidden 16,
+    float32, patience 6)."""
     from surrogates.train import TrainConfig
 
-    base = TrainConfig(progress=False, test_runs=0)
+    base = TrainConfig(progress=False, test_runs=0, hidden_size=16, patience=6, bf16_updates=False)
     previous = replace(base, lookback=12, epochs=40, ema_decay=0.0, fresh_optimizer=False)
     hidden32 = replace(base, hidden_size=32)  # more accurate on the restaurants, 1.7x the CPU (docs/surrogates.md)
-    return {"default": base, "previous": previous, "hidden32": hidden32,
+    return {"default": TrainConfig(progress=False, test_runs=0), "hidden16": base, "previous": previous,
+            "hidden32": hidden32,
             "hidden32_short": replace(hidden32, pretrain_steps=400, epochs=50, patience=8),
             "hidden32_one_layer": replace(hidden32, num_layers=1),
             "hidden32_lookback4": replace(hidden32, lookback=4, pretrain_steps=600, patience=8),
@@ -62,12 +65,16 @@ def recipes() -> dict:
             "lr6_batch128": replace(previous, finetune_learning_rate=0.006, lr_decay=0.5, batch_size=128, plateau=2,
                                     long_chunk_hours=(48,)),
             "default_with_ideal": replace(base, use_ideal=True),
-            # early stopping on the restaurants' held rows (docs/surrogates.md section 9): patience 12, and
-            # patience = epochs (all 60 epochs run, i.e. a minimum of 60; the best validation epoch is kept)
-            "patience12": replace(base, patience=12),
+            # early stopping on the held rows (docs/surrogates.md section 9): patience = epochs, so all 60 epochs
+            # run and the best validation epoch is kept (smaller patiences stop on a prefix of this trajectory)
             "no_early_stop": replace(base, patience=base.epochs),
             # hidden 32 with bfloat16 updates (~22 % cheaper per update: benchmarks/README.md, trainer speed)
-            "hidden32_bf16": replace(hidden32, bf16_updates=True)}
+            "hidden32_bf16": replace(hidden32, bf16_updates=True),
+            "hidden32_bf16_no_early_stop": replace(hidden32, bf16_updates=True, patience=base.epochs),
+            # hidden 16, bfloat16 updates, 90 epochs all run (about the CPU of 60 float32 epochs + half)
+            "bf16_epochs90": replace(base, bf16_updates=True, epochs=90, patience=90),
+            # between the two: hidden 24, bfloat16 updates, 80 epochs all run
+            "hidden24_bf16_epochs80": replace(base, hidden_size=24, bf16_updates=True, epochs=80, patience=80)}
 
 
 def suite_settings(args: argparse.Namespace) -> rh.SuiteSettings:

@@ -115,7 +115,7 @@ class Surrogate(_Frozen):
     fmu: Path | None = Field(None, description="FMI 2.0 co-simulation FMU of a building (source fmu)")
     fmu_variables: dict[str, str] = Field(default_factory=dict, description="our name -> FMU variable name")
     fmu_start_values: dict[str, float] = Field(default_factory=dict)
-    hidden_size: int = Field(16, ge=1)
+    hidden_size: int = Field(32, ge=1)
     num_layers: int = Field(2, ge=1)
     lookback: int = Field(6, ge=1)
     epochs: int = Field(60, ge=1)
