@@ -148,46 +148,39 @@ def rollout(model: LSTMModel, x: torch.Tensor, lookback: int, closed_loop: bool 
     -------
     (batch, hours - lookback) normalised predictions for hours ``lookback .. hours-1``.
 
-    The exogenous rows of every window are views of one ``unfold`` of ``x`` (window ``k`` predicts hour
-    ``lookback + k`` from exogenous hours ``k+1 .. k+lookback``); the fed-back temperatures are kept as a list
-    and stacked per window (the same autograd graph, hence bit-identical gradients, as one history tensor per
-    hour). One-step mode builds all windows at once.
+    Closed loop with autograd (training): the exogenous rows of every window are views of one ``unfold`` of
+    ``x`` (window ``k`` predicts hour ``lookback + k`` from exogenous hours ``k+1 .. k+lookback``); the fed-back
+    temperatures are kept as a list and stacked per window (no in-place write into a tensor autograd saved).
+    Otherwise (one-step mode, or no autograd) :func:`_rollout_rows`.
     """
     weights = model.flat_weights()
-    if closed_loop and not torch.is_grad_enabled():
-        return _rollout_no_grad(model, x, lookback, state, weights)
+    if not closed_loop or not torch.is_grad_enabled():
+        return _rollout_rows(model, x, lookback, state, weights, feed_back=closed_loop)
     windows = x[:, 1:, :-1].unfold(1, lookback, 1).transpose(2, 3)  # (batch, hours - lookback, L, inputs - 1)
-    if not closed_loop:
-        temps = x[:, :-1, -1:].unfold(1, lookback, 1).transpose(2, 3)
-        windows = torch.cat([windows, temps], dim=3)
     history = list(x[:, :lookback, -1].unbind(1))
     predictions = []
     for k in range(x.shape[1] - lookback):
-        if closed_loop:
-            window = torch.cat([windows[:, k], torch.stack(history[k:k + lookback], dim=1).unsqueeze(-1)], dim=2)
-        else:
-            window = windows[:, k]
+        window = torch.cat([windows[:, k], torch.stack(history[k:k + lookback], dim=1).unsqueeze(-1)], dim=2)
         y, state = model.step(window, state, weights)
         predictions.append(y)
-        if closed_loop:
-            history.append(y)
+        history.append(y)
     return torch.stack(predictions, dim=1)
 
 
-def _rollout_no_grad(model: LSTMModel, x: torch.Tensor, lookback: int, state,
-                     weights: Sequence[torch.Tensor]) -> torch.Tensor:
-    """Closed-loop :func:`rollout` without autograd (validation, evaluation): the same windows, values and
-    kernel, from one shifted copy of ``x`` whose row ``j`` holds the exogenous inputs of hour ``j+1`` and the
-    temperature of hour ``j``; window ``k`` is the view of rows ``k .. k+L-1`` and each prediction is written
-    into its row in place (no per-hour concatenation)."""
+def _rollout_rows(model: LSTMModel, x: torch.Tensor, lookback: int, state, weights: Sequence[torch.Tensor], *,
+                  feed_back: bool) -> torch.Tensor:
+    """:func:`rollout` from one shifted copy of ``x`` whose row ``j`` holds the exogenous inputs of hour ``j+1``
+    and the temperature of hour ``j``; window ``k`` is the view of rows ``k .. k+L-1``. ``feed_back`` (closed
+    loop, no autograd): each prediction is written into the next windows' temperature in place; otherwise the
+    data temperatures stay (one-step mode, autograd allowed: nothing is written)."""
     rows = torch.cat([x[:, 1:, :-1], x[:, :-1, -1:]], dim=2)
-    predictions = rows.new_empty(x.shape[0], x.shape[1] - lookback)
+    predictions = []
     for k in range(x.shape[1] - lookback):
         y, state = model.step(rows[:, k:k + lookback], state, weights)
-        predictions[:, k] = y
-        if k + lookback < rows.shape[1]:
+        predictions.append(y)
+        if feed_back and k + lookback < rows.shape[1]:
             rows[:, k + lookback, -1] = y
-    return predictions
+    return torch.stack(predictions, dim=1)
 
 
 def merge_ensemble(members: Sequence[LSTMModel]) -> LSTMModel:
