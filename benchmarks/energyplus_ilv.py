@@ -2,8 +2,9 @@
 
     .venv/bin/python benchmarks/energyplus_ilv.py [--repeats 3] [--timesteps 1 4]
     .venv/bin/python benchmarks/energyplus_ilv.py --train     # surrogate accuracy on the fixture's ILV tables
-    .venv/bin/python benchmarks/energyplus_ilv.py --timestep-accuracy [--timesteps 1 4] [--houses 2]
-        # the same houses generated at each zone timestep count, default training, held-out accuracy
+    .venv/bin/python benchmarks/energyplus_ilv.py --timestep-accuracy [--timesteps 1 4] [--houses 2] [--recipe R]
+        # the same houses generated at each zone timestep count, trained with a recipe of
+        # benchmarks/surrogate_suite.py (default: TrainConfig()), held-out accuracy
 
 One house-year = metadata -> epJSON model -> ideal-loads run -> multiplier-1 replay, free float and 4
 partial replays (7 EnergyPlus runs, hourly reporting for the replays) -> SQLite reads -> ILV table in memory.
@@ -73,23 +74,27 @@ def train_on_raw(epochs: int | None, use_free_float: bool = True) -> None:
     print(f"median over houses of the monthly closed-loop RMSE median: {float(np.median(medians)):.3f} C")
 
 
-def timestep_accuracy(timesteps: list[int], houses: int) -> None:
+def timestep_accuracy(timesteps: list[int], houses: int, recipe: str = "default") -> None:
     """Per house (Tampa, ``houses`` seeds of :data:`ROW`) and zone timestep count: generate the ILV table,
-    train the default recipe, print the test run's closed-loop monthly RMSE (degC) and the CPU seconds."""
+    train ``recipe`` (a :func:`surrogate_suite.recipes` name, with the last partial run held out as the test
+    run), print the test run's closed-loop monthly RMSE (degC) and the CPU seconds."""
     import json
+    from dataclasses import replace
+
+    from surrogate_suite import recipes
 
     from surrogates.evaluate import evaluate_segments
-    from surrogates.train import TrainConfig, train_surrogate
+    from surrogates.train import train_surrogate
 
     for bldg_id in range(1, houses + 1):
         for tph in timesteps:
             table = energyplus_ilv_table({**ROW, "bldg_id": bldg_id}, epw(),
                                          config=ILVConfig(timesteps_per_hour=tph, seed=bldg_id)).table
-            config = TrainConfig(progress=False)
+            config = replace(recipes()[recipe], test_runs=1)
             trained = train_surrogate(table, config)
             metrics, _ = evaluate_segments(trained.model, trained.normalization, trained.inputs, config.lookback,
                                            table, trained.splits["test"])
-            print(json.dumps({"house": bldg_id, "timesteps_per_hour": tph,
+            print(json.dumps({"house": bldg_id, "timesteps_per_hour": tph, "recipe": recipe,
                               "train_cpu_s": round(trained.cpu_seconds, 1), "best_epoch": trained.best_epoch,
                               "monthly_rmse_c": metrics["monthly_rmse_c"], "load": os.getloadavg()[0]}),
                   flush=True)
@@ -102,6 +107,7 @@ def main() -> None:
     parser.add_argument("--train", action="store_true", help="only the surrogate accuracy on the test fixture ILV tables")
     parser.add_argument("--epochs", type=int, default=None, help="training epochs (default: TrainConfig's)")
     parser.add_argument("--no-free-float", action="store_true", help="leave the free-float run out of training")
+    parser.add_argument("--recipe", default="default", help="--timestep-accuracy: a surrogate_suite.py recipe")
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--timesteps", type=int, nargs="+", default=[1, 4])
     parser.add_argument("--houses", type=int, default=4, help="houses for the 1-vs-2-worker comparison")
@@ -110,7 +116,7 @@ def main() -> None:
         train_on_raw(args.epochs, use_free_float=not args.no_free_float)
         return
     if args.timestep_accuracy:
-        timestep_accuracy(args.timesteps, args.houses)
+        timestep_accuracy(args.timesteps, args.houses, args.recipe)
         return
     for tph in args.timesteps:
         times, cpu = [], []

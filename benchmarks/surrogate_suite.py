@@ -32,6 +32,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from surrogates.energyplus import reference_houses as rh  # noqa: E402
+from surrogates.model import DEFAULT_INPUTS  # noqa: E402
 
 CACHE = Path(os.environ.get("DISTRICTGEN_SUITE_CACHE", "/tmp/districtgen_surrogate_suite"))
 #: climate -> EPW shipped in pyenergyplus/data/weather (TMY3)
@@ -41,19 +42,27 @@ CLIMATES = {
     "cold_chicago": "USA_IL_Chicago-OHare.Intl.AP.725300_TMY3.epw",
 }
 TRAIN_REFERENCES = (0, 1, 2, 3, 4, 5)
+#: the inputs of every recipe before the fifth pass: the default inputs plus upstream's day-type encoding
+WITH_DAY_TYPE = (*DEFAULT_INPUTS[:-1], "day_type_sin", "day_type_cos", DEFAULT_INPUTS[-1])
 TEST_REFERENCES = (6, 7)
 
 
 def recipes() -> dict:
-    """Named training configurations: ``default`` (TrainConfig(): hidden 32, bfloat16 updates, all 60 epochs)
-    and the ablations, most of them variations of ``hidden16`` (the default before 2026-11-24: hidden 16,
-    float32, patience 6)."""
+    """Named training configurations: ``default`` (TrainConfig(): hidden 32, bfloat16 updates, no day-type
+    inputs, 6000 one-step updates, batch 128, 24 closed-loop epochs all run, the last 10 on 48-h chunks at a
+    low rate), ``pretrain6000_day_type`` (the same with the day-type inputs), ``pretrain1200_long`` (with
+    them, 1200 one-step updates and 45 epochs, the last 15 long),
+    ``hidden32_bf16_no_early_stop`` (the default of 2026-11-24: batch 256, 1200 one-step updates, 60 epochs of
+    12-h chunks) and the ablations, most of them variations of ``hidden16`` (the default before 2026-11-24:
+    hidden 16, float32, patience 6)."""
     from surrogates.train import TrainConfig
 
-    base = TrainConfig(progress=False, test_runs=0, hidden_size=16, patience=6, bf16_updates=False)
+    default = TrainConfig(progress=False, test_runs=0)
+    base = replace(default, inputs=WITH_DAY_TYPE, hidden_size=16, patience=6, bf16_updates=False, epochs=60,
+                   pretrain_steps=1200, batch_size=256, long_chunk_hours=(), long_chunk_epochs=0)
     previous = replace(base, lookback=12, epochs=40, ema_decay=0.0, fresh_optimizer=False)
     hidden32 = replace(base, hidden_size=32)  # more accurate on the restaurants, 1.7x the CPU (docs/surrogates.md)
-    return {"default": TrainConfig(progress=False, test_runs=0), "hidden16": base, "previous": previous,
+    return {"default": default, "hidden16": base, "previous": previous,
             "hidden32": hidden32,
             "hidden32_short": replace(hidden32, pretrain_steps=400, epochs=50, patience=8),
             "hidden32_one_layer": replace(hidden32, num_layers=1),
@@ -70,7 +79,13 @@ def recipes() -> dict:
             "no_early_stop": replace(base, patience=base.epochs),
             # hidden 32 with bfloat16 updates (~22 % cheaper per update: benchmarks/README.md, trainer speed)
             "hidden32_bf16": replace(hidden32, bf16_updates=True),
-            "hidden32_bf16_no_early_stop": replace(hidden32, bf16_updates=True, patience=base.epochs),
+            "hidden32_bf16_no_early_stop": replace(hidden32, bf16_updates=True, patience=None),
+            # the default's ablations: its batch 128 without the long-chunk phase, and the long phase at batch 256
+            # the default's ablations (docs/surrogates.md, fifth pass): with the day-type inputs; and with them,
+            # 1200 one-step updates and 45 epochs (the last 15 long)
+            "pretrain6000_day_type": replace(default, inputs=WITH_DAY_TYPE),
+            "pretrain1200_long": replace(default, inputs=WITH_DAY_TYPE, pretrain_steps=1200, epochs=45,
+                                         long_chunk_epochs=15),
             # hidden 16, bfloat16 updates, 90 epochs all run (about the CPU of 60 float32 epochs + half)
             "bf16_epochs90": replace(base, bf16_updates=True, epochs=90, patience=90),
             # between the two: hidden 24, bfloat16 updates, 80 epochs all run

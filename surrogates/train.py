@@ -58,16 +58,26 @@ class TrainConfig:
     hidden_size: int = 32
     num_layers: int = 2
     lookback: int = 6
-    epochs: int = 60
+    epochs: int = 24
     seed: int = 0
-    pretrain_steps: int = 1200
+    pretrain_steps: int = 6000
     pretrain_batch_size: int = 256
     chunk_hours: int = 12
-    long_chunk_hours: tuple[int, ...] = ()
-    batch_size: int = 256
+    #: closed-loop chunk lengths (h) of later stages; with ``long_chunk_epochs`` 0 the next stage starts when
+    #: validation stalls for ``plateau`` epochs (a curriculum), otherwise see ``long_chunk_epochs``
+    long_chunk_hours: tuple[int, ...] = (48,)
+    #: the last ``long_chunk_epochs`` epochs (at most ``epochs - 1``) train on chunks of ``long_chunk_hours[0]``
+    #: hours (at most the longest training segment allows) at ``long_chunk_learning_rate``, continuing from the
+    #: current weights: a low-rate fine-tune on longer closed-loop horizons, which corrects multi-day drift
+    #: that 12-h chunks do not see (docs/surrogates.md)
+    long_chunk_epochs: int = 10
+    long_chunk_learning_rate: float = 2.5e-4
+    batch_size: int = 128
     learning_rate: float = 0.01
     finetune_learning_rate: float = 0.003
-    patience: int = 60
+    #: early stopping after this many epochs without a better validation RMSE; None: every epoch runs (the
+    #: best validation epoch is still the one kept)
+    patience: int | None = None
     plateau: int = 3
     lr_decay: float = 1.0
     pretrain_noise: float = 0.0
@@ -93,6 +103,16 @@ class TrainConfig:
                     "ensemble"):
             if getattr(self, key) < 1:
                 raise InputError("must be >= 1", column=key)
+        if self.long_chunk_epochs < 0:
+            raise InputError("must be >= 0", column="long_chunk_epochs")
+        if self.long_chunk_epochs and not self.long_chunk_hours:
+            raise InputError("long_chunk_epochs needs a long_chunk_hours stage", column="long_chunk_epochs")
+
+    @property
+    def long_start(self) -> int | None:
+        """Epoch at which the fixed long-chunk phase starts (None: no fixed phase)."""
+        long = min(self.long_chunk_epochs, self.epochs - 1)
+        return self.epochs - long if long > 0 else None
 
     @property
     def chunk_schedule(self) -> tuple[int, ...]:
@@ -267,15 +287,19 @@ def _fit(table, inputs, splits, config: TrainConfig, started: float, progress=No
         optimizer = _adam(model, config.finetune_learning_rate, uses_bf16(config))
     averaged = copy.deepcopy(model) if config.ema_decay > 0 else model  # exponential moving average of weights
     lr = config.finetune_learning_rate
-    best, best_rmse, best_epoch, history, stale, stage = None, math.inf, 0, [], 0, 0
+    best, best_rmse, best_epoch, history, stale, stage, updates = None, math.inf, 0, [], 0, 0, 0
     stages = config.chunk_schedule
+    longest = max(s.stop - s.start for s in splits["train"])  # check_trainable: >= lookback + chunk_hours
     bar = _progress(config)
     for epoch in range(config.epochs):
+        if epoch == config.long_start:
+            stage, lr = 1, config.long_chunk_learning_rate
         for group in optimizer.param_groups:
             group["lr"] = lr
-        hours = stages[stage]
-        train_rmse = _closed_loop_epoch(model, optimizer, x, splits["train"], config, hours, rng,
-                                        averaged) * scale
+        hours = min(stages[stage], longest - config.lookback)
+        train_rmse, updates = _closed_loop_epoch(model, optimizer, x, splits["train"], config, hours, rng,
+                                                 averaged, updates)
+        train_rmse *= scale
         val_rmse = _validation_rmse(averaged, val, config.lookback) * scale
         history.append({"epoch": epoch, "chunk_hours": hours, "learning_rate": lr,
                         "train_rmse_c": round(train_rmse, 4), "val_closed_loop_rmse_c": round(val_rmse, 4),
@@ -289,15 +313,16 @@ def _fit(table, inputs, splits, config: TrainConfig, started: float, progress=No
             best, best_rmse, best_epoch, stale = copy.deepcopy(averaged.state_dict()), val_rmse, epoch, 0
         else:
             stale += 1
-        if stale >= config.plateau and stage + 1 < len(stages):  # next curriculum stage from the best weights
-            stage, stale = stage + 1, 0
-            model.load_state_dict(best)
-            averaged.load_state_dict(best)
-        elif stale >= config.plateau and config.lr_decay < 1.0 and stale % config.plateau == 0:
-            lr *= config.lr_decay
-            model.load_state_dict(best)
-            averaged.load_state_dict(best)
-        if stale >= config.patience or (config.max_seconds and time.perf_counter() - started > config.max_seconds):
+        if stale >= config.plateau and config.long_start is None:  # plateau-driven curriculum and decay
+            if stage + 1 < len(stages):  # next curriculum stage from the best weights
+                stage, stale = stage + 1, 0
+                model.load_state_dict(best)
+                averaged.load_state_dict(best)
+            elif config.lr_decay < 1.0 and stale % config.plateau == 0:
+                lr *= config.lr_decay
+                model.load_state_dict(best)
+                averaged.load_state_dict(best)
+        if (config.patience is not None and stale >= config.patience) or (config.max_seconds and time.perf_counter() - started > config.max_seconds):
             break
     if bar is not None:
         bar.close()
@@ -343,11 +368,13 @@ def ema_update(averaged: Sequence[torch.Tensor], values: Sequence[torch.Tensor],
 
 
 def _closed_loop_epoch(model: LSTMModel, optimizer, x: np.ndarray, segments: Sequence[Segment],
-                       config: TrainConfig, hours: int, rng: np.random.Generator, averaged: LSTMModel) -> float:
+                       config: TrainConfig, hours: int, rng: np.random.Generator, averaged: LSTMModel,
+                       updates: int) -> tuple[float, int]:
     """One epoch of closed-loop training on chunks of ``hours`` predicted hours (+ lookback warm-up), batch
     size scaled so each update sees about ``batch_size x chunk_hours`` predicted hours; ``averaged`` (when
     it is not ``model``) follows the weights as an exponential moving average (``config.ema_decay`` per
-    update). Returns the RMSE of the normalised temperature over the epoch."""
+    update, debiased over the first of all ``updates`` so far). Returns the RMSE of the normalised
+    temperature over the epoch and the update count after it."""
     chunks = torch.from_numpy(_chunks(x, segments, config.lookback + hours, rng, hours))
     order = torch.from_numpy(rng.permutation(len(chunks)))
     batch_size = max(16, config.batch_size * config.chunk_schedule[0] // hours)
@@ -363,11 +390,11 @@ def _closed_loop_epoch(model: LSTMModel, optimizer, x: np.ndarray, segments: Seq
         loss.backward()
         torch.nn.utils.clip_grad_norm_(parameters, 1.0, foreach=True)
         optimizer.step()
+        updates += 1
         if averaged is not model:  # debiased start: the average follows closely over the first updates
-            averaged.updates = getattr(averaged, "updates", 0) + 1
-            ema_update(means, parameters, min(config.ema_decay, (1 + averaged.updates) / (10 + averaged.updates)))
+            ema_update(means, parameters, min(config.ema_decay, (1 + updates) / (10 + updates)))
         losses.append(float(loss.detach()))
-    return math.sqrt(float(np.mean(losses)))
+    return math.sqrt(float(np.mean(losses))), updates
 
 
 def _pretrain(model: LSTMModel, optimizer, x: np.ndarray, segments: Sequence[Segment], config: TrainConfig,

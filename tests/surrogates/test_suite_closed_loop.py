@@ -48,7 +48,7 @@ def one_r_one_c(hours: int = 24 * 75, references=(0, 2, 3, 4, 5, 6)) -> pd.DataF
     return validate_ilv(pd.concat(frames, ignore_index=True))
 
 
-SMALL = TrainConfig(hidden_size=8, epochs=12, pretrain_steps=400, long_chunk_hours=(24,), plateau=2,
+SMALL = TrainConfig(hidden_size=8, epochs=12, pretrain_steps=400, long_chunk_hours=(24,), long_chunk_epochs=4,
                     validation_hours=168, progress=False)
 
 
@@ -83,7 +83,9 @@ def test_closed_loop_error_bound_from_the_data(zone):
 
 def test_full_recipe_is_deterministic(zone):
     table, trained = zone
-    assert {h["chunk_hours"] for h in trained.history} >= {12}
+    # the fixed schedule: 8 epochs of 12-h chunks, then 4 of 24-h chunks at the long phase's rate
+    assert [h["chunk_hours"] for h in trained.history] == [12] * 8 + [24] * 4
+    assert {h["learning_rate"] for h in trained.history[8:]} == {SMALL.long_chunk_learning_rate}
     again = train_surrogate(table, SMALL)
     for key, value in trained.model.state_dict().items():
         assert torch.equal(value, again.model.state_dict()[key]), key

@@ -12,7 +12,7 @@ from pipeline.cli import main
 from pipeline.errors import InputError
 from surrogates.export import export_surrogate, load_surrogate
 from surrogates.ilv import REQUIRED_COLUMNS, write_ilv
-from surrogates.model import rollout, torch_threads
+from surrogates.model import DEFAULT_INPUTS, rollout, torch_threads
 from surrogates.sources.fmu import simulate_ilv_fmu
 from surrogates.train import TrainConfig, train_surrogate
 from tests.surrogates.fmu.build import VARIABLE_MAP, synthetic_house
@@ -50,7 +50,8 @@ def test_bounds_from_training_rows_only(table, trained):
     assert trained.normalization.minimum[-1] == temperature[rows].min()
     test_rows = np.concatenate([np.arange(s.start, s.stop) for s in trained.splits["test"]])
     assert not set(test_rows) & set(rows)
-    assert trained.inputs[-1] == "indoor_dry_bulb_temperature" and len(trained.inputs) == 14
+    # the table has every default input (set point included): all of them, in order, temperature last
+    assert trained.inputs == list(DEFAULT_INPUTS) and trained.inputs[-1] == "indoor_dry_bulb_temperature"
 
 
 def test_export_loads_in_upstream_format(trained, tmp_path):
@@ -63,7 +64,7 @@ def test_export_loads_in_upstream_format(trained, tmp_path):
     attributes = block["attributes"]
     assert block["type"] == "citylearn.dynamics.LSTMDynamics" and attributes["filename"] == "Building_1.pth"
     assert len(attributes["input_observation_names"]) == len(attributes["input_normalization_minimum"]) \
-        == len(attributes["input_normalization_maximum"]) == attributes["input_size"] == 14
+        == len(attributes["input_normalization_maximum"]) == attributes["input_size"] == len(DEFAULT_INPUTS)
 
     # upstream CityLearn builds the network from the schema attributes and loads checkpoint["model_state_dict"]
     class UpstreamLSTM(torch.nn.Module):
