@@ -90,20 +90,24 @@ def config_folder(config: BuildConfig) -> Path:
     return source.parent.resolve() if source.name != "<dict>" else Path.cwd()
 
 
+#: label -> (configuration section, key) of every field that names one input file
+FILE_FIELDS: dict[str, tuple[str, str]] = {
+    "weather": ("inputs", "weather"), "tariff": ("inputs", "tariff"), "fuel_mix": ("inputs", "fuel_mix"),
+    "characteristics": ("inputs", "characteristics"), "selection_metadata": ("selection", "metadata"),
+    "fmu": ("surrogate", "fmu")}
+#: fields that name a folder or a URL (:func:`input_files` lists the files read from them one by one)
+FOLDER_FIELDS: tuple[tuple[str, str], ...] = (("inputs", "ilv"), ("inputs", "eulp"))
+
+
 def portable_config(config: BuildConfig) -> dict[str, Any]:
     """The configuration as plain JSON without where it was built: every path relative to the configuration
     file's folder, ``source`` its file name, ``cache_dir`` left out (it changes no artifact)."""
     base = config_folder(config)
     data = json.loads(config.model_dump_json(exclude={"cache_dir"}))
     data["source"] = Path(config.source).name
-    inputs = data["inputs"]
-    for key in ("weather", "tariff", "fuel_mix", "ilv", "characteristics", "eulp"):
-        if inputs.get(key) is not None:
-            inputs[key] = portable_path(inputs[key], base)
-    if data.get("selection") and data["selection"].get("metadata") is not None:
-        data["selection"]["metadata"] = portable_path(data["selection"]["metadata"], base)
-    if data["surrogate"].get("fmu") is not None:
-        data["surrogate"]["fmu"] = portable_path(data["surrogate"]["fmu"], base)
+    for section, key in (*FILE_FIELDS.values(), *FOLDER_FIELDS):
+        if data.get(section) and data[section].get(key) is not None:
+            data[section][key] = portable_path(data[section][key], base)
     return data
 
 
@@ -112,13 +116,12 @@ def input_files(config: BuildConfig) -> dict[str, Path]:
     ``characteristics``, ``selection_metadata``, ``fmu``, ``eulp_metadata`` and ``eulp_timeseries/<bldg_id>``
     (a local EULP folder), ``ilv/<bldg_id>`` (``surrogate.source = "csv"``)."""
     i = config.inputs
-    files: dict[str, Path] = {"weather": Path(i.weather), "tariff": Path(i.tariff), "fuel_mix": Path(i.fuel_mix)}
-    if i.characteristics is not None:
-        files["characteristics"] = Path(i.characteristics)
-    if config.selection is not None and config.selection.metadata is not None:
-        files["selection_metadata"] = Path(config.selection.metadata)
-    if config.surrogate.source == "fmu" and config.surrogate.fmu is not None:
-        files["fmu"] = Path(config.surrogate.fmu)
+    files: dict[str, Path] = {}
+    for label, (section, key) in FILE_FIELDS.items():
+        holder = getattr(config, section)  # None for an absent optional section (selection)
+        value = None if holder is None else getattr(holder, key)
+        if value is not None and (label != "fmu" or config.surrogate.source == "fmu"):  # an unused FMU: no input
+            files[label] = Path(value)
     ids = [int(b) for b in (i.buildings or [])]
     if i.eulp is not None and not i.eulp.startswith(("http://", "https://")):
         from pipeline.ingest.eulp import locate_building
