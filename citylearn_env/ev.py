@@ -10,6 +10,7 @@ no EV.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import hashlib
 import random
 from collections.abc import Callable, Mapping, Sequence
@@ -83,6 +84,12 @@ class ChargerData:
     required_soc_departure: np.ndarray
     estimated_arrival_time: np.ndarray
     estimated_soc_arrival: np.ndarray
+
+    @functools.cached_property
+    def plugged(self) -> np.ndarray:
+        """(C, T) index of the EV plugged into each charger, -1 where none (state not 1); computed once, read
+        by every step (:func:`plugged_ev`)."""
+        return np.where(self.state == PARKED, self.ev, NO_EV)
 
 
 @dataclass(frozen=True, eq=False)
@@ -396,7 +403,7 @@ def charger_consumption(balance: np.ndarray, efficiency: np.ndarray, active: np.
 
 def plugged_ev(data: ChargerData, t: int) -> np.ndarray:
     """Index of the EV plugged into each charger at step ``t`` (C,), -1 where none (state not 1)."""
-    return np.where(data.state[:, t] == PARKED, data.ev[:, t], NO_EV)
+    return data.plugged[:, t]
 
 
 def charge_plugged_evs(action: np.ndarray, soc_prev: np.ndarray, efficiency_prev: np.ndarray,
