@@ -42,9 +42,9 @@ CLIMATES = {
     "cold_chicago": "USA_IL_Chicago-OHare.Intl.AP.725300_TMY3.epw",
 }
 TRAIN_REFERENCES = (0, 1, 2, 3, 4, 5)
+TEST_REFERENCES = (6, 7)
 #: the inputs of every recipe before the fifth pass: the default inputs plus upstream's day-type encoding
 WITH_DAY_TYPE = (*DEFAULT_INPUTS[:-1], "day_type_sin", "day_type_cos", DEFAULT_INPUTS[-1])
-TEST_REFERENCES = (6, 7)
 
 
 def recipes() -> dict:
@@ -80,7 +80,6 @@ def recipes() -> dict:
             # hidden 32 with bfloat16 updates (~22 % cheaper per update: benchmarks/README.md, trainer speed)
             "hidden32_bf16": replace(hidden32, bf16_updates=True),
             "hidden32_bf16_no_early_stop": replace(hidden32, bf16_updates=True, patience=None),
-            # the default's ablations: its batch 128 without the long-chunk phase, and the long phase at batch 256
             # the default's ablations (docs/surrogates.md, fifth pass): with the day-type inputs; and with them,
             # 1200 one-step updates and 45 epochs (the last 15 long)
             "pretrain6000_day_type": replace(default, inputs=WITH_DAY_TYPE),

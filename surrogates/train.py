@@ -1,12 +1,12 @@
 """Training of one building's LSTM surrogate on an ILV table.
 
-Objective: the model is trained the way the environment runs it. After a few cheap one-step epochs on
-independent windows (warm start), each training sample is a chunk of a
+Objective: the model is trained the way the environment runs it. After many cheap one-step updates on
+independent windows (warm start: they fit the hour-to-hour response), each training sample is a chunk of a
 reference run (``lookback`` warm-up hours + ``chunk_hours`` predicted hours) rolled out closed-loop with the
 stateful sliding window of :func:`surrogates.model.rollout` from zero state, and the loss is the mean squared
-error of the whole rollout (normalised indoor temperature), back-propagated through the feedback. Chunk
-offsets are re-drawn every epoch so chunk boundaries move. Early stopping keeps the weights with the lowest
-closed-loop validation RMSE (degC).
+error of the whole rollout (normalised indoor temperature), back-propagated through the feedback; the last
+epochs use longer chunks at a low rate (multi-day drift). Chunk offsets are re-drawn every epoch so chunk
+boundaries move. The weights of the epoch with the lowest closed-loop validation RMSE (degC) are kept.
 
 Splits, by reference run and time (see :func:`split_segments`); min-max bounds come from the training rows
 only; windows never cross a run boundary because every sample lies inside one run.
@@ -52,7 +52,8 @@ class Segment:
 
 @dataclass(frozen=True)
 class TrainConfig:
-    """Hyper-parameters (defaults tuned on the 2R2C benchmark houses; see docs/surrogates.md)."""
+    """Hyper-parameters; the defaults are the best recipe measured on the independent validation suite
+    (docs/surrogates.md, section 4 and its fifth pass)."""
 
     inputs: tuple[str, ...] = DEFAULT_INPUTS
     hidden_size: int = 32

@@ -142,3 +142,27 @@ def test_bad_config():
     with pytest.raises(InputError, match="last input"):
         TrainConfig(inputs=("indoor_dry_bulb_temperature", "outdoor_dry_bulb_temperature"))
     assert set(REQUIRED_COLUMNS) > {"cooling_demand", "heating_demand"}
+
+
+def test_default_inputs_run_alike_in_citylearn_2_1(table, trained, tmp_path):
+    """The default inputs leave out the day type, the one input CityLearn 2.1 encodes differently (period 8
+    against the 7 of training): the exported model then predicts the same in both runtimes (float32 rounding
+    only), while a model that reads the day type does not."""
+    from dataclasses import replace
+
+    from citylearn_env.settings import CITYLEARN_2_1, CORRECTED
+    from surrogates.evaluate import bank_rollout
+
+    def both_semantics(model) -> tuple[np.ndarray, np.ndarray]:
+        paths = export_surrogate(model, tmp_path / str(len(model.inputs)), "Building_1")
+        block = json.loads(paths["dynamics"].read_text())
+        runs = [model.splits["test"][0]]
+        return tuple(bank_rollout(paths["pth"], block, table, runs, s)["predicted"].to_numpy()
+                     for s in (CORRECTED, CITYLEARN_2_1))
+
+    assert "day_type_sin" not in trained.inputs
+    ours, upstream = both_semantics(trained)
+    assert np.max(np.abs(ours - upstream)) < 1e-3
+    with_day_type = (*DEFAULT_INPUTS[:-1], "day_type_sin", "day_type_cos", DEFAULT_INPUTS[-1])
+    ours, upstream = both_semantics(train_surrogate(table, replace(TINY, inputs=with_day_type)))
+    assert np.max(np.abs(ours - upstream)) > 1e-2
