@@ -2,30 +2,24 @@
 one process, one torch thread, on one cached suite building (office2004, Sterling, upstream's hourly
 multipliers; train references 0-5 as in benchmarks/surrogate_suite.py).
 
-    .venv/bin/python benchmarks/surrogate_train_speed.py speed [--old 266628d] [--repeats 3] [--hidden 16 32]
-                                                               [--variants old new new_bf16]
-    .venv/bin/python benchmarks/surrogate_train_speed.py accuracy [--houses ...] [--climates ...] [--schemes ...]
-                                                                  [--variants new new_bf16]
+    .venv/bin/python benchmarks/surrogate_train_speed.py [--old 266628d] [--repeats 3] [--hidden 16 32]
+                                                         [--variants old new new_bf16]
 
 Per (hidden size, variant) it reports the median process CPU seconds of ``repeats`` trainings (each the
 whole ``train_surrogate`` call: setup, one-step pretraining, closed-loop epochs, validation), the wall
 seconds, the epochs run, the best epoch and its validation RMSE, and whether the weights equal the old
-trainer's bit for bit. Rounds interleave the variants (old, new, ... then again) so load changes hit all
-alike; the 1-, 5- and 15-minute load averages are printed before and after. The old trainer's
-``surrogates/model.py`` and ``surrogates/train.py`` are read with ``git show`` and imported under other
-module names; nothing in the working tree or the git state changes.
-
-``accuracy`` trains the suite's ``hidden32`` recipe (float32 updates, and bfloat16 updates for ``new_bf16``) on
-suite buildings and scores them like ``benchmarks/surrogate_suite.py run`` (closed-loop monthly RMSE of the
-test references, both rollout semantics); rows go to ``$CACHE/results/train_speed_<variant>.jsonl`` (the
-suite's own result files are not touched) and a table of both variants is printed.
+trainer's bit for bit. Every variant trains the old trainer's default recipe (the suite's ``hidden16``
+recipe at the hidden size asked for; ``new_bf16`` with bfloat16 updates), so only the implementation
+differs. Rounds interleave the variants (old, new, ... then again) so load changes hit all alike; the 1-, 5-
+and 15-minute load averages are printed before and after. The old trainer's ``surrogates/model.py`` and
+``surrogates/train.py`` are read with ``git show`` and imported under other module names; nothing in the
+working tree or the git state changes. The accuracy of a recipe on the suite's buildings is
+``benchmarks/surrogate_suite.py run --recipe hidden32`` (float32) or ``--recipe hidden32_bf16``.
 """
 
 from __future__ import annotations
 
 import argparse
-import importlib.util
-import json
 import os
 import statistics
 import sys
@@ -40,6 +34,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from revisions import import_source, source_at  # noqa: E402
+from surrogate_suite import recipes  # noqa: E402
 
 from surrogates import train as new_train  # noqa: E402
 from surrogates.ilv import read_ilv  # noqa: E402
@@ -56,10 +51,13 @@ def load_revision(revision: str, folder: Path):
 
 
 def run_once(trainer, table, hidden: int, bf16: bool) -> dict:
-    """One training; CPU and wall seconds of the whole call."""
-    config = trainer.TrainConfig(progress=False, test_runs=0, hidden_size=hidden)
-    if bf16:
-        config = replace(config, bf16_updates=True)
+    """One training of the old trainer's default recipe at ``hidden``; CPU and wall seconds of the whole call.
+    The old trainer's own defaults are that recipe; the working tree's moved on, so it gets the suite's
+    ``hidden16`` recipe (the same values) with ``bf16_updates=bf16``."""
+    if trainer is new_train:
+        config = replace(recipes()["hidden16"], hidden_size=hidden, bf16_updates=bf16)
+    else:
+        config = trainer.TrainConfig(progress=False, test_runs=0, hidden_size=hidden)
     cpu, wall = time.process_time(), time.perf_counter()
     trained = trainer.train_surrogate(table, config)
     cpu, wall = time.process_time() - cpu, time.perf_counter() - wall
@@ -68,79 +66,13 @@ def run_once(trainer, table, hidden: int, bf16: bool) -> dict:
             "val_rmse_c": best, "state": {k: v.clone() for k, v in trained.model.state_dict().items()}}
 
 
-def suite_module():
-    """benchmarks/surrogate_suite.py as a module (its recipes, houses and scoring)."""
-    spec = importlib.util.spec_from_file_location("surrogate_suite", ROOT / "benchmarks" / "surrogate_suite.py")
-    suite = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(suite)
-    return suite
-
-
-def accuracy(args: argparse.Namespace) -> None:
-    """Suite rows of the ``hidden32`` recipe with float32 and with bfloat16 updates."""
-    from surrogates.energyplus import reference_houses as rh
-    from surrogates.export import dynamics_block, save_checkpoint
-
-    suite = suite_module()
-
-    base = suite.recipes()["hidden32"]
-    rows: dict[str, dict[str, dict]] = {}
-    with tempfile.TemporaryDirectory() as folder:
-        for house in suite.houses(args.houses):
-            for climate in args.climates:
-                paths = rh.generate_reference_ilv(house, climate, suite.epw(climate), CACHE, schemes=args.schemes)
-                for scheme, path in paths.items():
-                    key = f"{house.name}/{climate}/{scheme}"
-                    table = read_ilv(path)
-                    train = table[table["reference"].isin(suite.TRAIN_REFERENCES)].reset_index(drop=True)
-                    for variant in args.variants:
-                        results = CACHE / "results" / f"train_speed_{variant}.jsonl"
-                        done = {json.loads(line)["key"]: json.loads(line) for line in
-                                results.read_text().splitlines()} if results.is_file() else {}
-                        if key not in done:
-                            config = replace(base, bf16_updates=variant.endswith("bf16"))
-                            trained = new_train.train_surrogate(train, config, source=path)
-                            pth = save_checkpoint(trained, Path(folder) / f"{variant}.pth")
-                            scores = suite.evaluate_one(table, pth, dynamics_block(trained, str(pth)).to_schema())
-                            done[key] = {"key": key, "cpu_seconds": round(trained.cpu_seconds, 2),
-                                         "load_average": round(os.getloadavg()[0], 2),
-                                         "epochs": len(trained.history), "best_epoch": trained.best_epoch, **scores}
-                            results.parent.mkdir(parents=True, exist_ok=True)
-                            with results.open("a") as handle:
-                                handle.write(json.dumps(done[key]) + "\n")
-                        rows.setdefault(key, {})[variant] = done[key]
-                        print(f"{key} {variant}: env {done[key]['env']['median']:.3f} / {done[key]['env']['max']:.3f}"
-                              f", {done[key]['cpu_seconds']:.1f} s CPU", flush=True)
-    print("\n| building | " + " | ".join(f"{v}: env median / max, CL 2.1 median / max, CPU s (epochs)"
-                                          for v in args.variants) + " |")
-    print("|---|" + "---|" * len(args.variants))
-    for key, by_variant in rows.items():
-        cells = [f"{r['env']['median']:.3f} / {r['env']['max']:.3f}, {r['cl21']['median']:.3f} / "
-                 f"{r['cl21']['max']:.3f}, {r['cpu_seconds']:.1f} ({r['epochs']})" for r in by_variant.values()]
-        print(f"| {key} | " + " | ".join(cells) + " |")
-    for variant in args.variants:
-        medians = [rows[k][variant]["env"]["median"] for k in rows]
-        maxima = [rows[k][variant]["env"]["max"] for k in rows]
-        print(f"{variant}: mean of the env medians {statistics.mean(medians):.3f}, of the maxima "
-              f"{statistics.mean(maxima):.3f} degC over {len(rows)} buildings")
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("command", choices=["speed", "accuracy"])
-    parser.add_argument("--old", default="266628d", help="speed: git revision of the previous trainer")
+    parser.add_argument("--old", default="266628d", help="git revision of the previous trainer")
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--hidden", type=int, nargs="*", default=[16, 32])
-    parser.add_argument("--variants", nargs="*")
-    parser.add_argument("--houses", nargs="*")
-    parser.add_argument("--climates", nargs="*", default=["hot_humid_tampa", "mixed_sterling", "cold_chicago"])
-    parser.add_argument("--schemes", nargs="*", default=["upstream", "held"])
+    parser.add_argument("--variants", nargs="*", default=["old", "new", "new_bf16"])
     args = parser.parse_args()
-    if args.command == "accuracy":
-        args.variants = args.variants or ["new", "new_bf16"]
-        accuracy(args)
-        return
-    args.variants = args.variants or ["old", "new", "new_bf16"]
     if not TABLE.is_file():
         raise SystemExit(f"{TABLE} missing: run benchmarks/surrogate_suite.py generate first")
     table = read_ilv(TABLE)

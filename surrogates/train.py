@@ -15,6 +15,7 @@ only; windows never cross a run boundary because every sample lies inside one ru
 from __future__ import annotations
 
 import copy
+import functools
 import math
 import time
 from collections.abc import Callable, Sequence
@@ -344,7 +345,13 @@ def _adam(model: LSTMModel, lr: float, fused: bool) -> torch.optim.Adam:
 def uses_bf16(config: TrainConfig) -> bool:
     """Whether ``config``'s updates run in bfloat16 here: ``bf16_updates`` and a CPU oneDNN supports
     bfloat16 on (AVX512-BF16 or AMX); results are deterministic for a seed on a given kind of CPU."""
-    return config.bf16_updates and bool(torch.ops.mkldnn._is_mkldnn_bf16_supported())
+    return config.bf16_updates and _onednn_bf16()
+
+
+@functools.cache
+def _onednn_bf16() -> bool:
+    """oneDNN's bfloat16 support on this CPU (asked once per process; :func:`uses_bf16` runs every update)."""
+    return bool(torch.ops.mkldnn._is_mkldnn_bf16_supported())
 
 
 def _autocast(config: TrainConfig) -> torch.autocast:

@@ -362,6 +362,11 @@ class SuiteSettings:
     max_replay_mad_c: float = 0.2
     loads: str = "net"
 
+    def __post_init__(self):
+        if self.loads not in LOAD_AGGREGATIONS:  # before any EnergyPlus run
+            raise InputError(f"unknown load aggregation {self.loads!r}; use one of {list(LOAD_AGGREGATIONS)}",
+                             column="loads")
+
 
 def settings_text(settings: SuiteSettings) -> str:
     """The text the cache key hashes: the dataclass repr, without ``loads`` when it is "net" (so the net
@@ -386,7 +391,6 @@ def generate_reference_ilv(house: ReferenceHouse, climate: str, epw: Path, cache
     Raises :class:`ILVCheckError` when the multiplier-1 replay misses the ideal run's temperature by more
     than ``settings.max_replay_mad_c`` (mean absolute hourly deviation, degC)."""
     cache_dir = Path(cache_dir)
-    aggregate_loads(np.zeros(1), np.zeros(1), settings.loads)  # an unknown aggregation fails before any run
     wanted = {s: table_path(cache_dir, house, climate, s, settings) for s in schemes}
     unknown = [s for s in wanted if s not in SCHEMES]
     if unknown:
