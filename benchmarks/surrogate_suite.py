@@ -49,8 +49,11 @@ WITH_DAY_TYPE = (*DEFAULT_INPUTS[:-1], "day_type_sin", "day_type_cos", DEFAULT_I
 
 def recipes() -> dict:
     """Named training configurations: ``default`` (TrainConfig(): hidden 32, bfloat16 updates, no day-type
-    inputs, 6000 one-step updates, batch 128, 24 closed-loop epochs all run, the last 10 on 48-h chunks at a
-    low rate), ``pretrain6000_day_type`` (the same with the day-type inputs), ``pretrain1200_long`` (with
+    inputs, 6000 one-step updates on a perturbed temperature history, batch 128, 24 closed-loop epochs at
+    1.5e-3 all run, the last 10 on 48-h chunks at a low rate), ``fifth_pass`` (the default of the fifth pass:
+    no perturbation, closed-loop rate 3e-3), ``fifth_pass_history_noise`` and ``fifth_pass_low_rate`` (with
+    one of the two changes only),
+    ``pretrain6000_day_type`` (the fifth pass with the day-type inputs), ``pretrain1200_long`` (with
     them, 1200 one-step updates and 45 epochs, the last 15 long),
     ``hidden32_bf16_no_early_stop`` (the default of 2026-11-24: batch 256, 1200 one-step updates, 60 epochs of
     12-h chunks) and the ablations, most of them variations of ``hidden16`` (the default before 2026-11-24:
@@ -58,11 +61,16 @@ def recipes() -> dict:
     from surrogates.train import TrainConfig
 
     default = TrainConfig(progress=False, test_runs=0)
-    base = replace(default, inputs=WITH_DAY_TYPE, hidden_size=16, patience=6, bf16_updates=False, epochs=60,
+    # the default of the fifth pass: no perturbed history in the one-step phase, closed-loop rate 3e-3
+    fifth = replace(default, pretrain_noise=0.0, finetune_learning_rate=0.003)
+    base = replace(fifth, inputs=WITH_DAY_TYPE, hidden_size=16, patience=6, bf16_updates=False, epochs=60,
                    pretrain_steps=1200, batch_size=256, long_chunk_hours=(), long_chunk_epochs=0)
     previous = replace(base, lookback=12, epochs=40, ema_decay=0.0, fresh_optimizer=False)
     hidden32 = replace(base, hidden_size=32)  # more accurate on the restaurants, 1.7x the CPU (docs/surrogates.md)
-    return {"default": default, "hidden16": base, "previous": previous,
+    return {"default": default, "fifth_pass": fifth,
+            "fifth_pass_history_noise": replace(fifth, pretrain_noise=0.01),
+            "fifth_pass_low_rate": replace(fifth, finetune_learning_rate=0.0015),
+            "hidden16": base, "previous": previous,
             "hidden32": hidden32,
             "hidden32_short": replace(hidden32, pretrain_steps=400, epochs=50, patience=8),
             "hidden32_one_layer": replace(hidden32, num_layers=1),
@@ -82,8 +90,8 @@ def recipes() -> dict:
             "hidden32_bf16_no_early_stop": replace(hidden32, bf16_updates=True, patience=None),
             # the default's ablations (docs/surrogates.md, fifth pass): with the day-type inputs; and with them,
             # 1200 one-step updates and 45 epochs (the last 15 long)
-            "pretrain6000_day_type": replace(default, inputs=WITH_DAY_TYPE),
-            "pretrain1200_long": replace(default, inputs=WITH_DAY_TYPE, pretrain_steps=1200, epochs=45,
+            "pretrain6000_day_type": replace(fifth, inputs=WITH_DAY_TYPE),
+            "pretrain1200_long": replace(fifth, inputs=WITH_DAY_TYPE, pretrain_steps=1200, epochs=45,
                                          long_chunk_epochs=15),
             # hidden 16, bfloat16 updates, 90 epochs all run (about the CPU of 60 float32 epochs + half)
             "bf16_epochs90": replace(base, bf16_updates=True, epochs=90, patience=90),

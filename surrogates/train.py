@@ -1,7 +1,8 @@
 """Training of one building's LSTM surrogate on an ILV table.
 
 Objective: the model is trained the way the environment runs it. After many cheap one-step updates on
-independent windows (warm start: they fit the hour-to-hour response), each training sample is a chunk of a
+independent windows whose temperature history is slightly perturbed (warm start: they fit the hour-to-hour
+response without copying the temperature input), each training sample is a chunk of a
 reference run (``lookback`` warm-up hours + ``chunk_hours`` predicted hours) rolled out closed-loop with the
 stateful sliding window of :func:`surrogates.model.rollout` from zero state, and the loss is the mean squared
 error of the whole rollout (normalised indoor temperature), back-propagated through the feedback; the last
@@ -76,13 +77,18 @@ class TrainConfig:
     long_chunk_learning_rate: float = 2.5e-4
     batch_size: int = 128
     learning_rate: float = 0.01
-    finetune_learning_rate: float = 0.003
+    #: Adam rate of the 12-h closed-loop epochs (fresh moments after the one-step phase)
+    finetune_learning_rate: float = 0.0015
     #: early stopping after this many epochs without a better validation RMSE; None: every epoch runs (the
     #: best validation epoch is still the one kept)
     patience: int | None = None
     plateau: int = 3
     lr_decay: float = 1.0
-    pretrain_noise: float = 0.0
+    #: standard deviation (normalised temperature units; x the training range in degC) of Gaussian noise
+    #: added to every temperature of the history in the one-step phase, drawn afresh per update: the model
+    #: learns not to copy its temperature input, which it will be fed back from its own predictions, and
+    #: drifts less in closed loop (docs/surrogates.md, sixth pass)
+    pretrain_noise: float = 0.01
     ema_decay: float = 0.95
     fresh_optimizer: bool = True
     use_free_float: bool = False
@@ -105,8 +111,9 @@ class TrainConfig:
                     "ensemble"):
             if getattr(self, key) < 1:
                 raise InputError("must be >= 1", column=key)
-        if self.long_chunk_epochs < 0:
-            raise InputError("must be >= 0", column="long_chunk_epochs")
+        for key in ("long_chunk_epochs", "pretrain_noise"):
+            if getattr(self, key) < 0:
+                raise InputError("must be >= 0", column=key)
         if self.long_chunk_epochs and not self.long_chunk_hours:
             raise InputError("long_chunk_epochs needs a long_chunk_hours stage", column="long_chunk_epochs")
 

@@ -141,6 +141,8 @@ def test_bad_table_fails_before_training(table, tmp_path, capsys, damage, column
 def test_bad_config():
     with pytest.raises(InputError, match="last input"):
         TrainConfig(inputs=("indoor_dry_bulb_temperature", "outdoor_dry_bulb_temperature"))
+    with pytest.raises(InputError, match="pretrain_noise"):
+        TrainConfig(pretrain_noise=-0.01)
     assert set(REQUIRED_COLUMNS) > {"cooling_demand", "heating_demand"}
 
 
