@@ -32,7 +32,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from surrogates.energyplus import reference_houses as rh  # noqa: E402
-from surrogates.model import DEFAULT_INPUTS  # noqa: E402
+from surrogates.model import INPUTS_WITH_DAY_TYPE  # noqa: E402
 
 CACHE = Path(os.environ.get("DISTRICTGEN_SUITE_CACHE", "/tmp/districtgen_surrogate_suite"))
 #: climate -> EPW shipped in pyenergyplus/data/weather (TMY3)
@@ -43,8 +43,6 @@ CLIMATES = {
 }
 TRAIN_REFERENCES = (0, 1, 2, 3, 4, 5)
 TEST_REFERENCES = (6, 7)
-#: the inputs of every recipe before the fifth pass: the default inputs plus upstream's day-type encoding
-WITH_DAY_TYPE = (*DEFAULT_INPUTS[:-1], "day_type_sin", "day_type_cos", DEFAULT_INPUTS[-1])
 
 
 def recipes() -> dict:
@@ -63,7 +61,7 @@ def recipes() -> dict:
     default = TrainConfig(progress=False, test_runs=0)
     # the default of the fifth pass: no perturbed history in the one-step phase, closed-loop rate 3e-3
     fifth = replace(default, pretrain_noise=0.0, finetune_learning_rate=0.003)
-    base = replace(fifth, inputs=WITH_DAY_TYPE, hidden_size=16, patience=6, bf16_updates=False, epochs=60,
+    base = replace(fifth, inputs=INPUTS_WITH_DAY_TYPE, hidden_size=16, patience=6, bf16_updates=False, epochs=60,
                    pretrain_steps=1200, batch_size=256, long_chunk_hours=(), long_chunk_epochs=0)
     previous = replace(base, lookback=12, epochs=40, ema_decay=0.0, fresh_optimizer=False)
     hidden32 = replace(base, hidden_size=32)  # more accurate on the restaurants, 1.7x the CPU (docs/surrogates.md)
@@ -90,8 +88,8 @@ def recipes() -> dict:
             "hidden32_bf16_no_early_stop": replace(hidden32, bf16_updates=True, patience=None),
             # the default's ablations (docs/surrogates.md, fifth pass): with the day-type inputs; and with them,
             # 1200 one-step updates and 45 epochs (the last 15 long)
-            "pretrain6000_day_type": replace(fifth, inputs=WITH_DAY_TYPE),
-            "pretrain1200_long": replace(fifth, inputs=WITH_DAY_TYPE, pretrain_steps=1200, epochs=45,
+            "pretrain6000_day_type": replace(fifth, inputs=INPUTS_WITH_DAY_TYPE),
+            "pretrain1200_long": replace(fifth, inputs=INPUTS_WITH_DAY_TYPE, pretrain_steps=1200, epochs=45,
                                          long_chunk_epochs=15),
             # hidden 16, bfloat16 updates, 90 epochs all run (about the CPU of 60 float32 epochs + half)
             "bf16_epochs90": replace(base, bf16_updates=True, epochs=90, patience=90),

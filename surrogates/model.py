@@ -46,6 +46,9 @@ DEFAULT_INPUTS: tuple[str, ...] = (
     "indoor_dry_bulb_temperature_set_point", "occupant_count", "cooling_demand", "heating_demand",
     "month_sin", "month_cos", "hour_sin", "hour_cos", TARGET,
 )
+#: upstream's full input set: the defaults with the day-type encoding before the temperature (the default
+#: before the fifth pass; its ablation recipes and the CityLearn 2.1 comparison use it)
+INPUTS_WITH_DAY_TYPE: tuple[str, ...] = (*DEFAULT_INPUTS[:-1], "day_type_sin", "day_type_cos", TARGET)
 
 
 @contextmanager

@@ -347,3 +347,15 @@ def test_config_needs_one_building_source_and_complete_fmu_settings():
                                                        "characteristics": "m.parquet"},
                                  "selection": {"filters": {"vintage": ["1980s", "1990s"]}, "clusters": "auto"}})
     assert chosen.selection.filters == {"vintage": ["1980s", "1990s"]} and chosen.inputs.buildings is None
+
+
+def test_surrogate_section_defaults_are_the_trainers():
+    """A ``[surrogate]`` section that names no hyper-parameter trains ``TrainConfig()``'s recipe: the section's
+    defaults repeat the trainer's (pipeline/config.py must not import torch), and this keeps them together."""
+    pytest.importorskip("torch", reason="the surrogate extra is not installed")
+    from dataclasses import replace
+
+    from surrogates.train import TrainConfig
+
+    config = read_build_config(ROOT / "raw" / "district.toml")  # [surrogate]: source and seed only
+    assert build.train_config(config) == replace(TrainConfig(), progress=False, threads=1)
