@@ -51,9 +51,10 @@ def main() -> None:
     config = parse_build_config(data, file="raw/district.toml (v2.1 layout)", base=ROOT / "raw")
     with tempfile.TemporaryDirectory() as scratch:
         schema = build_district_local(config, scratch) / "schema.json"
-        out = subprocess.run([args.upstream, "-c", UPSTREAM, str(schema)], capture_output=True, text=True,
-                             check=True).stdout.strip().splitlines()[-1]
-        upstream = json.loads(out)
+        run = subprocess.run([args.upstream, "-c", UPSTREAM, str(schema)], capture_output=True, text=True)
+        if run.returncode != 0:
+            raise SystemExit(f"upstream CityLearn failed on {schema}:\n{run.stderr[-3000:]}")
+        upstream = json.loads(run.stdout.strip().splitlines()[-1])
         env = CityLearnEnv(schema, compat=True)
         env.reset()
         done = False

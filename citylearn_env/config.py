@@ -35,6 +35,9 @@ ACTION_NAMES = (
     "electric_vehicle_storage",
     "washing_machine",
 )
+#: actions CityLearn 2.1 does not know: a v2.1-layout schema leaves them out (CityLearn 2.1.2 passes every
+#: schema action to its buildings, active or not, and fails on these names)
+ACTIONS_SINCE_2_2 = ("cooling_or_heating_device", "electric_vehicle_storage", "washing_machine")
 #: generic schema actions that become one action per device: ``electric_vehicle_storage_<charger id>`` per
 #: charger and the machine's own name per washing machine (docs/ev.md section 6)
 EV_ACTION = "electric_vehicle_storage"

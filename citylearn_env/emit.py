@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from citylearn_env.config import ACTION_NAMES
+from citylearn_env.config import ACTION_NAMES, ACTIONS_SINCE_2_2
 from citylearn_env.dataset import DynamicsBlock, dynamics_entry, write_atomically
 
 #: schema slots in the order they are written, with the upstream device type used when none is given
@@ -105,7 +105,8 @@ def schema_document(buildings: Sequence[BuildingEntry], *, hours: int, observati
     active_actions
         Names of :data:`citylearn_env.config.ACTION_NAMES` that are active (the rest are written inactive).
     layout
-        ``"v2.2"`` or ``"v2.1"``: the form of each building's ``dynamics`` entry.
+        ``"v2.2"`` or ``"v2.1"``: the form of each building's ``dynamics`` entry; v2.1 also leaves out the
+        actions CityLearn 2.1 does not know (:data:`citylearn_env.config.ACTIONS_SINCE_2_2`).
     random_seed, reward_function, central_agent, seconds_per_time_step
         Written as given (reward default: the plain ``citylearn.reward_function.RewardFunction``).
 
@@ -114,6 +115,10 @@ def schema_document(buildings: Sequence[BuildingEntry], *, hours: int, observati
     unknown = sorted(set(active_actions) - set(ACTION_NAMES))
     if unknown:
         raise ValueError(f"unknown action(s) {unknown}; known: {', '.join(ACTION_NAMES)}")
+    actions = [a for a in ACTION_NAMES if layout != "v2.1" or a not in ACTIONS_SINCE_2_2]
+    newer = sorted(set(active_actions) - set(actions))
+    if newer:
+        raise ValueError(f"action(s) {newer} need the v2.2 layout (CityLearn 2.1 does not know them)")
     active = set(observations) if active_observations is None else set(active_observations)
     names = [b.name for b in buildings]
     if len(set(names)) != len(names):
@@ -125,7 +130,7 @@ def schema_document(buildings: Sequence[BuildingEntry], *, hours: int, observati
         "seconds_per_time_step": float(seconds_per_time_step), "random_seed": random_seed,
         "observations": {n: {"active": n in active, "shared_in_central_agent": n in shared_observations}
                          for n in observations},
-        "actions": {a: {"active": a in active_actions} for a in ACTION_NAMES},
+        "actions": {a: {"active": a in active_actions} for a in actions},
         "reward_function": dict(reward_function) if reward_function is not None else dict(DEFAULT_REWARD),
         "buildings": {b.name: building_spec(b, layout) for b in buildings},
     }

@@ -274,3 +274,16 @@ def test_schema_document_keys():
     assert schema["observations"]["hour"] == {"active": True, "shared_in_central_agent": True}
     assert [a for a, v in schema["actions"].items() if v["active"]] == ["dhw_storage"]
     assert schema["buildings"]["Building_1"]["dynamics"]["type"] == "citylearn.dynamics.LSTMDynamics"
+    assert "cooling_or_heating_device" in schema["actions"]  # v2.2 layout: the whole vocabulary
+
+
+def test_v2_1_schema_leaves_out_newer_actions():
+    """CityLearn 2.1.2 hands every schema action to its buildings, active or not, and fails on names it does
+    not know: a v2.1-layout schema lists only 2.1's actions, and asking for a newer one is an error."""
+    entry = BuildingEntry("Building_1", {}, dynamics=_block())
+    kwargs = {"hours": 24, "observations": ["hour"], "shared_observations": {"hour"}, "layout": "v2.1"}
+    schema = schema_document([entry], active_actions={"cooling_device"}, **kwargs)
+    assert list(schema["actions"]) == ["cooling_storage", "heating_storage", "dhw_storage", "electrical_storage",
+                                       "cooling_device", "heating_device"]
+    with pytest.raises(ValueError, match="washing_machine.*v2.2 layout"):
+        schema_document([entry], active_actions={"washing_machine"}, **kwargs)
