@@ -4,11 +4,15 @@ Run single-threaded:  NUMBA_NUM_THREADS=1 OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 OP
     .venv/bin/python benchmarks/lstm_speed.py
 Uses the 2023 challenge Building_*.pth weights from ../shared (13 inputs, 2 layers, 16 units, lookback 12);
 B buildings cycle through the six files. Reports the median over repeats of the mean us per bank.step call
-(warm buffers, i.e. every call runs the full 12-step window for every building).
+(warm buffers, i.e. every call runs the full window for every building).
+
+``--hidden H [H ...] [--lookback L ...]``: instead, random weights of the shape our trainer exports (the 12
+default inputs, 2 layers; numba only), e.g. ``--hidden 32 64 --lookback 1 6 -- 1 6``.
 """
 
 from __future__ import annotations
 
+import argparse
 import os
 
 for _var in ("NUMBA_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS"):
@@ -41,6 +45,27 @@ def make_bank(n: int, backend: str) -> LSTMBank:
     return LSTMBank(specs, settings=CITYLEARN_2_1, backend=backend)
 
 
+def make_surrogate_bank(n: int, hidden: int, lookback: int = 6) -> LSTMBank:
+    """``n`` buildings with random weights (PyTorch's init range) of our exported shape: the 12 default
+    inputs (``surrogates.model.DEFAULT_INPUTS``, repeated here so this stays torch-free), 2 layers."""
+    names = ("direct_solar_irradiance", "diffuse_solar_irradiance", "outdoor_dry_bulb_temperature",
+             "indoor_dry_bulb_temperature_set_point", "occupant_count", "cooling_demand", "heating_demand",
+             "month_sin", "month_cos", "hour_sin", "hour_cos", "indoor_dry_bulb_temperature")
+    block = DynamicsBlock("model.pth", names, (0.0,) * len(names), (1.0,) * len(names), hidden_size=hidden,
+                          num_layers=2, lookback=lookback)
+    rng, bound = np.random.default_rng(0), hidden ** -0.5
+    specs = []
+    for _ in range(n):
+        state = {}
+        for layer, width in ((0, len(names)), (1, hidden)):
+            for key, shape in ((f"weight_ih_l{layer}", (4 * hidden, width)), (f"weight_hh_l{layer}", (4 * hidden, hidden)),
+                               (f"bias_ih_l{layer}", (4 * hidden,)), (f"bias_hh_l{layer}", (4 * hidden,))):
+                state[f"l_lstm.{key}"] = rng.uniform(-bound, bound, shape)
+        state["l_linear.weight"], state["l_linear.bias"] = rng.uniform(-bound, bound, (1, hidden)), np.zeros(1)
+        specs.append(LSTMSpec(state, block))
+    return LSTMBank(specs, settings=CITYLEARN_2_1, backend="numba")
+
+
 def inputs(n: int, steps: int, seed: int = 0) -> list[dict[str, np.ndarray]]:
     rng = np.random.default_rng(seed)
     rows = []
@@ -48,14 +73,16 @@ def inputs(n: int, steps: int, seed: int = 0) -> list[dict[str, np.ndarray]]:
         rows.append({"direct_solar_irradiance": rng.uniform(0, 900, n), "diffuse_solar_irradiance": rng.uniform(0, 400, n),
                      "outdoor_dry_bulb_temperature": rng.uniform(22, 40, n),
                      "indoor_dry_bulb_temperature_set_point": np.full(n, 23.0), "occupant_count": np.ones(n),
-                     "cooling_demand": rng.uniform(0, 5, n), "month": np.full(n, 6.0),
+                     "cooling_demand": rng.uniform(0, 5, n), "heating_demand": np.zeros(n), "month": np.full(n, 6.0),
                      "hour": np.full(n, float(t % 24 + 1)), "day_type": np.full(n, float(t // 24 % 7 + 1)),
                      "indoor_dry_bulb_temperature": rng.uniform(22, 27, n)})
     return rows
 
 
-def us_per_step(n: int, backend: str, steps: int, repeats: int) -> tuple[float, float]:
-    bank = make_bank(n, backend)
+def us_per_step(n: int, backend: str, steps: int, repeats: int,
+                surrogate: tuple[int, int] | None = None) -> tuple[float, float]:
+    """``surrogate``: (hidden, lookback) of random weights of our exported shape instead of the 2023 files."""
+    bank = make_bank(n, backend) if surrogate is None else make_surrogate_bank(n, *surrogate)
     rows = inputs(n, steps)
     hvac = np.ones(n)
     for row in rows[:20]:  # fill the buffers (and compile numba on the first call)
@@ -70,10 +97,24 @@ def us_per_step(n: int, backend: str, steps: int, repeats: int) -> tuple[float, 
 
 
 def main(argv: list[str]) -> None:
-    sizes = [int(x) for x in argv] or [1, 3, 6, 17]
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("sizes", nargs="*", type=int, help="numbers of buildings B (default 1 3 6 17; 1 6 with "
+                        "--hidden)")
+    parser.add_argument("--hidden", nargs="+", type=int, help="random weights of our exported shape instead")
+    parser.add_argument("--lookback", nargs="+", type=int, default=[6], help="with --hidden: lookbacks")
+    args = parser.parse_args(argv)
+    if args.hidden:
+        print("us per bank.step call (numba), random weights of our exported shape: median (min)")
+        for lookback in args.lookback:
+            for hidden in args.hidden:
+                for n in args.sizes or [1, 6]:
+                    med, low = us_per_step(n, "numba", 1000, 11, (hidden, lookback))
+                    print(f"lookback {lookback:>2} hidden {hidden:>3} B {n:>3}: {med:>8.1f} ({low:>6.1f}) us, "
+                          f"{med / n:.1f} per building")
+        return
     print("us per bank.step call: median (min) over repeats")
     print(f"{'B':>3} {'numpy':>16} {'numba':>16} {'numba per bldg':>15}")
-    for n in sizes:
+    for n in args.sizes or [1, 3, 6, 17]:
         np_med, np_min = us_per_step(n, "numpy", 200, 7)
         nb_med, nb_min = us_per_step(n, "numba", 1000, 11)
         print(f"{n:>3} {np_med:>8.1f} ({np_min:>5.1f}) {nb_med:>8.1f} ({nb_min:>5.1f}) {nb_med / n:>15.1f}")

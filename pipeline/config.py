@@ -117,8 +117,8 @@ class Surrogate(_Frozen):
     fmu_start_values: dict[str, float] = Field(default_factory=dict)
     hidden_size: int = Field(32, ge=1)
     num_layers: int = Field(2, ge=1)
-    lookback: int = Field(6, ge=1)
-    epochs: int = Field(24, ge=1, description="closed-loop epochs; the last 10 on 48-h chunks (TrainConfig)")
+    lookback: int = Field(1, ge=1)
+    epochs: int = Field(32, ge=1, description="closed-loop epochs; the last 10 on 168-h chunks (TrainConfig)")
     max_seconds: float | None = Field(None, gt=0, description="optional wall-clock cap (makes training machine-dependent)")
     seed: int = 0
 

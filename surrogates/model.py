@@ -139,6 +139,14 @@ class LSTMModel(nn.Module):
         y = nn.functional.linear(out[:, -1], self.l_linear.weight, self.l_linear.bias)
         return y.squeeze(-1), (h, c)
 
+    def sequence(self, rows: torch.Tensor, weights: Sequence[torch.Tensor]) -> torch.Tensor:
+        """(batch, hours) outputs of one LSTM pass over ``rows`` (batch, hours, input_size) from zero state,
+        the head applied at every row: with lookback 1 and the data temperatures in the rows, this is the
+        stateful sliding window's one-step (teacher-forced) prediction of every hour in one kernel call."""
+        zeros = rows.new_zeros(self.num_layers, rows.shape[0], self.hidden_size)
+        out, _, _ = torch.lstm(rows, (zeros, zeros), weights, True, self.num_layers, 0.0, self.training, False, True)
+        return nn.functional.linear(out, self.l_linear.weight, self.l_linear.bias).squeeze(-1)
+
 
 def rollout(model: LSTMModel, x: torch.Tensor, lookback: int, closed_loop: bool = True,
             state=None) -> torch.Tensor:

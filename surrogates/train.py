@@ -1,8 +1,9 @@
 """Training of one building's LSTM surrogate on an ILV table.
 
-Objective: the model is trained the way the environment runs it. After many cheap one-step updates on
-independent windows whose temperature history is slightly perturbed (warm start: they fit the hour-to-hour
-response without copying the temperature input), each training sample is a chunk of a
+Objective: the model is trained the way the environment runs it. After many cheap teacher-forced updates
+whose temperature history is perturbed by noise (warm start: they fit the hour-to-hour response without
+copying the temperature input; with the default lookback 1, whole 48-h sequences with the state carried,
+otherwise independent windows from zero state), each training sample is a chunk of a
 reference run (``lookback`` warm-up hours + ``chunk_hours`` predicted hours) rolled out closed-loop with the
 stateful sliding window of :func:`surrogates.model.rollout` from zero state, and the loss is the mean squared
 error of the whole rollout (normalised indoor temperature), back-propagated through the feedback; the last
@@ -55,30 +56,35 @@ class Segment:
 @dataclass(frozen=True)
 class TrainConfig:
     """Hyper-parameters; the defaults are the best recipe measured on the independent validation suite
-    (docs/surrogates.md, section 4 and its fifth pass)."""
+    (docs/surrogates.md, section 4 and its seventh pass): lookback 1 (a plain stateful LSTM), a
+    teacher-forced warm start on 48-h sequences, then closed-loop epochs on 48-h and 168-h chunks."""
 
     inputs: tuple[str, ...] = DEFAULT_INPUTS
     hidden_size: int = 32
     num_layers: int = 2
-    lookback: int = 6
-    epochs: int = 24
+    lookback: int = 1
+    epochs: int = 32
     seed: int = 0
     pretrain_steps: int = 6000
-    pretrain_batch_size: int = 256
-    chunk_hours: int = 12
+    #: samples per one-step update: windows (lookback > 1) or sequences (lookback 1)
+    pretrain_batch_size: int = 32
+    #: lookback 1 only: length (h) of the teacher-forced sequences of the warm start (state carried through
+    #: each, from zero); at most the longest training segment allows
+    pretrain_sequence_hours: int = 48
+    chunk_hours: int = 48
     #: closed-loop chunk lengths (h) of later stages; with ``long_chunk_epochs`` 0 the next stage starts when
     #: validation stalls for ``plateau`` epochs (a curriculum), otherwise see ``long_chunk_epochs``
-    long_chunk_hours: tuple[int, ...] = (48,)
+    long_chunk_hours: tuple[int, ...] = (168,)
     #: the last ``long_chunk_epochs`` epochs (at most ``epochs - 1``) train on chunks of ``long_chunk_hours[0]``
     #: hours (at most the longest training segment allows) at ``long_chunk_learning_rate``, continuing from the
     #: current weights: a low-rate fine-tune on longer closed-loop horizons, which corrects multi-day drift
-    #: that 12-h chunks do not see (docs/surrogates.md)
+    #: that shorter chunks do not see (docs/surrogates.md)
     long_chunk_epochs: int = 10
     long_chunk_learning_rate: float = 2.5e-4
     batch_size: int = 128
     learning_rate: float = 0.01
-    #: Adam rate of the 12-h closed-loop epochs (fresh moments after the one-step phase)
-    finetune_learning_rate: float = 0.0015
+    #: Adam rate of the closed-loop epochs before the long phase (fresh moments after the warm start)
+    finetune_learning_rate: float = 0.0005
     #: early stopping after this many epochs without a better validation RMSE; None: every epoch runs (the
     #: best validation epoch is still the one kept)
     patience: int | None = None
@@ -87,8 +93,8 @@ class TrainConfig:
     #: standard deviation (normalised temperature units; x the training range in degC) of Gaussian noise
     #: added to every temperature of the history in the one-step phase, drawn afresh per update: the model
     #: learns not to copy its temperature input, which it will be fed back from its own predictions, and
-    #: drifts less in closed loop (docs/surrogates.md, sixth pass)
-    pretrain_noise: float = 0.01
+    #: drifts less in closed loop (docs/surrogates.md, sixth and seventh passes)
+    pretrain_noise: float = 0.06
     ema_decay: float = 0.95
     fresh_optimizer: bool = True
     use_free_float: bool = False
@@ -108,7 +114,7 @@ class TrainConfig:
         if self.inputs and self.inputs[-1] != TARGET:
             raise InputError(f"the last input must be {TARGET!r}", column="inputs")
         for key in ("hidden_size", "num_layers", "lookback", "epochs", "chunk_hours", "batch_size", "plateau",
-                    "ensemble"):
+                    "ensemble", "pretrain_batch_size", "pretrain_sequence_hours"):
             if getattr(self, key) < 1:
                 raise InputError("must be >= 1", column=key)
         for key in ("long_chunk_epochs", "pretrain_noise"):
@@ -415,8 +421,12 @@ def _closed_loop_epoch(model: LSTMModel, optimizer, x: np.ndarray, segments: Seq
 def _pretrain(model: LSTMModel, optimizer, x: np.ndarray, segments: Sequence[Segment], config: TrainConfig,
               rng: np.random.Generator) -> None:
     """One-step teacher-forced epochs on independent windows from zero state (fast, batched): brings the
-    weights near a good one-step predictor before the closed-loop stateful fine-tuning."""
+    weights near a good one-step predictor before the closed-loop stateful fine-tuning. With lookback 1 a
+    window is one row, so the warm start is :func:`_pretrain_sequences` instead."""
     if config.pretrain_steps < 1:
+        return
+    if config.lookback == 1:
+        _pretrain_sequences(model, optimizer, x, segments, config, rng)
         return
     windows = torch.from_numpy(_chunks(x, segments, config.lookback + 1, None, 1))
     exogenous, temps, target = windows[:, 1:, :-1], windows[:, :-1, -1:], windows[:, -1, -1]
@@ -439,6 +449,39 @@ def _pretrain(model: LSTMModel, optimizer, x: np.ndarray, segments: Sequence[Seg
             loss = torch.mean((prediction.float() - target[rows]) ** 2)
             optimizer.zero_grad()
             loss.backward()
+            optimizer.step()
+
+
+def _pretrain_sequences(model: LSTMModel, optimizer, x: np.ndarray, segments: Sequence[Segment],
+                        config: TrainConfig, rng: np.random.Generator) -> None:
+    """Lookback-1 warm start: the stateful sliding window of one row is a plain recurrent model, so whole
+    sequences of ``pretrain_sequence_hours`` are teacher-forced in one LSTM call each (row ``t`` holds the
+    exogenous inputs of hour ``t+1`` and the data temperature of hour ``t``, perturbed by ``pretrain_noise``
+    drawn afresh per update; state from zero at each sequence's start), loss = MSE over every predicted
+    hour, gradients clipped at norm 1. Chunk offsets are re-drawn on every pass over the data."""
+    longest = max(s.stop - s.start for s in segments)  # check_trainable: >= 1 + chunk_hours
+    hours = min(config.pretrain_sequence_hours, longest - 1)
+    weights, parameters = model.flat_weights(), list(model.parameters())
+    model.train()
+    steps = 0
+    while steps < config.pretrain_steps:
+        sequences = torch.from_numpy(_chunks(x, segments, hours + 1, rng, hours))
+        order = torch.from_numpy(rng.permutation(len(sequences)))
+        for k in range(0, len(sequences), config.pretrain_batch_size):
+            if steps == config.pretrain_steps:
+                break
+            steps += 1
+            batch = sequences[order[k:k + config.pretrain_batch_size]]
+            temps = batch[:, :-1, -1:]
+            if config.pretrain_noise > 0:
+                temps = temps + torch.from_numpy(rng.normal(0.0, config.pretrain_noise, temps.shape).astype(np.float32))
+            rows = torch.cat([batch[:, 1:, :-1], temps], dim=2)
+            with _autocast(config):
+                prediction = model.sequence(rows, weights)
+            loss = torch.mean((prediction.float() - batch[:, 1:, -1]) ** 2)
+            optimizer.zero_grad()
+            loss.backward()
+            torch.nn.utils.clip_grad_norm_(parameters, 1.0, foreach=True)
             optimizer.step()
 
 

@@ -51,11 +51,11 @@ def citylearn_style(model: LSTMModel, x: np.ndarray, lookback: int) -> list[floa
     return out
 
 
-def test_rollout_is_the_citylearn_loop():
+@pytest.mark.parametrize("lookback", [1, 6])
+def test_rollout_is_the_citylearn_loop(lookback):
     torch.manual_seed(0)
     model = LSTMModel(4, hidden_size=5, num_layers=2)
     x = np.random.default_rng(1).random((30, 4)).astype(np.float32)
-    lookback = 6
     with torch.no_grad():
         ours = rollout(model, torch.from_numpy(x)[None], lookback)[0].numpy()
     # first prediction once lookback + 1 hours are buffered (hour `lookback`, CityLearn >= 2.4 timing)
@@ -95,3 +95,17 @@ def test_splits_by_run_and_month():
     with_ff = split_segments(clean, use_free_float=True)
     assert 1 in {s.reference for s in with_ff["train"]}
     assert math.isclose(sum(s.stop - s.start for r in splits_ideal.values() for s in r), 5 * hours)
+
+
+def test_sequence_pass_is_the_one_step_rollout_at_lookback_1():
+    """With lookback 1 the stateful sliding window is a plain recurrent model: one LSTM pass over the rows
+    (exogenous inputs of hour t+1, data temperature of hour t) gives the one-step rollout's predictions,
+    which is what the lookback-1 warm start trains on."""
+    torch.manual_seed(0)
+    model = LSTMModel(4, hidden_size=5, num_layers=2)
+    x = torch.from_numpy(np.random.default_rng(2).random((3, 40, 4)).astype(np.float32))
+    rows = torch.cat([x[:, 1:, :-1], x[:, :-1, -1:]], dim=2)
+    with torch.no_grad():
+        whole = model.sequence(rows, model.flat_weights())
+        stepped = rollout(model, x, 1, closed_loop=False)
+    np.testing.assert_allclose(whole.numpy(), stepped.numpy(), atol=1e-6)

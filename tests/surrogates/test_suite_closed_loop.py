@@ -48,8 +48,8 @@ def one_r_one_c(hours: int = 24 * 75, references=(0, 2, 3, 4, 5, 6)) -> pd.DataF
     return validate_ilv(pd.concat(frames, ignore_index=True))
 
 
-SMALL = TrainConfig(hidden_size=8, epochs=12, pretrain_steps=400, long_chunk_hours=(24,), long_chunk_epochs=4,
-                    validation_hours=168, progress=False)
+SMALL = TrainConfig(hidden_size=8, epochs=12, pretrain_steps=400, chunk_hours=12, long_chunk_hours=(24,),
+                    long_chunk_epochs=4, validation_hours=168, progress=False)
 
 
 @pytest.fixture(scope="module")
