@@ -80,7 +80,9 @@ def register(subparsers: argparse._SubParsersAction) -> argparse._SubParsersActi
     train_parser.add_argument("--name", help="building name (default: the table's file stem)")
     train_parser.add_argument("--hidden", type=int, default=defaults.hidden_size, help="LSTM hidden size")
     train_parser.add_argument("--layers", type=int, default=defaults.num_layers, help="stacked LSTM layers")
-    train_parser.add_argument("--lookback", type=int, default=defaults.lookback, help="window length (h)")
+    train_parser.add_argument("--lookback", type=int, default=defaults.lookback,
+                              help="window length (h); the other defaults are tuned for 1 (for longer windows "
+                                   "see the sixth pass's recipe in docs/surrogates.md)")
     train_parser.add_argument("--epochs", type=int, default=defaults.epochs, help="closed-loop epochs (max)")
     train_parser.add_argument("--pretrain-steps", type=int, default=defaults.pretrain_steps,
                               help="one-step warm-start updates before the closed-loop epochs")
