@@ -20,7 +20,7 @@ import copy
 import functools
 import math
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
@@ -420,69 +420,60 @@ def _closed_loop_epoch(model: LSTMModel, optimizer, x: np.ndarray, segments: Seq
 
 def _pretrain(model: LSTMModel, optimizer, x: np.ndarray, segments: Sequence[Segment], config: TrainConfig,
               rng: np.random.Generator) -> None:
-    """One-step teacher-forced epochs on independent windows from zero state (fast, batched): brings the
-    weights near a good one-step predictor before the closed-loop stateful fine-tuning. With lookback 1 a
-    window is one row, so the warm start is :func:`_pretrain_sequences` instead."""
+    """Teacher-forced warm start (fast, batched): brings the weights near a good one-step predictor before
+    the closed-loop stateful fine-tuning. Every temperature of the history is perturbed by ``pretrain_noise``
+    drawn afresh per update (robustness to the fed-back errors of closed loop).
+
+    * lookback > 1: independent windows of ``lookback`` rows from zero state, the last hour predicted;
+    * lookback 1: the stateful sliding window of one row is a plain recurrent model, so whole sequences of
+      ``pretrain_sequence_hours`` are teacher-forced in one LSTM call (:meth:`LSTMModel.sequence`; state from
+      zero at each sequence's start, every hour predicted, offsets re-drawn on every pass, gradients clipped
+      at norm 1).
+
+    Row ``t`` of a sample holds the exogenous inputs of hour ``t+1`` and the temperature of hour ``t``."""
     if config.pretrain_steps < 1:
         return
-    if config.lookback == 1:
-        _pretrain_sequences(model, optimizer, x, segments, config, rng)
-        return
-    windows = torch.from_numpy(_chunks(x, segments, config.lookback + 1, None, 1))
-    exogenous, temps, target = windows[:, 1:, :-1], windows[:, :-1, -1:], windows[:, -1, -1]
-    inputs = torch.cat([exogenous, temps], dim=2)
-    model.train()
-    steps = 0
-    while steps < config.pretrain_steps:
-        order = torch.from_numpy(rng.permutation(len(inputs)))
-        for k in range(0, len(inputs), config.pretrain_batch_size):
-            if steps == config.pretrain_steps:
-                break
-            steps += 1
-            rows = order[k:k + config.pretrain_batch_size]
-            window = inputs[rows]
-            if config.pretrain_noise > 0:  # perturbed temperature history: robustness to fed-back errors
-                noise = torch.from_numpy(rng.normal(0.0, config.pretrain_noise, window.shape[:2]).astype(np.float32))
-                window = torch.cat([window[:, :, :-1], window[:, :, -1:] + noise.unsqueeze(-1)], dim=2)
-            with _autocast(config):
-                prediction, _ = model(window)
-            loss = torch.mean((prediction.float() - target[rows]) ** 2)
-            optimizer.zero_grad()
-            loss.backward()
-            optimizer.step()
-
-
-def _pretrain_sequences(model: LSTMModel, optimizer, x: np.ndarray, segments: Sequence[Segment],
-                        config: TrainConfig, rng: np.random.Generator) -> None:
-    """Lookback-1 warm start: the stateful sliding window of one row is a plain recurrent model, so whole
-    sequences of ``pretrain_sequence_hours`` are teacher-forced in one LSTM call each (row ``t`` holds the
-    exogenous inputs of hour ``t+1`` and the data temperature of hour ``t``, perturbed by ``pretrain_noise``
-    drawn afresh per update; state from zero at each sequence's start), loss = MSE over every predicted
-    hour, gradients clipped at norm 1. Chunk offsets are re-drawn on every pass over the data."""
-    longest = max(s.stop - s.start for s in segments)  # check_trainable: >= 1 + chunk_hours
-    hours = min(config.pretrain_sequence_hours, longest - 1)
+    sequences = config.lookback == 1
+    if sequences:
+        longest = max(s.stop - s.start for s in segments)  # check_trainable: >= 1 + chunk_hours
+        hours = min(config.pretrain_sequence_hours, longest - 1)
+        def draw() -> torch.Tensor:
+            return torch.from_numpy(_chunks(x, segments, hours + 1, rng, hours))
+    else:
+        windows = torch.from_numpy(_chunks(x, segments, config.lookback + 1, None, 1))
+        def draw() -> torch.Tensor:
+            return windows
     weights, parameters = model.flat_weights(), list(model.parameters())
     model.train()
-    steps = 0
-    while steps < config.pretrain_steps:
-        sequences = torch.from_numpy(_chunks(x, segments, hours + 1, rng, hours))
-        order = torch.from_numpy(rng.permutation(len(sequences)))
-        for k in range(0, len(sequences), config.pretrain_batch_size):
-            if steps == config.pretrain_steps:
-                break
-            steps += 1
-            batch = sequences[order[k:k + config.pretrain_batch_size]]
-            temps = batch[:, :-1, -1:]
-            if config.pretrain_noise > 0:
-                temps = temps + torch.from_numpy(rng.normal(0.0, config.pretrain_noise, temps.shape).astype(np.float32))
-            rows = torch.cat([batch[:, 1:, :-1], temps], dim=2)
-            with _autocast(config):
-                prediction = model.sequence(rows, weights)
-            loss = torch.mean((prediction.float() - batch[:, 1:, -1]) ** 2)
-            optimizer.zero_grad()
-            loss.backward()
+    for batch in _batches(draw, config.pretrain_batch_size, config.pretrain_steps, rng):
+        temps = batch[:, :-1, -1:]
+        if config.pretrain_noise > 0:
+            temps = temps + torch.from_numpy(rng.normal(0.0, config.pretrain_noise, temps.shape).astype(np.float32))
+        rows = torch.cat([batch[:, 1:, :-1], temps], dim=2)
+        with _autocast(config):
+            prediction = model.sequence(rows, weights) if sequences else model.step(rows, None, weights)[0]
+        target = batch[:, 1:, -1] if sequences else batch[:, -1, -1]
+        loss = torch.mean((prediction.float() - target) ** 2)
+        optimizer.zero_grad()
+        loss.backward()
+        if sequences:
             torch.nn.utils.clip_grad_norm_(parameters, 1.0, foreach=True)
-            optimizer.step()
+        optimizer.step()
+
+
+def _batches(draw: Callable[[], torch.Tensor], batch_size: int, steps: int,
+             rng: np.random.Generator) -> Iterator[torch.Tensor]:
+    """``steps`` batches of ``batch_size`` samples: passes over ``draw()`` (called at the start of each pass),
+    each pass in a new random order."""
+    done = 0
+    while done < steps:
+        samples = draw()
+        order = torch.from_numpy(rng.permutation(len(samples)))
+        for k in range(0, len(samples), batch_size):
+            if done == steps:
+                return
+            done += 1
+            yield samples[order[k:k + batch_size]]
 
 
 def _progress(config: TrainConfig):
