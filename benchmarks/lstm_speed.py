@@ -46,22 +46,19 @@ def make_bank(n: int, backend: str) -> LSTMBank:
 
 
 def make_surrogate_bank(n: int, hidden: int, lookback: int = 6) -> LSTMBank:
-    """``n`` buildings with random weights (PyTorch's init range) of our exported shape: the 12 default
-    inputs (``surrogates.model.DEFAULT_INPUTS``, repeated here so this stays torch-free), 2 layers."""
-    names = ("direct_solar_irradiance", "diffuse_solar_irradiance", "outdoor_dry_bulb_temperature",
-             "indoor_dry_bulb_temperature_set_point", "occupant_count", "cooling_demand", "heating_demand",
-             "month_sin", "month_cos", "hour_sin", "hour_cos", "indoor_dry_bulb_temperature")
+    """``n`` buildings with freshly initialised weights of the shape our trainer exports
+    (``surrogates.model.LSTMModel`` on ``DEFAULT_INPUTS``, 2 layers; torch is imported only here)."""
+    import torch
+
+    from surrogates.model import DEFAULT_INPUTS, LSTMModel
+
+    names = DEFAULT_INPUTS
     block = DynamicsBlock("model.pth", names, (0.0,) * len(names), (1.0,) * len(names), hidden_size=hidden,
                           num_layers=2, lookback=lookback)
-    rng, bound = np.random.default_rng(0), hidden ** -0.5
     specs = []
-    for _ in range(n):
-        state = {}
-        for layer, width in ((0, len(names)), (1, hidden)):
-            for key, shape in ((f"weight_ih_l{layer}", (4 * hidden, width)), (f"weight_hh_l{layer}", (4 * hidden, hidden)),
-                               (f"bias_ih_l{layer}", (4 * hidden,)), (f"bias_hh_l{layer}", (4 * hidden,))):
-                state[f"l_lstm.{key}"] = rng.uniform(-bound, bound, shape)
-        state["l_linear.weight"], state["l_linear.bias"] = rng.uniform(-bound, bound, (1, hidden)), np.zeros(1)
+    for seed in range(n):
+        torch.manual_seed(seed)
+        state = {k: v.double().numpy() for k, v in LSTMModel(len(names), hidden, 2).state_dict().items()}
         specs.append(LSTMSpec(state, block))
     return LSTMBank(specs, settings=CITYLEARN_2_1, backend="numba")
 
