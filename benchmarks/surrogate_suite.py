@@ -80,6 +80,10 @@ def recipes() -> dict:
                                 validation_hours=168),
             # the seventh pass's first lookback-1 recipe: 4000 warm-start updates, 40 epochs (the last 12 long)
             "lookback1_pretrain4000": replace(default, pretrain_steps=4000, epochs=40, long_chunk_epochs=12),
+            # the eighth pass: no noise on the first 6 h of each warm-start sequence
+            "clean6": replace(default, pretrain_clean_hours=6),
+            # and warm-start samples offset by up to +-2 degC (all temperatures alike)
+            "clean6_shift2": replace(default, pretrain_clean_hours=6, pretrain_temperature_shift=2.0),
             "hidden16": base, "previous": previous,
             "hidden32": hidden32,
             "hidden32_short": replace(hidden32, pretrain_steps=400, epochs=50, patience=8),

@@ -95,6 +95,16 @@ class TrainConfig:
     #: learns not to copy its temperature input, which it will be fed back from its own predictions, and
     #: drifts less in closed loop (docs/surrogates.md, sixth and seventh passes)
     pretrain_noise: float = 0.06
+    #: the first ``pretrain_clean_hours`` temperatures of each warm-start sample (sequence or window) carry no
+    #: noise: with its state still empty the model should trust its temperature input, as it must at the start
+    #: of a rollout, where that input is measured (docs/surrogates.md, eighth pass)
+    pretrain_clean_hours: int = 0
+    #: half-width (degC) of a uniform offset drawn per warm-start sample and added to all its temperatures
+    #: (indoor, outdoor, set points; inputs and targets alike): the heat balance depends on temperature
+    #: differences, so a shifted sample is nearly as physical as the data, and the model learns the
+    #: dynamics beyond the training range, e.g. a test run starting colder than any training hour
+    #: (docs/surrogates.md, eighth pass)
+    pretrain_temperature_shift: float = 0.0
     ema_decay: float = 0.95
     fresh_optimizer: bool = True
     use_free_float: bool = False
@@ -117,7 +127,7 @@ class TrainConfig:
                     "ensemble", "pretrain_batch_size", "pretrain_sequence_hours"):
             if getattr(self, key) < 1:
                 raise InputError("must be >= 1", column=key)
-        for key in ("long_chunk_epochs", "pretrain_noise"):
+        for key in ("long_chunk_epochs", "pretrain_noise", "pretrain_clean_hours", "pretrain_temperature_shift"):
             if getattr(self, key) < 0:
                 raise InputError("must be >= 0", column=key)
         if self.long_chunk_epochs and not self.long_chunk_hours:
@@ -297,7 +307,7 @@ def _fit(table, inputs, splits, config: TrainConfig, started: float, progress=No
         val = torch.from_numpy(_chunks(x, splits["validation"], shortest, None, shortest))
     model = LSTMModel(len(inputs), config.hidden_size, config.num_layers)
     optimizer = _adam(model, config.learning_rate, uses_bf16(config))
-    _pretrain(model, optimizer, x, splits["train"], config, rng)
+    _pretrain(model, optimizer, x, splits["train"], config, rng, norm.temperature_shift(inputs))
     if config.fresh_optimizer:  # closed-loop phase without the one-step phase's Adam moments
         optimizer = _adam(model, config.finetune_learning_rate, uses_bf16(config))
     averaged = copy.deepcopy(model) if config.ema_decay > 0 else model  # exponential moving average of weights
@@ -419,16 +429,20 @@ def _closed_loop_epoch(model: LSTMModel, optimizer, x: np.ndarray, segments: Seq
 
 
 def _pretrain(model: LSTMModel, optimizer, x: np.ndarray, segments: Sequence[Segment], config: TrainConfig,
-              rng: np.random.Generator) -> None:
+              rng: np.random.Generator, shift: np.ndarray) -> None:
     """Teacher-forced warm start (fast, batched): brings the weights near a good one-step predictor before
-    the closed-loop stateful fine-tuning. Every temperature of the history is perturbed by ``pretrain_noise``
-    drawn afresh per update (robustness to the fed-back errors of closed loop).
+    the closed-loop stateful fine-tuning. Every temperature of the history but the first
+    ``pretrain_clean_hours`` of a sample is perturbed by ``pretrain_noise`` drawn afresh per update (robustness
+    to the fed-back errors of closed loop).
 
     * lookback > 1: independent windows of ``lookback`` rows from zero state, the last hour predicted;
     * lookback 1: the stateful sliding window of one row is a plain recurrent model, so whole sequences of
       ``pretrain_sequence_hours`` are teacher-forced in one LSTM call (:meth:`LSTMModel.sequence`; state from
       zero at each sequence's start, every hour predicted, offsets re-drawn on every pass, gradients clipped
       at norm 1).
+
+    Each sample is first offset by ``pretrain_temperature_shift`` degC at most (``shift``: normalised change
+    per input for +1 degC, :meth:`Normalization.temperature_shift`).
 
     Row ``t`` of a sample holds the exogenous inputs of hour ``t+1`` and the temperature of hour ``t``."""
     if config.pretrain_steps < 1:
@@ -445,10 +459,13 @@ def _pretrain(model: LSTMModel, optimizer, x: np.ndarray, segments: Sequence[Seg
             return windows
     weights, parameters = model.flat_weights(), list(model.parameters())
     model.train()
+    per_degree = torch.from_numpy(shift.astype(np.float32))
     for batch in _batches(draw, config.pretrain_batch_size, config.pretrain_steps, rng):
-        temps = batch[:, :-1, -1:]
-        if config.pretrain_noise > 0:
-            temps = temps + torch.from_numpy(rng.normal(0.0, config.pretrain_noise, temps.shape).astype(np.float32))
+        if config.pretrain_temperature_shift > 0:
+            offset = rng.uniform(-config.pretrain_temperature_shift, config.pretrain_temperature_shift,
+                                 (len(batch), 1, 1)).astype(np.float32)
+            batch = batch + torch.from_numpy(offset) * per_degree
+        temps = perturb_history(batch[:, :-1, -1:], config.pretrain_noise, config.pretrain_clean_hours, rng)
         rows = torch.cat([batch[:, 1:, :-1], temps], dim=2)
         with _autocast(config):
             prediction = model.sequence(rows, weights) if sequences else model.step(rows, None, weights)[0]
@@ -459,6 +476,18 @@ def _pretrain(model: LSTMModel, optimizer, x: np.ndarray, segments: Sequence[Seg
         if sequences:
             torch.nn.utils.clip_grad_norm_(parameters, 1.0, foreach=True)
         optimizer.step()
+
+
+def perturb_history(temps: torch.Tensor, std: float, clean_hours: int, rng: np.random.Generator) -> torch.Tensor:
+    """``temps`` (samples, hours, 1; normalised temperatures) plus Gaussian noise of standard deviation
+    ``std`` (normalised units) on every hour but the first ``clean_hours`` of each sample. The noise is drawn
+    for the whole shape whatever ``clean_hours`` is, so the random stream does not depend on it; ``std`` 0
+    draws nothing and returns ``temps``."""
+    if std <= 0:
+        return temps
+    noise = rng.normal(0.0, std, temps.shape).astype(np.float32)
+    noise[:, :clean_hours] = 0.0
+    return temps + torch.from_numpy(noise)
 
 
 def _batches(draw: Callable[[], torch.Tensor], batch_size: int, steps: int,

@@ -10,7 +10,7 @@ import pytest
 import torch
 
 from surrogates.model import DEFAULT_INPUTS, LSTMModel, Normalization, feature_matrix, rollout
-from surrogates.train import split_segments
+from surrogates.train import perturb_history, split_segments
 from tests.surrogates.test_ilv import make_table
 
 
@@ -109,3 +109,29 @@ def test_sequence_pass_is_the_one_step_rollout_at_lookback_1():
         whole = model.sequence(rows, model.flat_weights())
         stepped = rollout(model, x, 1, closed_loop=False)
     np.testing.assert_allclose(whole.numpy(), stepped.numpy(), atol=1e-6)
+
+
+def test_history_perturbation_leaves_the_clean_start_alone():
+    """The warm start's noise spares the first ``clean_hours`` of each sample, has the requested spread
+    elsewhere, and does not change the random stream (the same draw with or without a clean start)."""
+    temps = torch.linspace(0.0, 1.0, 64 * 48).reshape(64, 48, 1)
+    clean = perturb_history(temps, 0.06, 6, np.random.default_rng(3))
+    full = perturb_history(temps, 0.06, 0, np.random.default_rng(3))
+    assert torch.equal(clean[:, :6], temps[:, :6])
+    assert torch.equal(clean[:, 6:], full[:, 6:])
+    spread = float((clean[:, 6:] - temps[:, 6:]).std())
+    assert spread == pytest.approx(0.06, rel=0.05)  # 2688 draws: the sample std is within ~1.4 % (1 sigma)
+    assert perturb_history(temps, 0.0, 6, np.random.default_rng(3)) is temps
+
+
+def test_temperature_shift_is_one_degree_on_the_temperature_inputs():
+    """The warm start's per-sample offset: +1 degC on every temperature input moves the normalised features
+    by exactly ``temperature_shift``; the other inputs do not move."""
+    names = ["outdoor_dry_bulb_temperature", "occupant_count", "indoor_dry_bulb_temperature_set_point",
+             "indoor_dry_bulb_temperature"]
+    raw = np.array([[-5.0, 0.0, 20.0, 18.0], [35.0, 12.0, 24.0, 26.0], [10.0, 3.0, 22.0, 21.0]])
+    norm = Normalization.fit(raw)
+    shift = norm.temperature_shift(names)
+    warmer = raw + np.array([1.0, 0.0, 1.0, 1.0])
+    np.testing.assert_allclose(norm.apply(warmer) - norm.apply(raw), np.broadcast_to(shift, raw.shape))
+    np.testing.assert_allclose(shift, [1 / 40, 0.0, 1 / 4, 1 / 8])

@@ -143,6 +143,10 @@ def test_bad_config():
         TrainConfig(inputs=("indoor_dry_bulb_temperature", "outdoor_dry_bulb_temperature"))
     with pytest.raises(InputError, match="pretrain_noise"):
         TrainConfig(pretrain_noise=-0.01)
+    with pytest.raises(InputError, match="pretrain_clean_hours"):
+        TrainConfig(pretrain_clean_hours=-1)
+    with pytest.raises(InputError, match="pretrain_temperature_shift"):
+        TrainConfig(pretrain_temperature_shift=-0.5)
     assert set(REQUIRED_COLUMNS) > {"cooling_demand", "heating_demand"}
 
 
