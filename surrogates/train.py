@@ -98,7 +98,7 @@ class TrainConfig:
     #: the first ``pretrain_clean_hours`` temperatures of each warm-start sample (sequence or window) carry no
     #: noise: with its state still empty the model should trust its temperature input, as it must at the start
     #: of a rollout, where that input is measured (docs/surrogates.md, eighth pass)
-    pretrain_clean_hours: int = 0
+    pretrain_clean_hours: int = 6
     #: half-width (degC) of a uniform offset drawn per warm-start sample and added to all its temperatures
     #: (indoor, outdoor, set points; inputs and targets alike): the heat balance depends on temperature
     #: differences, so a shifted sample is nearly as physical as the data, and the model learns the
