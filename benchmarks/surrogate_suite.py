@@ -86,6 +86,8 @@ def recipes() -> dict:
             "lookback1_pretrain4000": replace(seventh, pretrain_steps=4000, epochs=40, long_chunk_epochs=12),
             # the eighth pass's ablation: warm-start samples offset by up to +-2 degC (all temperatures alike)
             "shift2": replace(default, pretrain_temperature_shift=2.0),
+            # and every warm-start pass with the first sequence of each training run
+            "run_starts": replace(default, pretrain_run_starts=True),
             "hidden16": base, "previous": previous,
             "hidden32": hidden32,
             "hidden32_short": replace(hidden32, pretrain_steps=400, epochs=50, patience=8),
@@ -171,7 +173,8 @@ def run(args: argparse.Namespace) -> None:
     if args.seed is not None:
         config = replace(config, seed=args.seed)
     label = data_label(suite_settings(args))
-    results = CACHE / "results" / label / f"{args.recipe}{'' if args.seed is None else f'_seed{args.seed}'}.jsonl"
+    run_name = f"{args.recipe}{'' if args.seed is None else f'_seed{args.seed}'}"
+    results = CACHE / "results" / label / f"{run_name}.jsonl"
     results.parent.mkdir(parents=True, exist_ok=True)
 
     def done() -> set[str]:  # re-read before every building: several workers may share the results file
@@ -189,7 +192,7 @@ def run(args: argparse.Namespace) -> None:
                 train = table[table["reference"].isin(TRAIN_REFERENCES)].reset_index(drop=True)
                 trained = train_surrogate(train, config, source=path)
                 load = os.getloadavg()[0]
-                folder = CACHE / "models" / label / args.recipe
+                folder = CACHE / "models" / label / run_name  # per recipe and seed: seeds may run in parallel
                 folder.mkdir(parents=True, exist_ok=True)
                 name = key.replace("/", "__")
                 pth = save_checkpoint(trained, folder / f"{name}.pth")

@@ -10,7 +10,7 @@ import pytest
 import torch
 
 from surrogates.model import DEFAULT_INPUTS, LSTMModel, Normalization, feature_matrix, rollout
-from surrogates.train import perturb_history, split_segments
+from surrogates.train import Segment, perturb_history, split_segments, warm_start_sequences
 from tests.surrogates.test_ilv import make_table
 
 
@@ -135,3 +135,17 @@ def test_temperature_shift_is_one_degree_on_the_temperature_inputs():
     warmer = raw + np.array([1.0, 0.0, 1.0, 1.0])
     np.testing.assert_allclose(norm.apply(warmer) - norm.apply(raw), np.broadcast_to(shift, raw.shape))
     np.testing.assert_allclose(shift, [1 / 40, 0.0, 1 / 4, 1 / 8])
+
+
+def test_run_starts_are_in_every_warm_start_pass():
+    """With anchors, each pass holds the first sequence of each anchored run; with random offsets alone, it
+    is drawn only when the offset happens to be 0."""
+    x = np.arange(400, dtype=float).reshape(-1, 1)
+    runs = [Segment(2, 0, 200), Segment(3, 200, 400)]
+    with_starts = [warm_start_sequences(x, runs, 24, np.random.default_rng(k), runs[:1]) for k in range(20)]
+    without = [warm_start_sequences(x, runs, 24, np.random.default_rng(k)) for k in range(20)]
+    first = x[:25].astype(np.float32)
+    assert all(any(np.array_equal(seq, first) for seq in samples) for samples in with_starts)
+    assert sum(any(np.array_equal(seq, first) for seq in samples) for samples in without) < 5
+    assert all(len(a) == len(b) + 1 for a, b in zip(with_starts, without, strict=True))
+    assert all(samples.dtype == np.float32 and samples.shape[1:] == (25, 1) for samples in with_starts)
