@@ -48,9 +48,10 @@ TEST_REFERENCES = (6, 7)
 def recipes() -> dict:
     """Named training configurations: ``default`` (TrainConfig(): hidden 32, lookback 1, bfloat16 updates, no
     day-type inputs, 6000 teacher-forced updates on 48-h sequences with a temperature history perturbed after
-    its first 6 hours, 32 closed-loop epochs at 5e-4 all run, 48-h chunks then the last 10 on 168-h chunks at
-    a low rate), ``shift2`` (warm-start samples offset by up to +-2 degC), ``seventh_pass`` (the default of
-    the seventh pass: the whole history perturbed), ``lookback1_pretrain4000`` (the seventh pass with 4000
+    its first 6 hours, every pass holding the first sequence of each training run, 32 closed-loop epochs at
+    5e-4 all run, 48-h chunks then the last 10 on 168-h chunks at a low rate), ``clean_starts`` (without the
+    run starts), ``shift2`` (that with warm-start samples offset by up to +-2 degC), ``seventh_pass`` (the
+    default of the seventh pass: the whole history perturbed, no run starts), ``lookback1_pretrain4000`` (the seventh pass with 4000
     warm-start updates, 40 epochs), ``sixth_pass`` (the default of the
     sixth pass: lookback 6, one-step windows, 24 epochs of 12-h then 48-h chunks), ``hidden64`` (the sixth
     pass at hidden 64 within 30 s), ``fifth_pass`` (the default of the fifth pass:
@@ -64,8 +65,10 @@ def recipes() -> dict:
     from surrogates.train import TrainConfig
 
     default = TrainConfig(progress=False, test_runs=0)
+    # the eighth pass's first step: clean warm-start starts, no run starts in every pass
+    clean_starts = replace(default, pretrain_run_starts=False)
     # the default of the seventh pass: noise on every hour of the warm-start sequences
-    seventh = replace(default, pretrain_clean_hours=0)
+    seventh = replace(clean_starts, pretrain_clean_hours=0)
     # the default of the sixth pass: lookback 6, one-step warm start on independent windows (history noise
     # 0.01), 24 closed-loop epochs of 12-h chunks at 1.5e-3, the last 10 on 48-h chunks
     sixth = replace(seventh, lookback=6, pretrain_steps=6000, pretrain_batch_size=256, pretrain_noise=0.01,
@@ -77,7 +80,7 @@ def recipes() -> dict:
                    pretrain_steps=1200, batch_size=256, long_chunk_hours=(), long_chunk_epochs=0)
     previous = replace(base, lookback=12, epochs=40, ema_decay=0.0, fresh_optimizer=False)
     hidden32 = replace(base, hidden_size=32)  # more accurate on the restaurants, 1.7x the CPU (docs/surrogates.md)
-    return {"default": default, "seventh_pass": seventh, "sixth_pass": sixth, "fifth_pass": fifth,
+    return {"default": default, "clean_starts": clean_starts, "seventh_pass": seventh, "sixth_pass": sixth, "fifth_pass": fifth,
             "fifth_pass_history_noise": replace(fifth, pretrain_noise=0.01),
             "fifth_pass_low_rate": replace(fifth, finetune_learning_rate=0.0015),
             "hidden64": replace(sixth, hidden_size=64, pretrain_steps=2500, epochs=26, long_chunk_epochs=10,
@@ -85,9 +88,7 @@ def recipes() -> dict:
             # the seventh pass's first lookback-1 recipe: 4000 warm-start updates, 40 epochs (the last 12 long)
             "lookback1_pretrain4000": replace(seventh, pretrain_steps=4000, epochs=40, long_chunk_epochs=12),
             # the eighth pass's ablation: warm-start samples offset by up to +-2 degC (all temperatures alike)
-            "shift2": replace(default, pretrain_temperature_shift=2.0),
-            # and every warm-start pass with the first sequence of each training run
-            "run_starts": replace(default, pretrain_run_starts=True),
+            "shift2": replace(clean_starts, pretrain_temperature_shift=2.0),
             "hidden16": base, "previous": previous,
             "hidden32": hidden32,
             "hidden32_short": replace(hidden32, pretrain_steps=400, epochs=50, patience=8),

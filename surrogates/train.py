@@ -109,7 +109,7 @@ class TrainConfig:
     #: run. A run starts from EnergyPlus's converged warm-up, as a rollout starts from zero state at the
     #: start of a data set; random offsets draw that sequence once in ``pretrain_sequence_hours`` passes
     #: (docs/surrogates.md, eighth pass). Windows (lookback > 1) already cover every hour.
-    pretrain_run_starts: bool = False
+    pretrain_run_starts: bool = True
     ema_decay: float = 0.95
     fresh_optimizer: bool = True
     use_free_float: bool = False
