@@ -97,7 +97,9 @@ class TrainConfig:
     pretrain_noise: float = 0.06
     #: the first ``pretrain_clean_hours`` temperatures of each warm-start sample (sequence or window) carry no
     #: noise: with its state still empty the model should trust its temperature input, as it must at the start
-    #: of a rollout, where that input is measured (docs/surrogates.md, eighth pass)
+    #: of a rollout, where that input is measured (docs/surrogates.md, eighth pass). Tuned for lookback 1: a
+    #: window of ``lookback`` <= ``pretrain_clean_hours`` rows gets no noise at all (the sixth pass's
+    #: lookback-6 recipe sets 0)
     pretrain_clean_hours: int = 6
     #: half-width (degC) of a uniform offset drawn per warm-start sample and added to all its temperatures
     #: (indoor, outdoor, set points; inputs and targets alike), to show the model temperatures outside the
