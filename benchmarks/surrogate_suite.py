@@ -51,10 +51,10 @@ def recipes() -> dict:
     its first 6 hours, every pass holding the first sequence of each training run, 32 closed-loop epochs at
     5e-4 all run, 48-h chunks then the last 10 on 168-h chunks at a low rate), ``clean_starts`` (without the
     run starts), ``shift2`` (that with warm-start samples offset by up to +-2 degC), ``seventh_pass`` (the
-    default of the seventh pass: the whole history perturbed, no run starts), ``lookback1_pretrain4000`` (the seventh pass with 4000
-    warm-start updates, 40 epochs), ``sixth_pass`` (the default of the
-    sixth pass: lookback 6, one-step windows, 24 epochs of 12-h then 48-h chunks), ``hidden64`` (the sixth
-    pass at hidden 64 within 30 s), ``fifth_pass`` (the default of the fifth pass:
+    default of the seventh pass: the whole history perturbed, no run starts), ``lookback1_pretrain4000``
+    (the seventh pass with 4000 warm-start updates, 40 epochs), ``sixth_pass`` (the default of the sixth
+    pass: lookback 6, one-step windows, 24 epochs of 12-h then 48-h chunks), ``hidden64`` (the sixth pass at
+    hidden 64 within 30 s), ``fifth_pass`` (the default of the fifth pass:
     no perturbation, closed-loop rate 3e-3), ``fifth_pass_history_noise`` and ``fifth_pass_low_rate`` (with
     one of the two changes only),
     ``pretrain6000_day_type`` (the fifth pass with the day-type inputs), ``pretrain1200_long`` (with
@@ -80,7 +80,8 @@ def recipes() -> dict:
                    pretrain_steps=1200, batch_size=256, long_chunk_hours=(), long_chunk_epochs=0)
     previous = replace(base, lookback=12, epochs=40, ema_decay=0.0, fresh_optimizer=False)
     hidden32 = replace(base, hidden_size=32)  # more accurate on the restaurants, 1.7x the CPU (docs/surrogates.md)
-    return {"default": default, "clean_starts": clean_starts, "seventh_pass": seventh, "sixth_pass": sixth, "fifth_pass": fifth,
+    return {"default": default, "clean_starts": clean_starts, "seventh_pass": seventh, "sixth_pass": sixth,
+            "fifth_pass": fifth,
             "fifth_pass_history_noise": replace(fifth, pretrain_noise=0.01),
             "fifth_pass_low_rate": replace(fifth, finetune_learning_rate=0.0015),
             "hidden64": replace(sixth, hidden_size=64, pretrain_steps=2500, epochs=26, long_chunk_epochs=10,

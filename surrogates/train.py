@@ -318,7 +318,8 @@ def _fit(table, inputs, splits, config: TrainConfig, started: float, progress=No
     if config.pretrain_run_starts:  # the training segments that start a run
         run_starts = {run.start for run in run_segments(table).values()}
         anchors = [seg for seg in splits["train"] if seg.start in run_starts]
-    _pretrain(model, optimizer, x, splits["train"], config, rng, norm.temperature_shift(inputs), anchors)
+    per_degree = norm.temperature_shift(inputs) if config.pretrain_temperature_shift > 0 else None
+    _pretrain(model, optimizer, x, splits["train"], config, rng, anchors, per_degree)
     if config.fresh_optimizer:  # closed-loop phase without the one-step phase's Adam moments
         optimizer = _adam(model, config.finetune_learning_rate, uses_bf16(config))
     averaged = copy.deepcopy(model) if config.ema_decay > 0 else model  # exponential moving average of weights
@@ -440,7 +441,7 @@ def _closed_loop_epoch(model: LSTMModel, optimizer, x: np.ndarray, segments: Seq
 
 
 def _pretrain(model: LSTMModel, optimizer, x: np.ndarray, segments: Sequence[Segment], config: TrainConfig,
-              rng: np.random.Generator, shift: np.ndarray, anchors: Sequence[Segment] = ()) -> None:
+              rng: np.random.Generator, anchors: Sequence[Segment] = (), per_degree: np.ndarray | None = None) -> None:
     """Teacher-forced warm start (fast, batched): brings the weights near a good one-step predictor before
     the closed-loop stateful fine-tuning. Every temperature of the history but the first
     ``pretrain_clean_hours`` of a sample is perturbed by ``pretrain_noise`` drawn afresh per update (robustness
@@ -452,8 +453,8 @@ def _pretrain(model: LSTMModel, optimizer, x: np.ndarray, segments: Sequence[Seg
       zero at each sequence's start, every hour predicted, offsets re-drawn on every pass, gradients clipped
       at norm 1); every pass also holds the first sequence of each segment in ``anchors``.
 
-    Each sample is first offset by ``pretrain_temperature_shift`` degC at most (``shift``: normalised change
-    per input for +1 degC, :meth:`Normalization.temperature_shift`).
+    With ``per_degree`` (normalised change per input for +1 degC, :meth:`Normalization.temperature_shift`),
+    each sample is first offset by up to ``pretrain_temperature_shift`` degC (:func:`offset_temperatures`).
 
     Row ``t`` of a sample holds the exogenous inputs of hour ``t+1`` and the temperature of hour ``t``."""
     if config.pretrain_steps < 1:
@@ -470,12 +471,9 @@ def _pretrain(model: LSTMModel, optimizer, x: np.ndarray, segments: Sequence[Seg
             return windows
     weights, parameters = model.flat_weights(), list(model.parameters())
     model.train()
-    per_degree = torch.from_numpy(shift.astype(np.float32))
     for batch in _batches(draw, config.pretrain_batch_size, config.pretrain_steps, rng):
-        if config.pretrain_temperature_shift > 0:
-            offset = rng.uniform(-config.pretrain_temperature_shift, config.pretrain_temperature_shift,
-                                 (len(batch), 1, 1)).astype(np.float32)
-            batch = batch + torch.from_numpy(offset) * per_degree
+        if per_degree is not None:
+            batch = offset_temperatures(batch, per_degree, config.pretrain_temperature_shift, rng)
         temps = perturb_history(batch[:, :-1, -1:], config.pretrain_noise, config.pretrain_clean_hours, rng)
         rows = torch.cat([batch[:, 1:, :-1], temps], dim=2)
         with _autocast(config):
@@ -497,6 +495,15 @@ def warm_start_sequences(x: np.ndarray, segments: Sequence[Segment], hours: int,
     samples = _chunks(x, segments, hours + 1, rng, hours)
     starts = [x[seg.start:seg.start + hours + 1] for seg in anchors if seg.stop - seg.start > hours]
     return np.concatenate([samples, np.stack(starts).astype(np.float32)]) if starts else samples
+
+
+def offset_temperatures(samples: torch.Tensor, per_degree: np.ndarray, half_width: float,
+                        rng: np.random.Generator) -> torch.Tensor:
+    """``samples`` (n, hours, inputs; normalised) with one offset per sample, uniform in +-``half_width``
+    degC, added to every input in proportion to ``per_degree`` (normalised change for +1 degC:
+    :meth:`Normalization.temperature_shift`, 0 for the inputs that are not temperatures)."""
+    offset = rng.uniform(-half_width, half_width, (len(samples), 1, 1)).astype(np.float32)
+    return samples + torch.from_numpy(offset) * torch.from_numpy(per_degree.astype(np.float32))
 
 
 def perturb_history(temps: torch.Tensor, std: float, clean_hours: int, rng: np.random.Generator) -> torch.Tensor:
