@@ -386,7 +386,7 @@ def train_config(config: BuildConfig):
 
     s = config.surrogate
     return TrainConfig(hidden_size=s.hidden_size, num_layers=s.num_layers, lookback=s.lookback, epochs=s.epochs,
-                       seed=s.seed, max_seconds=s.max_seconds, progress=False, threads=1)
+                       seed=s.seed, max_seconds=s.max_seconds, precision=s.precision, progress=False, threads=1)
 
 
 def csv_ilv_path(config: BuildConfig, bldg_id: int) -> Path:
@@ -417,7 +417,8 @@ def surrogate_cache_parts(config: BuildConfig, bldg_id: int, name: str, table: p
 
     Parts: the ILV table's content sha256 (a ``table`` given by the caller: a simulated house or an FMU run;
     else source ``csv``) or, for ``energyplus`` on EULP inputs, the EPW's sha256, the metadata row and the
-    generator's sources; the full training configuration; the trainer's sources (:data:`TRAINER_SOURCES`) and
+    generator's sources; the full training configuration and the precision it resolves to on this CPU
+    (:func:`surrogates.train.update_precision`); the trainer's sources (:data:`TRAINER_SOURCES`) and
     the torch version; the building's name and id (they are written into the files). Nothing else of the build
     configuration (battery, PV, period, ...) enters. With ``weather`` (the district's outdoor temperature
     [degC]) a csv table simulated on other weather is refused (:func:`check_weather`).
@@ -426,9 +427,13 @@ def surrogate_cache_parts(config: BuildConfig, bldg_id: int, name: str, table: p
     from pipeline.cache import files_digest, table_digest
 
     package = Path(surrogates.__file__).parent
-    settings = {k: v for k, v in asdict(train_config(config)).items() if k != "progress"}
+    from surrogates.train import update_precision
+
+    train = train_config(config)
+    settings = {k: v for k, v in asdict(train).items() if k != "progress"}
     parts: dict[str, object] = {
         "building": name, "bldg_id": int(bldg_id), "train": settings,
+        "precision": update_precision(train).precision,  # what runs here: auto resolves per CPU
         "trainer_sha256": files_digest([package / f for f in TRAINER_SOURCES], package),
         "torch": package_version("torch"),
     }

@@ -121,6 +121,9 @@ class Surrogate(_Frozen):
     epochs: int = Field(32, ge=1, description="closed-loop epochs; the last 10 on 168-h chunks (TrainConfig)")
     max_seconds: float | None = Field(None, gt=0, description="optional wall-clock cap (makes training machine-dependent)")
     seed: int = 0
+    precision: Literal["auto", "float32", "bfloat16"] = Field(
+        "auto", description="numeric mode of the updates: auto = bfloat16 only where the CPU multiplies it "
+                            "natively and it measures faster (the mode that ran is in timings.json)")
 
 
 class BuildConfig(_Frozen):

@@ -40,8 +40,9 @@ MANIFEST = "manifest.json"
 TIMINGS = "timings.json"
 #: record files: not listed among the outputs (the manifest cannot hash itself; the timings differ per run)
 RECORDS = (MANIFEST, TIMINGS)
-#: keys of a surrogate ``.metrics.json`` ``training`` block that are wall-clock or CPU seconds
-TRAINING_SECONDS = ("train_seconds", "train_cpu_seconds")
+#: what a surrogate's metrics report holds that depends on the machine and the moment, not on the inputs: the
+#: training seconds and the measured reason for its precision (moved into timings.json, never hashed)
+TRAINING_SECONDS = ("train_seconds", "train_cpu_seconds", "precision_reason", "bf16_speedup")
 VERSIONED = ("districtgen", "numpy", "pandas", "torch", "gymnasium", "prefect", "pvlib", "matplotlib")
 FILE_MODE, FOLDER_MODE = 0o644, 0o755
 
@@ -180,12 +181,14 @@ def write_manifest(out: Path, config: BuildConfig,
 
 def write_timings(out: Path, config: BuildConfig, seconds: Mapping[str, float],
                   surrogates: Mapping[str, Mapping[str, object]] | None = None) -> Path:
-    """Write ``out/timings.json``: ``seconds`` per build stage [s, wall clock], per building the surrogate's
-    training seconds and whether the cache had it, the configuration file's and the cache's locations and the
+    """Write ``out/timings.json``: the CPU (:func:`surrogates.precision.capability`), ``seconds`` per build
+    stage [s, wall clock], per building the surrogate's training seconds, the precision its updates ran in
+    (and why) and whether the cache had it, the configuration file's and the cache's locations and the
     UTC time it was written. The one file of a district that is not reproducible (and not hashed)."""
     from pipeline.cache import cache_root
+    from surrogates.precision import capability
 
-    record = {"finished_utc": dt.datetime.now(dt.UTC).isoformat(timespec="seconds"),
+    record = {"finished_utc": dt.datetime.now(dt.UTC).isoformat(timespec="seconds"), "cpu": capability().describe(),
               "config_file": str(Path(config.source).resolve()) if Path(config.source).name != "<dict>" else None,
               "config_folder": str(config_folder(config)), "cache_root": str(cache_root(config.cache_dir)),
               "stages_s": {k: round(float(v), 3) for k, v in seconds.items()},
@@ -203,6 +206,8 @@ def split_metrics_timings(metrics: Mapping[str, Any]) -> tuple[dict[str, Any], d
     clean = json.loads(json.dumps(metrics))
     training = clean.get("training") or {}
     timings: dict[str, Any] = {k: training.pop(k) for k in TRAINING_SECONDS if k in training}
+    if "precision" in training:  # the mode that ran stays in the metrics too (it decides the weights)
+        timings["precision"] = training["precision"]
     history = training.get("history") or []
     epochs = [epoch.pop("seconds") for epoch in history if isinstance(epoch, dict) and "seconds" in epoch]
     if epochs:

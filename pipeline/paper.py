@@ -1,7 +1,8 @@
 """The 17 control benchmarks of the SimBuild 2024 CityLearn paper, on any district, with one command.
 
     districtgen paper artifacts/default/schema.json -o artifacts/default/paper [--buildings B1 B2]
-        [--rules described|published] [--compat] [--sac fast|torch|torch-bf16|sbx|sb3] [--seeds N] [--workers W]
+        [--rules described|published] [--compat] [--sac fast|torch|torch-bf16|sbx|sb3]
+        [--precision auto|float32|bfloat16] [--seeds N] [--workers W]
 
 Each benchmark derives its variant from the district, loaded once as a typed configuration (which
 buildings play the paper's B1 and B2, which devices exist, which actions and observations are active,
@@ -166,7 +167,9 @@ class RunOptions:
     """How the benchmarks run. ``roles``: buildings playing B1 [B2] (None = the first two); ``rules``:
     "described" or "published" (:data:`pipeline.controllers.RULE_SETS`); ``compat``: the CityLearn 2.1
     preset (``settings="citylearn-2.1"``); ``sac``: the SAC back end (:data:`pipeline.paper_sac.BACKENDS`);
-    ``sac_threads``: torch threads of one SAC training (workers x threads = cores is the sensible choice)."""
+    ``sac_threads``: torch threads of one SAC training (workers x threads = cores is the sensible choice);
+    ``precision``: the SAC update's numeric mode, ``auto``, ``float32`` or ``bfloat16``
+    (:func:`pipeline.paper_sac.sac_precision`)."""
 
     sac_episodes: int = 150
     roles: tuple[str, ...] | None = None
@@ -174,6 +177,7 @@ class RunOptions:
     compat: bool = False
     sac: str = "fast"
     sac_threads: int = 1
+    precision: str = "auto"
 
     @property
     def settings(self) -> str | None:
@@ -205,11 +209,12 @@ def run_benchmark(district: DistrictConfig, b: Benchmark, *, seed: int = 0, mult
     n = district.simulation_end_time_step - district.simulation_start_time_step + 1
     train, test = (0, TRAIN_DAYS * 24 - 1), (TRAIN_DAYS * 24, n - 1)
     env = CityLearnEnv(benchmark_schema(district, b, test, multiplier, options.roles), settings=options.settings)
-    policy, train_seconds, train_cpu = None, 0.0, 0.0
+    policy, train_seconds, train_cpu, precision = None, 0.0, 0.0, "-"
     if b.control == "sac":
-        policy, train_seconds, train_cpu = sac_policy(
+        trained = sac_policy(
             CityLearnEnv(benchmark_schema(district, b, train, multiplier, options.roles), settings=options.settings),
-            options.sac_episodes, seed, options.sac, options.sac_threads)
+            options.sac_episodes, seed, options.sac, options.sac_threads, options.precision)
+        policy, train_seconds, train_cpu, precision = trained
     rules, lookahead = RULE_SETS[options.rules]
     rule = rules[RULES[b.objective]] if b.control == "rbc" else None
     obs, _ = env.reset(seed=seed)
@@ -234,7 +239,8 @@ def run_benchmark(district: DistrictConfig, b: Benchmark, *, seed: int = 0, mult
     return {"id": b.id, "buildings": "+".join(env.building_names), "multiplier": multiplier, "seed": seed,
             **first, "average_daily_peak": result["average_daily_peak"], "steps": int(env.t),
             "mean_abs_action": float(np.mean(np.abs(actions))) if env.action_names else 0.0,
-            "train_seconds": train_seconds, "train_cpu_seconds": train_cpu, "seconds": time.perf_counter() - started,
+            "precision": precision, "train_seconds": train_seconds, "train_cpu_seconds": train_cpu,
+            "seconds": time.perf_counter() - started,
             "trace": trace(env, series, actions)}
 
 
@@ -255,21 +261,22 @@ def trace(env, series: Mapping[str, np.ndarray], actions: Sequence[np.ndarray]) 
     return out
 
 
-def sac_policy(env, episodes: int, seed: int, backend: str, threads: int = 1):
+def sac_policy(env, episodes: int, seed: int, backend: str, threads: int = 1, precision: str = "auto"):
     """SAC trained on ``env`` (the paper's normalisation: periodic encoding, min-max; [0, 1] actions);
-    returns (raw observation -> environment action, training wall seconds, training CPU seconds)."""
+    returns (raw observation -> environment action, training wall seconds, training CPU seconds, the
+    precision the updates ran in)."""
     from citylearn_env.wrappers import NormalizedActionWrapper, NormalizedObservationWrapper
     from pipeline.paper_sac import train_sac
 
     wrapped = NormalizedActionWrapper(NormalizedObservationWrapper(env))
-    trained = train_sac(wrapped, episodes, seed, backend, threads)
+    trained = train_sac(wrapped, episodes, seed, backend, threads, precision)
     obs_wrapper = wrapped.env
     low, span = wrapped.low, wrapped.span
 
     def policy(raw_obs: np.ndarray) -> np.ndarray:
         return low + trained.act(obs_wrapper.observation(raw_obs)) * span
 
-    return policy, trained.seconds, trained.cpu_seconds
+    return policy, trained.seconds, trained.cpu_seconds, trained.precision.precision
 
 
 def run_all(schema_path: str | Path, out_dir: str | Path, *, only: list[str] | None = None,

@@ -8,11 +8,14 @@ actions. Four interchangeable back ends run that same algorithm with those same 
 * ``torch`` -- :class:`LeanSAC` below: the same update, written for one CPU thread without SB3's per-step
   machinery (the two critics as one batched ensemble, no critic weight gradients in the actor step, one
   fused Adam per network);
-* ``torch-bf16`` -- ``torch`` with bfloat16 matrix products (``torch.autocast``; parameters, optimiser
-  state and losses stay float32): the AMX units of this CPU make the products ~3x faster, the numerics
-  differ at the third significant digit;
 * ``fast`` (the default) -- :class:`pipeline.paper_sac_fast.FastSAC`: the same update with hand-written
-  gradients (checked against autograd's to 1e-6 in float32) and bfloat16 products, no autograd graph.
+  gradients (checked against autograd's to 1e-6 in float32), no autograd graph;
+* ``torch-bf16`` -- ``torch`` asked to run in bfloat16 (the same as ``--sac torch --precision bfloat16``).
+
+``torch`` and ``fast`` run in the precision :func:`sac_precision` chooses (:mod:`surrogates.precision`):
+float32, or bfloat16 matrix products (parameters, optimiser state, losses and element-wise steps stay
+float32) where the CPU multiplies bfloat16 natively and a measurement of the update's own product shapes
+finds it faster. sb3 and sbx run in float32.
 
 The SB3 defaults reproduced by :class:`LeanSAC` (stable_baselines3/sac/sac.py and policies.py, 2.x):
 actor and both critics MLPs [256, 256] with ReLU; squashed diagonal Gaussian, log-std clamped to
@@ -31,6 +34,9 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 
 import numpy as np
+
+from citylearn_env.errors import InputError
+from surrogates.precision import Choice, check_precision, choose, matmul_probe
 
 BACKENDS = ("fast", "torch", "torch-bf16", "sbx", "sb3")
 
@@ -56,24 +62,39 @@ class TrainedPolicy:
     steps: int
     seconds: float
     cpu_seconds: float
+    precision: Choice = Choice("float32", "float32", "sb3 and sbx run in float32")
 
 
-def train_sac(env, episodes: int, seed: int, backend: str = "fast", threads: int = 1) -> TrainedPolicy:
+def train_sac(env, episodes: int, seed: int, backend: str = "fast", threads: int = 1,
+              precision: str = "auto") -> TrainedPolicy:
     """Train SAC on ``env`` (normalised observations, [0, 1] actions, a gymnasium Env) for ``episodes``
     full episodes; return the deterministic policy. ``backend``: one of :data:`BACKENDS`; ``threads``: torch
-    threads (the torch back ends and SB3)."""
+    threads (the torch back ends and SB3); ``precision``: ``auto``, ``float32`` or ``bfloat16`` for the
+    ``fast`` and ``torch`` back ends (:func:`sac_precision`)."""
     import time
 
     if backend not in BACKENDS:
-        from citylearn_env.errors import InputError
-
         raise InputError(f"unknown SAC back end {backend!r}; known: {', '.join(BACKENDS)}", column="--sac")
+    check_precision(precision)
     env.reset(seed=seed)
     steps = max(episodes, 1) * (env.unwrapped.episode_length - 1)
     start, cpu = time.perf_counter(), time.process_time()
     with flushed_subnormals():
-        act = _train(env, steps, seed, backend, threads)
-    return TrainedPolicy(act, backend, steps, time.perf_counter() - start, time.process_time() - cpu)
+        act, choice = _train(env, steps, seed, backend, threads, precision)
+    return TrainedPolicy(act, backend, steps, time.perf_counter() - start, time.process_time() - cpu, choice)
+
+
+def sac_precision(requested: str, obs_dim: int, act_dim: int, threads: int = 1) -> Choice:
+    """The precision a ``fast`` / ``torch`` SAC update runs in here (:func:`surrogates.precision.choose`),
+    measured on the update's own matrix products: the two critics (stacked) and the actor on a batch, the
+    hidden layers (H x H) and the first layers (inputs x H)."""
+    import torch
+
+    torch.set_num_threads(threads)
+    shapes = ((BATCH_SIZE, HIDDEN, HIDDEN), (BATCH_SIZE, obs_dim + act_dim + 1, HIDDEN),
+              (BATCH_SIZE, HIDDEN, HIDDEN), (HIDDEN, BATCH_SIZE, HIDDEN))
+    return choose(requested, matmul_probe(f"SAC update ({obs_dim} observations, {act_dim} actions)", shapes,
+                                          batch=2))
 
 
 @contextmanager
@@ -91,19 +112,19 @@ def flushed_subnormals() -> Iterator[None]:
         torch.set_flush_denormal(False)
 
 
-def _train(env, steps: int, seed: int, backend: str, threads: int) -> Callable[[np.ndarray], np.ndarray]:
-    """The training loop of ``backend``; returns the deterministic policy."""
+def _train(env, steps: int, seed: int, backend: str, threads: int,
+           precision: str) -> tuple[Callable[[np.ndarray], np.ndarray], Choice]:
+    """The training loop of ``backend``; returns the deterministic policy and the precision that ran."""
     if backend in ("sb3", "sbx"):
-        act = _train_library(env, steps, seed, backend, threads)
-    else:
-        from pipeline.paper_sac_fast import FastSAC
+        return _train_library(env, steps, seed, backend, threads), TrainedPolicy.precision
+    from pipeline.paper_sac_fast import FastSAC
 
-        agent = (FastSAC if backend == "fast" else LeanSAC)(
-            env.observation_space.shape[0], env.action_space.shape[0], seed=seed, bf16=backend != "torch",
-            threads=threads)
-        agent.learn(env, steps, seed)
-        act = agent.act
-    return act
+    obs_dim, act_dim = env.observation_space.shape[0], env.action_space.shape[0]
+    choice = sac_precision("bfloat16" if backend == "torch-bf16" else precision, obs_dim, act_dim, threads)
+    agent = (FastSAC if backend == "fast" else LeanSAC)(obs_dim, act_dim, seed=seed, bf16=choice.bf16,
+                                                        threads=threads)
+    agent.learn(env, steps, seed)
+    return agent.act, choice
 
 
 def _train_library(env, steps: int, seed: int, backend: str, threads: int) -> Callable[[np.ndarray], np.ndarray]:
@@ -121,8 +142,6 @@ def _train_library(env, steps: int, seed: int, backend: str, threads: int) -> Ca
         try:
             from sbx import SAC
         except ImportError:
-            from citylearn_env.errors import InputError
-
             raise InputError("the sbx back end needs sbx-rl: pip install 'districtgen[rl-fast]'",
                              column="--sac") from None
         model = SAC("MlpPolicy", env, seed=seed, verbose=0, learning_starts=LEARNING_STARTS)

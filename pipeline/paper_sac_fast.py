@@ -3,9 +3,10 @@
 :class:`FastSAC` runs exactly the update of :class:`pipeline.paper_sac.LeanSAC` (the same parameters, random
 draws, losses and Adam steps; the module docstring there lists the stable-baselines3 defaults reproduced)
 without autograd: every gradient is written out below, so one update is ~25 matrix products and a few dozen
-element-wise operations instead of a recorded graph. With ``bf16=True`` (the default) the matrix products
-take bfloat16 operands (the CPU's AMX units), while parameters, Adam state, losses and every element-wise
-step stay float32; weights are rounded to bfloat16 once per update, not per product.
+element-wise operations instead of a recorded graph. With ``bf16=True`` (where
+:func:`pipeline.paper_sac.sac_precision` chooses bfloat16) the matrix products take bfloat16 operands, while
+parameters, Adam state, losses and every element-wise step stay float32; weights are rounded to bfloat16 once
+per update, not per product.
 
 Shapes: B batch rows, D observation size, A action size, H = 256 hidden units, K = 2 critics (one stacked
 ensemble). ``tests/pipeline/test_paper_sac_fast.py`` checks the float32 gradients against autograd's.
@@ -104,7 +105,7 @@ class ScalarAdam:
 class FastSAC(LeanSAC):
     """:class:`LeanSAC` with hand-written gradients (see the module docstring); same constructor."""
 
-    def __init__(self, obs_dim: int, act_dim: int, *, seed: int = 0, bf16: bool = True, threads: int = 1):
+    def __init__(self, obs_dim: int, act_dim: int, *, seed: int = 0, bf16: bool = False, threads: int = 1):
         super().__init__(obs_dim, act_dim, seed=seed, bf16=bf16, threads=threads)
         torch = self.torch
         self.dtype = torch.bfloat16 if bf16 else torch.float32

@@ -238,8 +238,10 @@ def results_table(results: Sequence[Mapping[str, Any]], options: RunOptions, see
     with B1's cost and emissions as a change against both no-control baselines when they were run."""
     by_id = {r["id"]: r for r in results}
     roles = ", ".join(f"{role} = {name}" for role, name in zip(("B1", "B2"), options.roles or (), strict=False))
+    ran = sorted({r.get("precision", "-") for r in results} - {"-"})
+    precision = f" in {' and '.join(ran)} (--precision {options.precision})" if ran else ""
     lines = [f"Buildings: {roles}. Rules: {options.rules}. Environment: "
-             f"{'CityLearn 2.1 preset' if options.compat else 'corrected'}. SAC: {options.sac}, "
+             f"{'CityLearn 2.1 preset' if options.compat else 'corrected'}. SAC: {options.sac}{precision}, "
              f"{options.sac_episodes} episodes, {seeds} seed(s) (SAC rows: mean ± std).", "",
              "| benchmark | buildings | cost $ | emissions kg | discomfort C h | consumption kWh | avg daily peak kW "
              "| cost vs x / x-pv | emissions vs x / x-pv |", "|---|---|---|---|---|---|---|---|---|"]

@@ -16,6 +16,7 @@ import numpy as np
 
 from pipeline.errors import InputError
 from pipeline.paper_sac import BACKENDS
+from surrogates.precision import PRECISIONS
 
 ARTIFACTS = Path("artifacts")
 
@@ -58,6 +59,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     paper.add_argument("--compat", action="store_true", help="the CityLearn 2.1 preset (bugs included)")
     paper.add_argument("--sac", choices=BACKENDS, default="fast",
                        help="SAC back end, all with SB3's defaults (see docs/paper.md)")
+    paper.add_argument("--precision", choices=PRECISIONS, default="auto",
+                       help="numeric mode of the fast/torch SAC updates: auto = bfloat16 only where this CPU "
+                            "multiplies it natively and it measures faster, else float32")
     paper.add_argument("--sac-episodes", type=int, default=150, help="SAC training episodes (paper: 150)")
     paper.add_argument("--dask", nargs="?", const="local", metavar="ADDRESS",
                        help="run the tasks on Dask: a local cluster of --workers processes, or a scheduler ADDRESS")
@@ -202,7 +206,7 @@ def paper_command(args: argparse.Namespace) -> int:
 
     options = RunOptions(sac_episodes=args.sac_episodes, roles=tuple(args.buildings) if args.buildings else None,
                          rules=args.rules, compat=args.compat, sac=args.sac,
-                         sac_threads=args.sac_threads)
+                         sac_threads=args.sac_threads, precision=args.precision)
     sweep = (1.0, 3.0, 6.0, 12.0) if args.full and not args.sweep else tuple(args.sweep or ())
     only = args.only if args.only or args.full or not args.sweep else []
     runner = None

@@ -40,6 +40,7 @@ from surrogates.model import (
     rollout,
     torch_threads,
 )
+from surrogates.precision import Choice, Probe, check_precision, choose
 
 ROLES = ("train", "validation", "test")
 
@@ -122,10 +123,11 @@ class TrainConfig:
     max_seconds: float | None = None
     threads: int = 1
     progress: bool = True
-    #: one-step and closed-loop updates under bfloat16 autocast, fused Adam (validation, early stopping and the
-    #: exported weights stay float32); ~22 % cheaper on CPUs with AVX512-BF16/AMX, not bit-identical to
-    #: float32. Where oneDNN has no bfloat16 support the updates run in float32 (:func:`uses_bf16`).
-    bf16_updates: bool = True
+    #: numeric mode of the one-step and closed-loop updates (:data:`surrogates.precision.PRECISIONS`):
+    #: ``bfloat16`` runs them under bfloat16 autocast with a fused Adam (validation and the exported weights
+    #: stay float32; not bit-identical to float32); ``auto`` picks bfloat16 only where the CPU multiplies it
+    #: natively and a short measurement of this network's update finds it faster (:func:`update_precision`)
+    precision: str = "auto"
 
     def __post_init__(self):
         if self.inputs and self.inputs[-1] != TARGET:
@@ -137,6 +139,7 @@ class TrainConfig:
         for key in ("long_chunk_epochs", "pretrain_noise", "pretrain_clean_hours", "pretrain_temperature_shift"):
             if getattr(self, key) < 0:
                 raise InputError("must be >= 0", column=key)
+        check_precision(self.precision, column="precision")
         if self.long_chunk_epochs and not self.long_chunk_hours:
             raise InputError("long_chunk_epochs needs a long_chunk_hours stage", column="long_chunk_epochs")
 
@@ -165,12 +168,15 @@ class Trained:
     best_epoch: int = 0
     seconds: float = 0.0
     cpu_seconds: float = 0.0
+    #: the numeric mode the updates ran in (``config.precision`` is what was asked for)
+    precision: Choice | None = None
 
     def summary(self) -> dict:
         config = asdict(self.config)
         config["inputs"] = list(self.inputs)
+        ran = self.precision.record() if self.precision is not None else {}
         return {"config": config, "best_epoch": self.best_epoch, "train_seconds": round(self.seconds, 2),
-                "train_cpu_seconds": round(self.cpu_seconds, 2),
+                "train_cpu_seconds": round(self.cpu_seconds, 2), **ran,
                 "history": self.history,
                 "splits": {role: [asdict(s) for s in segs] for role, segs in self.splits.items()}}
 
@@ -280,11 +286,38 @@ def train_surrogate(table: pd.DataFrame, config: TrainConfig = TrainConfig(),
     check_trainable(table, splits, config)
     started = time.perf_counter()
     with torch_threads(config.threads):
+        choice = update_precision(config)
         if config.ensemble == 1:
-            return _fit(table, inputs, splits, config, started, progress)
-        members = [_fit(table, inputs, splits, replace(config, seed=config.seed + k), started, progress)
+            return _fit(table, inputs, splits, config, started, progress, choice)
+        members = [_fit(table, inputs, splits, replace(config, seed=config.seed + k), started, progress, choice)
                    for k in range(config.ensemble)]
     return merge_trained(members, config, time.perf_counter() - started)
+
+
+def update_precision(config: TrainConfig) -> Choice:
+    """The precision ``config``'s updates run in on this CPU (:func:`surrogates.precision.choose`), measured
+    on the warm start's own update: a teacher-forced ``pretrain_sequence_hours`` sequence batch of
+    ``pretrain_batch_size`` through this network size, forward and backward. Cached per process, so the
+    build's cache key and the trainer see the same choice."""
+    shape = (config.num_layers, config.hidden_size, len(config.inputs), config.pretrain_batch_size,
+             config.pretrain_sequence_hours)
+    return choose(config.precision, _update_probe(*shape))
+
+
+@functools.cache
+def _update_probe(layers: int, hidden: int, n_inputs: int, batch: int, hours: int) -> Probe:
+    generator = torch.Generator().manual_seed(0)
+    rows = torch.rand(batch, hours, n_inputs, generator=generator)
+    with torch.random.fork_rng():  # the probe's initialisation leaves the caller's random stream alone
+        model = LSTMModel(n_inputs, hidden, layers)
+    weights = model.flat_weights()
+
+    def run(dtype: torch.dtype) -> None:
+        with torch.autocast("cpu", dtype=torch.bfloat16, enabled=dtype == torch.bfloat16):
+            prediction = model.sequence(rows, weights)
+        prediction.float().square().mean().backward()
+
+    return Probe(f"surrogate update (LSTM {layers} x {hidden}, batch {batch} x {hours} h)", run)
 
 
 def merge_trained(members: Sequence[Trained], config: TrainConfig, seconds: float) -> Trained:
@@ -295,10 +328,13 @@ def merge_trained(members: Sequence[Trained], config: TrainConfig, seconds: floa
     model = merge_ensemble([m.model for m in members])
     model.eval()
     return Trained(model, first.normalization, first.inputs, config, first.splits, first.history, first.best_epoch,
-                   seconds, sum(m.cpu_seconds for m in members))
+                   seconds, sum(m.cpu_seconds for m in members), first.precision)
 
 
-def _fit(table, inputs, splits, config: TrainConfig, started: float, progress=None) -> Trained:
+def _fit(table, inputs, splits, config: TrainConfig, started: float, progress=None,
+         precision: Choice | None = None) -> Trained:
+    precision = precision or update_precision(config)
+    config = replace(config, precision=precision.precision)  # what runs, for the updates below
     cpu_started = time.process_time()
     torch.manual_seed(config.seed)
     rng = np.random.default_rng(config.seed)
@@ -313,7 +349,7 @@ def _fit(table, inputs, splits, config: TrainConfig, started: float, progress=No
         shortest = min(s.stop - s.start for s in splits["validation"] if s.stop - s.start >= config.lookback + 24)
         val = torch.from_numpy(_chunks(x, splits["validation"], shortest, None, shortest))
     model = LSTMModel(len(inputs), config.hidden_size, config.num_layers)
-    optimizer = _adam(model, config.learning_rate, uses_bf16(config))
+    optimizer = _adam(model, config.learning_rate, _bf16(config))
     anchors = []
     if config.pretrain_run_starts:  # the training segments that start a run
         run_starts = {run.start for run in run_segments(table).values()}
@@ -321,7 +357,7 @@ def _fit(table, inputs, splits, config: TrainConfig, started: float, progress=No
     per_degree = norm.temperature_shift(inputs) if config.pretrain_temperature_shift > 0 else None
     _pretrain(model, optimizer, x, splits["train"], config, rng, anchors, per_degree)
     if config.fresh_optimizer:  # closed-loop phase without the one-step phase's Adam moments
-        optimizer = _adam(model, config.finetune_learning_rate, uses_bf16(config))
+        optimizer = _adam(model, config.finetune_learning_rate, _bf16(config))
     averaged = copy.deepcopy(model) if config.ema_decay > 0 else model  # exponential moving average of weights
     lr = config.finetune_learning_rate
     best, best_rmse, best_epoch, history, stale, stage, updates = None, math.inf, 0, [], 0, 0, 0
@@ -366,7 +402,7 @@ def _fit(table, inputs, splits, config: TrainConfig, started: float, progress=No
     model.load_state_dict(best)
     model.eval()
     return Trained(model, norm, inputs, config, splits, history, best_epoch, time.perf_counter() - started,
-                   time.process_time() - cpu_started)
+                   time.process_time() - cpu_started, precision)
 
 
 def _adam(model: LSTMModel, lr: float, fused: bool) -> torch.optim.Adam:
@@ -377,21 +413,14 @@ def _adam(model: LSTMModel, lr: float, fused: bool) -> torch.optim.Adam:
     return torch.optim.Adam(model.parameters(), lr=lr, foreach=True)
 
 
-def uses_bf16(config: TrainConfig) -> bool:
-    """Whether ``config``'s updates run in bfloat16 here: ``bf16_updates`` and a CPU oneDNN supports
-    bfloat16 on (AVX512-BF16 or AMX); results are deterministic for a seed on a given kind of CPU."""
-    return config.bf16_updates and _onednn_bf16()
-
-
-@functools.cache
-def _onednn_bf16() -> bool:
-    """oneDNN's bfloat16 support on this CPU (asked once per process; :func:`uses_bf16` runs every update)."""
-    return bool(torch.ops.mkldnn._is_mkldnn_bf16_supported())
+def _bf16(config: TrainConfig) -> bool:
+    """Whether the updates run in bfloat16 (``config.precision`` resolved by :func:`update_precision`)."""
+    return config.precision == "bfloat16"
 
 
 def _autocast(config: TrainConfig) -> torch.autocast:
-    """bfloat16 autocast on CPU when :func:`uses_bf16` (a no-op context otherwise)."""
-    return torch.autocast("cpu", dtype=torch.bfloat16, enabled=uses_bf16(config))
+    """bfloat16 autocast on CPU when the updates run in bfloat16 (a no-op context otherwise)."""
+    return torch.autocast("cpu", dtype=torch.bfloat16, enabled=_bf16(config))
 
 
 def _validation_rmse(model: LSTMModel, val: torch.Tensor, lookback: int) -> float:

@@ -1,0 +1,202 @@
+"""The numeric mode of every torch workload of the project, chosen per process from what the CPU does.
+
+bfloat16 matrix products are fast only where the CPU multiplies bfloat16 natively (AVX512-BF16 or AMX on
+x86-64, the BF16 extension on ARM) and oneDNN uses it; elsewhere torch emulates them and a 256 x 256 product
+runs tens of times slower than in float32. So no workload assumes a CPU feature:
+
+* :func:`capability` reads the CPU once (model name, the ISA features that matter, oneDNN's bfloat16 support);
+* :func:`choose` turns a user's request (:data:`PRECISIONS`: ``auto``, ``float32``, ``bfloat16``) into the
+  precision that runs. ``auto`` is bfloat16 only where oneDNN supports it natively *and* a short measurement
+  of the workload's own shapes (a :class:`Probe`, about 0.1-0.3 s) shows it at least :data:`MIN_SPEEDUP`
+  times faster than float32; float32 otherwise, with no measurement where bfloat16 is not native. Asking for
+  ``bfloat16`` where it is emulated (or measured slower) runs it, and warns once per workload with the
+  measured slowdown.
+
+Users: the ``fast`` and ``torch`` SAC back ends of the paper (:mod:`pipeline.paper_sac`) and the surrogate
+trainer's updates (:mod:`surrogates.train`). Each records the :class:`Choice` that ran in its outputs.
+"""
+
+from __future__ import annotations
+
+import functools
+import platform
+import statistics
+import time
+import warnings
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+from citylearn_env.errors import InputError
+
+if TYPE_CHECKING:  # torch is imported where it is used: the CLI reads PRECISIONS without it
+    import torch
+
+PRECISIONS = ("auto", "float32", "bfloat16")
+#: ``auto`` picks bfloat16 only when the measured check finds it at least this many times faster: below it
+#: the gain does not pay for the rounding (and a borderline measurement would flip between runs)
+MIN_SPEEDUP = 1.15
+#: /proc/cpuinfo flags (x86-64 ``flags``, ARM ``Features``) that decide matrix-product speed
+RELEVANT_ISA = ("avx2", "fma", "avx512f", "avx512_bf16", "amx_tile", "amx_bf16", "amx_fp16", "asimd", "sve",
+                "bf16", "i8mm")
+
+
+@dataclass(frozen=True)
+class Capability:
+    """What this CPU offers: ``cpu`` model name, the :data:`RELEVANT_ISA` features it has, torch's dispatch
+    level (``torch.backends.cpu.get_cpu_capability()``, e.g. ``AVX2``, ``AVX512``) and whether oneDNN
+    multiplies bfloat16 natively here."""
+
+    cpu: str
+    isa: tuple[str, ...]
+    dispatch: str
+    native_bf16: bool
+
+    def describe(self) -> str:
+        """One line for logs and benchmark tables, e.g. ``AMD EPYC (avx2 fma; torch AVX2; bfloat16 emulated)``."""
+        return (f"{self.cpu} ({' '.join(self.isa) or 'no listed ISA features'}; torch {self.dispatch}; "
+                f"bfloat16 {'native' if self.native_bf16 else 'emulated'})")
+
+
+@functools.cache
+def capability() -> Capability:
+    """This CPU's :class:`Capability` (read once per process)."""
+    model, flags = platform.processor() or platform.machine(), set()
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8") as cpuinfo:
+            for line in cpuinfo:
+                key, _, value = line.partition(":")
+                key = key.strip().lower()
+                if key in ("model name", "cpu model", "hardware") and value.strip():
+                    model = value.strip()
+                elif key in ("flags", "features"):
+                    flags.update(value.split())
+    except OSError:  # not Linux: the model from platform, features unknown
+        pass
+    import torch
+
+    isa = tuple(f for f in RELEVANT_ISA if f in flags)
+    return Capability(model, isa, torch.backends.cpu.get_cpu_capability(),
+                      bool(torch.ops.mkldnn._is_mkldnn_bf16_supported()))
+
+
+@dataclass(frozen=True)
+class Probe:
+    """A workload's measured check: ``run(dtype)`` does one representative unit of its work (a few matrix
+    products or an update of its network) in ``dtype``; ``name`` keys the per-process cache and the warning."""
+
+    name: str
+    run: Callable[[torch.dtype], object]
+
+
+@dataclass(frozen=True)
+class Choice:
+    """The precision that runs (``float32`` or ``bfloat16``), what was asked, why, and the measured speed of
+    bfloat16 against float32 (float32 time / bfloat16 time; > 1: bfloat16 faster; None: not measured)."""
+
+    precision: str
+    requested: str
+    reason: str
+    bf16_speedup: float | None = None
+
+    @property
+    def bf16(self) -> bool:
+        return self.precision == "bfloat16"
+
+    @property
+    def dtype(self) -> torch.dtype:
+        import torch
+
+        return torch.bfloat16 if self.bf16 else torch.float32
+
+    def record(self) -> dict[str, object]:
+        """JSON-ready fields for results and timings files."""
+        speedup = None if self.bf16_speedup is None else round(self.bf16_speedup, 3)
+        return {"precision": self.precision, "precision_requested": self.requested, "precision_reason": self.reason,
+                "bf16_speedup": speedup}
+
+
+def check_precision(requested: str, column: str = "--precision") -> str:
+    """``requested`` when it is one of :data:`PRECISIONS`, else one clear :class:`InputError` naming ``column``."""
+    if requested not in PRECISIONS:
+        raise InputError(f"unknown precision {requested!r}; known: {', '.join(PRECISIONS)}", column=column)
+    return requested
+
+
+def choose(requested: str, probe: Probe) -> Choice:
+    """The :class:`Choice` for ``requested`` (:data:`PRECISIONS`) on ``probe``'s workload in this process.
+
+    ``float32``: float32, nothing measured. ``auto``: float32 where oneDNN has no native bfloat16 (nothing
+    measured), else bfloat16 when :func:`measure_speedup` finds it at least :data:`MIN_SPEEDUP` times faster.
+    ``bfloat16``: bfloat16, measured where it is not native and a warning (once per workload and process)
+    when it is emulated or slower than float32. The result is cached per (request, workload, threads)."""
+    import torch
+
+    key = (check_precision(requested), probe.name, torch.get_num_threads())
+    if key not in _CHOICES:
+        _CHOICES[key] = _choose(requested, probe)
+    return _CHOICES[key]
+
+
+#: choices made in this process, by (request, workload name, torch threads)
+_CHOICES: dict[tuple[str, str, int], Choice] = {}
+
+
+def _choose(requested: str, probe: Probe) -> Choice:
+    if requested == "float32":
+        return Choice("float32", requested, "asked for")
+    native = capability().native_bf16
+    if requested == "auto" and not native:
+        return Choice("float32", requested, "no native bfloat16 on this CPU")
+    speedup = measure_speedup(probe)
+    if requested == "auto":
+        if speedup >= MIN_SPEEDUP:
+            return Choice("bfloat16", requested, f"native and measured {speedup:.2f}x faster", speedup)
+        return Choice("float32", requested, f"native but measured only {speedup:.2f}x faster", speedup)
+    if not native or speedup < 1.0:
+        how = "emulated" if not native else "native"
+        warnings.warn(f"precision bfloat16 for {probe.name}: bfloat16 is {how} on {capability().cpu} and measured "
+                      f"{1 / speedup:.1f}x slower than float32 here; --precision auto picks the faster one",
+                      RuntimeWarning, stacklevel=4)
+    return Choice("bfloat16", requested, "asked for" + ("" if native else " (emulated)"), speedup)
+
+
+def measure_speedup(probe: Probe, repeats: int = 5, budget_s: float = 0.3) -> float:
+    """float32 time / bfloat16 time of ``probe.run``: the median of ``repeats`` alternating timings of each
+    (after one warm-up each), at most about ``budget_s`` seconds in all (fewer repeats when one run is slow,
+    as emulated bfloat16 is)."""
+    import torch
+
+    times: dict[torch.dtype, list[float]] = {torch.float32: [], torch.bfloat16: []}
+    spent = 0.0
+    for dtype in times:  # warm-up: kernels chosen, buffers allocated
+        started = time.perf_counter()
+        probe.run(dtype)
+        spent += time.perf_counter() - started
+    for _ in range(repeats):
+        for dtype, runs in times.items():
+            started = time.perf_counter()
+            probe.run(dtype)
+            runs.append(time.perf_counter() - started)
+        spent += sum(runs[-1] for runs in times.values())
+        if spent > budget_s and len(times[torch.float32]) >= 2:
+            break
+    return statistics.median(times[torch.float32]) / max(statistics.median(times[torch.bfloat16]), 1e-12)
+
+
+def matmul_probe(name: str, shapes: tuple[tuple[int, int, int], ...], batch: int = 1) -> Probe:
+    """A :class:`Probe` of plain matrix products: ``batch`` x (m, k) @ (k, n) for every (m, k, n) of
+    ``shapes``, operands made once per dtype (the workload's own product shapes)."""
+    import torch
+
+    operands: dict[torch.dtype, list[tuple[torch.Tensor, torch.Tensor]]] = {}
+
+    def run(dtype: torch.dtype) -> None:
+        if dtype not in operands:
+            g = torch.Generator().manual_seed(0)
+            operands[dtype] = [(torch.randn(batch, m, k, generator=g).to(dtype),
+                                torch.randn(batch, k, n, generator=g).to(dtype)) for m, k, n in shapes]
+        for a, b in operands[dtype]:
+            torch.bmm(a, b)
+
+    return Probe(name, run)
