@@ -1,7 +1,7 @@
 """SAC back ends for the paper side by side: training throughput and final test-period cost.
 
     .venv/bin/python benchmarks/paper_speed.py throughput [--episodes 5 --repeats 3]
-    .venv/bin/python benchmarks/paper_speed.py quality [--episodes 150 --seeds 0 1 --backends torch sbx]
+    .venv/bin/python benchmarks/paper_speed.py quality [--episodes 150 --seeds 0 1 --backends torch sbx] [--cores 2]
     .venv/bin/python benchmarks/paper_speed.py collection [--repeats 3]
     .venv/bin/python benchmarks/paper_speed.py revision --against REV [--episodes 2 --repeats 3]
 
@@ -50,9 +50,11 @@ def throughput(backends: list[str], episodes: int, repeats: int, threads: int = 
             trained = train_sac(env, episodes, 0, backend, threads)
             rates[backend].append(trained.steps / trained.seconds)
             cpu_rates[backend].append(trained.steps / trained.cpu_seconds)
-            print(f"{backend}: {rates[backend][-1]:.0f} steps/s wall, {cpu_rates[backend][-1]:.0f} per CPU s",
-                  flush=True)
-    print(uptime())
+            print(f"{backend} ({trained.precision.precision}): {rates[backend][-1]:.0f} steps/s wall, "
+                  f"{cpu_rates[backend][-1]:.0f} per CPU s", flush=True)
+    from surrogates.precision import capability
+
+    print(f"CPU: {capability().describe()}; {uptime()}")
     print("| back end | steps/s wall (median; runs) | steps per CPU second (median; runs) | "
           "150 episodes at the CPU rate [s] |\n|---|---|---|---|")
     for backend, values in rates.items():
@@ -119,20 +121,38 @@ def revision(against: str, episodes: int, repeats: int) -> None:
         print(f"| fast at {name} | {statistics.median(values):.0f} ({', '.join(f'{v:.0f}' for v in values)}) |")
 
 
-def quality(backends: list[str], episodes: int, seeds: list[int]) -> None:
-    from pipeline.paper import RunOptions, run_benchmark
+def quality(backends: list[str], episodes: int, seeds: list[int], threads: int | None, cores: int) -> None:
+    """Each back end's full benchmark run per seed, and the float32 limit of its training: the FLOPs of its
+    gradient steps (:func:`precision_limits.sac_update_flops`) at the measured rate of the update's dominant
+    (256 x 256) x (256 x 256) product with the threads the run used."""
+    import torch
+    from precision_limits import BATCH, HIDDEN, sac_update_flops, time_products
+
+    from citylearn_env import CityLearnEnv
+    from citylearn_env.wrappers import NormalizedObservationWrapper
+    from pipeline.paper import TRAIN_DAYS, RunOptions, benchmark_schema, run_benchmark
+    from pipeline.paper_sac import LEARNING_STARTS
+    from surrogates.precision import capability
 
     district, bench = load()
-    print(uptime())
-    print("| back end | seed | episodes | B1 test cost $ | train wall s | train CPU s | total s |\n"
-          "|---|---|---|---|---|---|---|")
+    print(f"CPU: {capability().describe()}; {uptime()}")
+    print("| back end | precision | threads | seed | episodes | B1 test cost $ | train wall s | train CPU s | "
+          "total s | float32 limit s | train wall / limit |\n|---|---|---|---|---|---|---|---|---|---|---|")
     for seed in seeds:
         for backend in backends:
             started = time.perf_counter()
-            r = run_benchmark(district, bench, seed=seed, options=RunOptions(sac_episodes=episodes, sac=backend))
-            print(f"| {backend} | {seed} | {episodes} | {r['cost']:.3f} | {r['train_seconds']:.0f} | "
-                  f"{r['train_cpu_seconds']:.0f} | "
-                  f"{time.perf_counter() - started:.0f} |", flush=True)
+            options = RunOptions(sac_episodes=episodes, sac=backend, sac_threads=threads, cores=cores)
+            r = run_benchmark(district, bench, seed=seed, options=options)
+            total = time.perf_counter() - started
+            torch.set_num_threads(r["sac_threads"])
+            peak = 2 * BATCH * HIDDEN * HIDDEN / time_products([(1, BATCH, HIDDEN, HIDDEN)], torch.float32, 7, 200)
+            updates = episodes * (TRAIN_DAYS * 24 - 1) - LEARNING_STARTS
+            wrapped = NormalizedObservationWrapper(CityLearnEnv(benchmark_schema(district, bench, (0, 23))))
+            dims = wrapped.observation_space.shape[0], wrapped.action_space.shape[0]
+            limit = updates * sac_update_flops(*dims) / peak
+            print(f"| {backend} | {r['precision']} | {r['sac_threads']} | {seed} | {episodes} | {r['cost']:.3f} | "
+                  f"{r['train_seconds']:.0f} | {r['train_cpu_seconds']:.0f} | {total:.0f} | {limit:.0f} | "
+                  f"{r['train_seconds'] / limit:.2f} |", flush=True)
     print(uptime())
 
 
@@ -148,16 +168,18 @@ def main() -> None:
     parser.add_argument("--episodes", type=int)
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1])
-    parser.add_argument("--threads", type=int, default=1, help="torch threads per training (throughput)")
+    parser.add_argument("--threads", type=int, help="torch threads per training (throughput: default 1; quality: "
+                                                    "default chosen as the paper does from --cores)")
+    parser.add_argument("--cores", type=int, default=1, help="cores one run may use (quality)")
     args = parser.parse_args()
     if args.part == "collection":
         collection(args.repeats)
     elif args.part == "revision":
         revision(args.against, args.episodes or 2, args.repeats)
     elif args.part == "throughput":
-        throughput(args.backends, args.episodes or 5, args.repeats, args.threads)
+        throughput(args.backends, args.episodes or 5, args.repeats, args.threads or 1)
     else:
-        quality(args.backends, args.episodes or 150, args.seeds)
+        quality(args.backends, args.episodes or 150, args.seeds, args.threads, args.cores)
 
 
 if __name__ == "__main__":

@@ -1,16 +1,16 @@
 """How close the torch workloads run to this CPU's float32 limit, and what bfloat16 and threads change.
 
     .venv/bin/python benchmarks/precision_limits.py sac [--obs 10 --act 1 --repeats 7 --threads 1 2]
-    .venv/bin/python benchmarks/precision_limits.py surrogate [--repeats 3]
+    .venv/bin/python benchmarks/precision_limits.py surrogate [--repeats 3 --table ILV.parquet]
 
 ``sac``: one SAC update (SB3 defaults, batch 256, [256, 256] networks) of the ``fast`` and ``torch`` back ends
 in float32 (and bfloat16), at each thread count; the update's floating-point work counted from its matrix
 products (:func:`sac_update_flops`); the machine's float32 limit measured on exactly those products run back
 to back (:func:`sac_products`), so "achieved / limit" says how much of the update is not matrix work. All
 variants alternate in one process, ``repeats`` rounds of ``updates`` updates; medians.
-``surrogate``: the default trainer (``TrainConfig()``) on a synthetic FMU house's ILV table: CPU seconds, the
-LSTM's floating-point work per training (:func:`lstm_training_flops`) and the same ratio against a float32
-product of the LSTM's gate shape.
+``surrogate``: the default trainer (``TrainConfig()``) on an ILV table (default: the test fixture's full-year
+house): CPU seconds per phase, the LSTM's floating-point work (:func:`lstm_training_flops`) and the same ratio
+against the float32 rate of the LSTM's time-batched gate product.
 Prints markdown rows, the CPU (:func:`surrogates.precision.capability`) and the ``uptime`` load average.
 """
 
@@ -20,6 +20,7 @@ import argparse
 import statistics
 import subprocess
 import time
+from pathlib import Path
 
 import torch
 
@@ -29,22 +30,22 @@ BATCH, HIDDEN = 256, 256
 
 
 def sac_products(obs: int, act: int, batch: int = BATCH, hidden: int = HIDDEN) -> list[tuple[int, int, int, int]]:
-    """The matrix products of one ``fast`` SAC update as (members, m, k, n), in the order the update runs them
-    (pipeline/paper_sac_fast.py ``train_step``)."""
+    """The matrix products of one ``fast`` SAC update as (members, m, k, n), in the order and orientation the
+    update runs them (pipeline/paper_sac_fast.py ``train_step``; thin products transposed, see ``_thin``)."""
     z, x = obs + act + 1, obs + 1
     return [
-        # actor on s and s' (2B rows)
-        (1, 2 * batch, x, hidden), (1, 2 * batch, hidden, hidden), (1, 2 * batch, hidden, 2 * act),
-        # target critics and critics, stacked (4 members)
-        (4, batch, z, hidden), (4, batch, hidden, hidden), (4, batch, hidden, 1),
+        # actor on s and s' (2B rows); its output layer transposed
+        (1, 2 * batch, x, hidden), (1, 2 * batch, hidden, hidden), (1, 2 * act, hidden, 2 * batch),
+        # target critics and critics, stacked (4 members); output layer transposed
+        (4, batch, z, hidden), (4, batch, hidden, hidden), (4, 1, hidden, batch),
         # critic backward with weight gradients (2 members)
-        (2, batch, hidden, hidden), (2, z, batch, hidden), (2, hidden, batch, hidden), (2, hidden, batch, 1),
+        (2, batch, hidden, hidden), (2, z, batch, hidden), (2, hidden, batch, hidden), (2, 1, batch, hidden),
         # critics on the policy's action, and back to the action
-        (2, batch, z, hidden), (2, batch, hidden, hidden), (2, batch, hidden, 1),
-        (2, batch, hidden, hidden), (2, batch, hidden, act),
+        (2, batch, z, hidden), (2, batch, hidden, hidden), (2, 1, hidden, batch),
+        (2, batch, hidden, hidden), (2, act, hidden, batch),
         # actor backward
         (1, batch, 2 * act, hidden), (1, batch, hidden, hidden), (1, x, batch, hidden), (1, hidden, batch, hidden),
-        (1, hidden, batch, 2 * act),
+        (1, 2 * act, batch, hidden),
     ]
 
 
@@ -85,7 +86,10 @@ def sac(obs: int, act: int, repeats: int, updates: int, threads: list[int]) -> N
     with flushed_subnormals():
         for n in threads:
             torch.set_num_threads(n)
-            limit = time_products(sac_products(obs, act), torch.float32, repeats)
+            peak = time_products([(1, BATCH, HIDDEN, HIDDEN)], torch.float32, repeats, rounds=200)
+            peak_rate = 2 * BATCH * HIDDEN * HIDDEN / peak
+            limit = flops / peak_rate
+            alone = time_products(sac_products(obs, act), torch.float32, repeats)
             agents = {(name, bf16): cls(obs, act, seed=0, bf16=bf16, threads=n) for name, cls, bf16 in variants}
             times: dict[tuple[str, bool], list[float]] = {k: [] for k in agents}
             for agent in agents.values():  # warm-up
@@ -97,15 +101,17 @@ def sac(obs: int, act: int, repeats: int, updates: int, threads: list[int]) -> N
                     for _ in range(updates):
                         agent.train_step(*batch)
                     times[key].append((time.perf_counter() - started) / updates)
-            rows.append(f"| float32 products alone (the limit) | {n} | {limit * 1e3:.2f} | "
-                        f"{flops / limit / 1e9:.1f} | 100 % |")
+            rows.append(f"| the limit: all FLOPs at the (256 x 256) x (256 x 256) float32 rate | {n} | "
+                        f"{limit * 1e3:.2f} | {peak_rate / 1e9:.1f} | 100 % |")
+            rows.append(f"| the update's float32 products alone | {n} | {alone * 1e3:.2f} | "
+                        f"{flops / alone / 1e9:.1f} | {100 * limit / alone:.0f} % |")
             for (name, bf16), values in times.items():
                 t = statistics.median(values)
                 rows.append(f"| {name}, {'bfloat16' if bf16 else 'float32'} | {n} | {t * 1e3:.2f} | "
                             f"{flops / t / 1e9:.1f} | {100 * limit / t:.0f} % |")
     print(f"CPU: {capability().describe()}; {uptime()}")
     print(f"SAC update, {obs} observations, {act} action(s), batch {BATCH}: {flops / 1e6:.0f} MFLOP of products\n")
-    print("| variant | threads | ms per update (median) | GFLOP/s | float32 limit / time |\n|---|---|---|---|---|")
+    print("| variant | threads | ms per update (median) | GFLOP/s | limit / time |\n|---|---|---|---|---|")
     print("\n".join(rows))
 
 
@@ -117,25 +123,59 @@ def lstm_training_flops(config, n_inputs: int, hours_trained: float) -> float:
     return 3.0 * per_hour * hours_trained
 
 
-def surrogate(repeats: int) -> None:
-    import tempfile
-    from pathlib import Path
+def surrogate(repeats: int, table_path: Path) -> None:
+    """The default trainer on ``table_path``: CPU seconds of the warm start and of the closed-loop epochs, and
+    their gate-product FLOPs against the float32 rate of the time-batched gate product (all hours of a batch
+    at once: (batch x hours, in + H) x (in + H, 4H)), the best shape an LSTM's work can be put in."""
+    import surrogates.train as trainer
+    from surrogates.ilv import read_ilv
+    from surrogates.model import available_inputs
 
-    from surrogates.sources.fmu import simulate_ilv_fmu
-    from surrogates.train import TrainConfig, train_surrogate
-    from tests.surrogates.fmu.build import VARIABLE_MAP, build_room_fmu, synthetic_house
+    table = read_ilv(table_path)
+    config = trainer.TrainConfig(progress=False)
+    phases: dict[str, list[float]] = {"warm start": [], "closed-loop epochs": [], "whole training": []}
 
-    with tempfile.TemporaryDirectory() as folder:
-        fmu = build_room_fmu(Path(folder))
-        table = simulate_ilv_fmu(fmu, synthetic_house(fmu, days=365, t_mean=12.0), VARIABLE_MAP, n_partial=4,
-                                 seed=0, start_values={"T0": 22.0})
-    config = TrainConfig(progress=False)
-    cpu = []
-    for _ in range(repeats):
-        trained = train_surrogate(table, config)
-        cpu.append(trained.cpu_seconds)
+    def timed(name, fn):
+        def run(*args, **kwargs):
+            started = time.process_time()
+            try:
+                return fn(*args, **kwargs)
+            finally:
+                spent[name] = spent.get(name, 0.0) + time.process_time() - started
+        return run
+
+    original = trainer._pretrain, trainer._closed_loop_epoch
+    trainer._pretrain = timed("warm start", trainer._pretrain)
+    trainer._closed_loop_epoch = timed("closed-loop epochs", trainer._closed_loop_epoch)
+    try:
+        for _ in range(repeats):
+            spent: dict[str, float] = {}
+            trained = trainer.train_surrogate(table, config)
+            for name, value in spent.items():
+                phases[name].append(value)
+            phases["whole training"].append(trained.cpu_seconds)
+    finally:
+        trainer._pretrain, trainer._closed_loop_epoch = original
+    n_inputs = len(available_inputs(table, config.inputs))
+    train_hours = sum(s.stop - s.start for s in trained.splits["train"])
+    hours = {"warm start": config.pretrain_steps * config.pretrain_batch_size * config.pretrain_sequence_hours,
+             "closed-loop epochs": config.epochs * train_hours}
+    hours["whole training"] = sum(hours.values())
+    rows = config.pretrain_batch_size * config.pretrain_sequence_hours
+    gate = 4 * config.hidden_size
+    rate = 2 * rows * (n_inputs + config.hidden_size) * gate / time_products(
+        [(1, rows, n_inputs + config.hidden_size, gate)], torch.float32, 7, 200)
     print(f"CPU: {capability().describe()}; {uptime()}; precision {trained.precision.precision}")
-    print(f"default trainer: {statistics.median(cpu):.1f} s of CPU (runs {', '.join(f'{c:.1f}' for c in cpu)})")
+    print(f"default trainer on {table_path} ({len(table)} rows), {repeats} run(s); float32 rate of the "
+          f"time-batched gate product ({rows} x {n_inputs + config.hidden_size}) x "
+          f"({n_inputs + config.hidden_size} x {gate}): {rate / 1e9:.1f} GFLOP/s\n")
+    print("| phase | CPU s (median; runs) | gate-product GFLOP | GFLOP/s | limit s | limit / CPU |\n"
+          "|---|---|---|---|---|---|")
+    for name, values in phases.items():
+        cpu = statistics.median(values)
+        flops = lstm_training_flops(config, n_inputs, hours[name])
+        print(f"| {name} | {cpu:.1f} ({', '.join(f'{v:.1f}' for v in values)}) | {flops / 1e9:.0f} | "
+              f"{flops / cpu / 1e9:.1f} | {flops / rate:.1f} | {100 * flops / rate / cpu:.0f} % |")
 
 
 def uptime() -> str:
@@ -150,11 +190,13 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=7)
     parser.add_argument("--updates", type=int, default=20)
     parser.add_argument("--threads", type=int, nargs="+", default=[1, 2])
+    parser.add_argument("--table", type=Path, default=Path("tests/fixtures/synthetic_district/ilv/900001.parquet"),
+                        help="ILV table of the surrogate workload (default: a full-year synthetic house)")
     args = parser.parse_args()
     if args.workload == "sac":
         sac(args.obs, args.act, args.repeats, args.updates, args.threads)
     else:
-        surrogate(args.repeats)
+        surrogate(args.repeats, args.table)
 
 
 if __name__ == "__main__":

@@ -167,17 +167,19 @@ class RunOptions:
     """How the benchmarks run. ``roles``: buildings playing B1 [B2] (None = the first two); ``rules``:
     "described" or "published" (:data:`pipeline.controllers.RULE_SETS`); ``compat``: the CityLearn 2.1
     preset (``settings="citylearn-2.1"``); ``sac``: the SAC back end (:data:`pipeline.paper_sac.BACKENDS`);
-    ``sac_threads``: torch threads of one SAC training (workers x threads = cores is the sensible choice);
-    ``precision``: the SAC update's numeric mode, ``auto``, ``float32`` or ``bfloat16``
-    (:func:`pipeline.paper_sac.sac_precision`)."""
+    ``sac_threads``: torch threads of one SAC training (None: chosen per task, :func:`pipeline.paper_sac.sac_threads`
+    over the ``cores`` the runner leaves each task); ``precision``: the SAC update's numeric mode, ``auto``,
+    ``float32`` or ``bfloat16`` (:func:`pipeline.paper_sac.sac_precision`); ``cores``: CPU cores one task
+    may use (set by :func:`pipeline.paper_tasks.run_paper` from its runner; not part of a result's identity)."""
 
     sac_episodes: int = 150
     roles: tuple[str, ...] | None = None
     rules: str = "described"
     compat: bool = False
     sac: str = "fast"
-    sac_threads: int = 1
+    sac_threads: int | None = None
     precision: str = "auto"
+    cores: int = 1
 
     @property
     def settings(self) -> str | None:
@@ -209,11 +211,14 @@ def run_benchmark(district: DistrictConfig, b: Benchmark, *, seed: int = 0, mult
     n = district.simulation_end_time_step - district.simulation_start_time_step + 1
     train, test = (0, TRAIN_DAYS * 24 - 1), (TRAIN_DAYS * 24, n - 1)
     env = CityLearnEnv(benchmark_schema(district, b, test, multiplier, options.roles), settings=options.settings)
-    policy, train_seconds, train_cpu, precision = None, 0.0, 0.0, "-"
+    policy, train_seconds, train_cpu, precision, threads = None, 0.0, 0.0, "-", 0
     if b.control == "sac":
+        from pipeline.paper_sac import sac_threads
+
+        threads = options.sac_threads or sac_threads(options.cores)[0]
         trained = sac_policy(
             CityLearnEnv(benchmark_schema(district, b, train, multiplier, options.roles), settings=options.settings),
-            options.sac_episodes, seed, options.sac, options.sac_threads, options.precision)
+            options.sac_episodes, seed, options.sac, threads, options.precision)
         policy, train_seconds, train_cpu, precision = trained
     rules, lookahead = RULE_SETS[options.rules]
     rule = rules[RULES[b.objective]] if b.control == "rbc" else None
@@ -239,7 +244,7 @@ def run_benchmark(district: DistrictConfig, b: Benchmark, *, seed: int = 0, mult
     return {"id": b.id, "buildings": "+".join(env.building_names), "multiplier": multiplier, "seed": seed,
             **first, "average_daily_peak": result["average_daily_peak"], "steps": int(env.t),
             "mean_abs_action": float(np.mean(np.abs(actions))) if env.action_names else 0.0,
-            "precision": precision, "train_seconds": train_seconds, "train_cpu_seconds": train_cpu,
+            "precision": precision, "sac_threads": threads, "train_seconds": train_seconds, "train_cpu_seconds": train_cpu,
             "seconds": time.perf_counter() - started,
             "trace": trace(env, series, actions)}
 

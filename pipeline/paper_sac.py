@@ -28,7 +28,10 @@ then uses the updated critic; target networks updated every step. Terminal steps
 
 from __future__ import annotations
 
+import functools
 import math
+import statistics
+import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -71,8 +74,6 @@ def train_sac(env, episodes: int, seed: int, backend: str = "fast", threads: int
     full episodes; return the deterministic policy. ``backend``: one of :data:`BACKENDS`; ``threads``: torch
     threads (the torch back ends and SB3); ``precision``: ``auto``, ``float32`` or ``bfloat16`` for the
     ``fast`` and ``torch`` back ends (:func:`sac_precision`)."""
-    import time
-
     if backend not in BACKENDS:
         raise InputError(f"unknown SAC back end {backend!r}; known: {', '.join(BACKENDS)}", column="--sac")
     check_precision(precision)
@@ -110,6 +111,46 @@ def flushed_subnormals() -> Iterator[None]:
         yield
     finally:
         torch.set_flush_denormal(False)
+
+
+#: a second torch thread is used for one SAC training only when it measures at least this much faster
+THREAD_GAIN = 1.2
+
+
+def sac_threads(cores: int) -> tuple[int, str]:
+    """Torch threads for one SAC training that may use ``cores`` cores, and why: 1 where ``cores`` is 1;
+    else ``cores`` when a short measurement of the update's dominant product (two critics' (256 x 256) x
+    (256 x 256) layers) at ``cores`` threads against 1 finds it at least :data:`THREAD_GAIN` times faster,
+    else 1. The measurement sees the machine as it is: on a busy machine, extra OpenMP threads wait for
+    descheduled partners and measure slower. Cached per process."""
+    if cores <= 1:
+        return 1, "one core per task"
+    return _measured_threads(cores)
+
+
+@functools.cache
+def _measured_threads(cores: int) -> tuple[int, str]:
+    import torch
+
+    before = torch.get_num_threads()
+    probe = matmul_probe("SAC threads", ((BATCH_SIZE, HIDDEN, HIDDEN),), batch=4)
+    times: dict[int, list[float]] = {1: [], cores: []}
+    try:
+        for n in times:  # warm-up: the thread pool started, operands made
+            torch.set_num_threads(n)
+            probe.run(torch.float32)
+        for _ in range(5):
+            for n, runs in times.items():
+                torch.set_num_threads(n)
+                started = time.perf_counter()
+                probe.run(torch.float32)
+                runs.append(time.perf_counter() - started)
+    finally:
+        torch.set_num_threads(before)
+    gain = statistics.median(times[1]) / statistics.median(times[cores])
+    if gain >= THREAD_GAIN:
+        return cores, f"{cores} threads measured {gain:.2f}x faster than 1"
+    return 1, f"{cores} threads measured only {gain:.2f}x faster than 1"
 
 
 def _train(env, steps: int, seed: int, backend: str, threads: int,

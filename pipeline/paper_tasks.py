@@ -78,7 +78,7 @@ def fingerprint(schema_path: str | Path, options: RunOptions) -> dict[str, Any]:
     """What a task result depends on besides the task: the schema file's sha256 and the run options."""
     digest = hashlib.sha256(Path(schema_path).read_bytes()).hexdigest()
     return {"schema_sha256": digest, **{k: list(v) if isinstance(v, tuple) else v
-                                        for k, v in dataclasses.asdict(options).items()}}
+                                        for k, v in dataclasses.asdict(options).items() if k != "cores"}}
 
 
 def read_finished(path: Path, expected: Mapping[str, Any]) -> dict[str, Any] | None:
@@ -182,10 +182,27 @@ def run_paper(schema_path: str | Path, out_dir: str | Path, *, only: Sequence[st
             done[task.key] = found
     log(f"{len(tasks)} tasks: {len(done)} finished before, {len(todo)} to run on {max(workers, 1)} worker(s)")
     runner = runner or (ProcessRunner(workers) if workers > 1 and len(todo) > 1 else InProcessRunner())
+    cores = cores_per_task(runner, len(todo))
+    todo = {key: (path, task, dataclasses.replace(opts, cores=cores), *rest)
+            for key, (path, task, opts, *rest) in todo.items()}
     done |= runner.map("paper", run_task, todo)
     runs = [done[t.key] for t in tasks]
     return write_results(out, runs, tasks, multiplier=multiplier, only=only, sweep=sweep, options=options,
                          seeds=seeds)
+
+
+def cores_per_task(runner: Any, tasks: int) -> int:
+    """CPU cores each of ``tasks`` tasks may use under ``runner``: all of this process's cores in process, the
+    cores shared out over the tasks running at once on a local pool or local Dask cluster, 1 on a remote
+    scheduler (its machines are not this one)."""
+    from pipeline.build import InProcessRunner
+
+    cpus = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+    if isinstance(runner, InProcessRunner):
+        return cpus
+    if isinstance(runner, ProcessRunner) or (isinstance(runner, DaskRunner) and runner.address is None):
+        return max(1, cpus // max(1, min(runner.workers, tasks)))
+    return 1
 
 
 def summarise(runs: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
@@ -239,7 +256,9 @@ def results_table(results: Sequence[Mapping[str, Any]], options: RunOptions, see
     by_id = {r["id"]: r for r in results}
     roles = ", ".join(f"{role} = {name}" for role, name in zip(("B1", "B2"), options.roles or (), strict=False))
     ran = sorted({r.get("precision", "-") for r in results} - {"-"})
-    precision = f" in {' and '.join(ran)} (--precision {options.precision})" if ran else ""
+    threads = sorted({r.get("sac_threads", 0) for r in results} - {0})
+    precision = (f" in {' and '.join(ran)} (--precision {options.precision}) on "
+                 f"{' or '.join(map(str, threads))} thread(s)") if ran else ""
     lines = [f"Buildings: {roles}. Rules: {options.rules}. Environment: "
              f"{'CityLearn 2.1 preset' if options.compat else 'corrected'}. SAC: {options.sac}{precision}, "
              f"{options.sac_episodes} episodes, {seeds} seed(s) (SAC rows: mean ± std).", "",

@@ -65,8 +65,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     paper.add_argument("--sac-episodes", type=int, default=150, help="SAC training episodes (paper: 150)")
     paper.add_argument("--dask", nargs="?", const="local", metavar="ADDRESS",
                        help="run the tasks on Dask: a local cluster of --workers processes, or a scheduler ADDRESS")
-    paper.add_argument("--sac-threads", type=int, metavar="N", default=1,
-                       help="torch threads per SAC training (default 1: more threads only help on idle cores)")
+    paper.add_argument("--sac-threads", type=int, metavar="N",
+                       help="torch threads per SAC training (default: the cores each running task may use, "
+                            "if more than one thread measures faster here; else 1)")
     paper.add_argument("--multiplier", type=float, default=3.0, help="over-cooling multiplier m of d_o")
     paper.add_argument("--seed", type=int, default=0, help="first seed")
     paper.add_argument("--seeds", type=int, default=1, help="run the learning rows with N seeds (mean ± std)")
@@ -204,6 +205,8 @@ def paper_command(args: argparse.Namespace) -> int:
     from pipeline.paper import RunOptions
     from pipeline.paper_tasks import run_paper
 
+    if args.sac_threads is not None and args.sac_threads < 1:
+        raise InputError("--sac-threads N needs N >= 1 (leave it out to choose per task)", column="--sac-threads")
     options = RunOptions(sac_episodes=args.sac_episodes, roles=tuple(args.buildings) if args.buildings else None,
                          rules=args.rules, compat=args.compat, sac=args.sac,
                          sac_threads=args.sac_threads, precision=args.precision)

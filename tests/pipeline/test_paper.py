@@ -225,3 +225,28 @@ def test_tasks_on_a_local_dask_cluster_equal_in_process(district, tmp_path):
     for key in ids:
         for metric in ("cost", "emissions", "consumption"):
             assert dask[key][metric] == here[key][metric]
+
+
+def test_cores_per_task_follow_the_runner():
+    """In process a task may use every core; a local pool shares them out over the tasks running at once;
+    a remote scheduler's machines are not this one (1)."""
+    import os
+
+    from pipeline.build import InProcessRunner
+    from pipeline.paper_tasks import DaskRunner, ProcessRunner, cores_per_task
+
+    cpus = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    assert cores_per_task(InProcessRunner(), 5) == cpus
+    assert cores_per_task(ProcessRunner(2), 10) == max(1, cpus // 2)
+    assert cores_per_task(ProcessRunner(2), 1) == cpus          # one task left: it gets them all
+    assert cores_per_task(DaskRunner(None, 4), 10) == max(1, cpus // 4)
+    assert cores_per_task(DaskRunner("tcp://127.0.0.1:1", 4), 10) == 1
+
+
+def test_sac_threads_are_measured_only_with_cores_to_spare():
+    from pipeline.paper_sac import THREAD_GAIN, sac_threads
+
+    assert sac_threads(1) == (1, "one core per task")
+    threads, reason = sac_threads(2)  # what this machine measures now: either answer is legitimate,
+    gain = float(reason.split("measured ")[1].split("x")[0].split()[-1])  # but it must follow the measurement
+    assert threads in (1, 2) and (gain >= THREAD_GAIN) == (threads == 2)

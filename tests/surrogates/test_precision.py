@@ -127,7 +127,7 @@ def test_every_default_path_runs_float32_without_native_bf16(no_native_bf16, tmp
                    options=RunOptions(sac_episodes=1), log=lambda *_: None)
     by_id = {r["id"]: r for r in rows}
     assert by_id["rlc-b1-c-bess_pv"]["precision"] == "float32" and by_id["rbc-b1-c-bess_pv"]["precision"] == "-"
-    assert "SAC: fast in float32 (--precision auto)" in (tmp_path / "paper" / "results.md").read_text()
+    assert "SAC: fast in float32 (--precision auto) on " in (tmp_path / "paper" / "results.md").read_text()
     runs = (tmp_path / "paper" / "runs.csv").read_text().splitlines()
     assert "precision" in runs[0].split(",")
     stored = json.loads((tmp_path / "paper" / "tasks" / "rlc-b1-c-bess_pv-m3-s0.json").read_text())
