@@ -1,13 +1,14 @@
 """How close the torch workloads run to this CPU's float32 limit, and what bfloat16 and threads change.
 
-    .venv/bin/python benchmarks/precision_limits.py sac [--obs 10 --act 1 --repeats 7 --threads 1 2]
+    .venv/bin/python benchmarks/precision_limits.py sac [--obs 10 --act 1 --repeats 7 --threads 1 2 --bf16]
     .venv/bin/python benchmarks/precision_limits.py surrogate [--repeats 3 --table ILV.parquet]
 
 ``sac``: one SAC update (SB3 defaults, batch 256, [256, 256] networks) of the ``fast`` and ``torch`` back ends
 in float32 (and bfloat16), at each thread count; the update's floating-point work counted from its matrix
-products (:func:`sac_update_flops`); the machine's float32 limit measured on exactly those products run back
-to back (:func:`sac_products`), so "achieved / limit" says how much of the update is not matrix work. All
-variants alternate in one process, ``repeats`` rounds of ``updates`` updates; medians.
+products (:func:`sac_update_flops`); the limit is that work at the measured float32 rate of the update's
+dominant (256 x 256) x (256 x 256) product, and the update's own products run back to back
+(:func:`sac_products`) show what its shapes cost before any element-wise work. All variants alternate in one
+process, ``repeats`` rounds of ``updates`` updates (one where bfloat16 is emulated); medians.
 ``surrogate``: the default trainer (``TrainConfig()``) on an ILV table (default: the test fixture's full-year
 house): CPU seconds per phase, the LSTM's floating-point work (:func:`lstm_training_flops`) and the same ratio
 against the float32 rate of the LSTM's time-batched gate product.
@@ -71,7 +72,7 @@ def time_products(products, dtype: torch.dtype, repeats: int, rounds: int = 20) 
     return statistics.median(times)
 
 
-def sac(obs: int, act: int, repeats: int, updates: int, threads: list[int]) -> None:
+def sac(obs: int, act: int, repeats: int, updates: int, threads: list[int], bf16: bool) -> None:
     from pipeline.paper_sac import LeanSAC, flushed_subnormals
     from pipeline.paper_sac_fast import FastSAC
 
@@ -79,7 +80,7 @@ def sac(obs: int, act: int, repeats: int, updates: int, threads: list[int]) -> N
     batch = (torch.rand(BATCH, obs, generator=g), torch.rand(BATCH, act, generator=g) * 2 - 1,
              torch.randn(BATCH, 1, generator=g), torch.rand(BATCH, obs, generator=g), torch.zeros(BATCH, 1))
     variants = [("fast", FastSAC, False), ("torch", LeanSAC, False)]
-    if capability().native_bf16:
+    if capability().native_bf16 or bf16:  # emulated bfloat16 only when asked: each update takes seconds
         variants += [("fast", FastSAC, True), ("torch", LeanSAC, True)]
     flops = sac_update_flops(obs, act)
     rows = []
@@ -97,10 +98,11 @@ def sac(obs: int, act: int, repeats: int, updates: int, threads: list[int]) -> N
                     agent.train_step(*batch)
             for _ in range(repeats):
                 for key, agent in agents.items():
+                    count = updates if capability().native_bf16 or not key[1] else 1
                     started = time.perf_counter()
-                    for _ in range(updates):
+                    for _ in range(count):
                         agent.train_step(*batch)
-                    times[key].append((time.perf_counter() - started) / updates)
+                    times[key].append((time.perf_counter() - started) / count)
             rows.append(f"| the limit: all FLOPs at the (256 x 256) x (256 x 256) float32 rate | {n} | "
                         f"{limit * 1e3:.2f} | {peak_rate / 1e9:.1f} | 100 % |")
             rows.append(f"| the update's float32 products alone | {n} | {alone * 1e3:.2f} | "
@@ -190,11 +192,13 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=7)
     parser.add_argument("--updates", type=int, default=20)
     parser.add_argument("--threads", type=int, nargs="+", default=[1, 2])
+    parser.add_argument("--bf16", action="store_true", help="sac: bfloat16 variants also where bfloat16 is "
+                                                             "emulated (one update per round)")
     parser.add_argument("--table", type=Path, default=Path("tests/fixtures/synthetic_district/ilv/900001.parquet"),
                         help="ILV table of the surrogate workload (default: a full-year synthetic house)")
     args = parser.parse_args()
     if args.workload == "sac":
-        sac(args.obs, args.act, args.repeats, args.updates, args.threads)
+        sac(args.obs, args.act, args.repeats, args.updates, args.threads, args.bf16)
     else:
         surrogate(args.repeats, args.table)
 

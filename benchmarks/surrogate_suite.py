@@ -46,9 +46,9 @@ TEST_REFERENCES = (6, 7)
 
 
 def recipes() -> dict:
-    """Named training configurations: ``default`` (TrainConfig(): hidden 32, lookback 1, bfloat16 updates, no
-    day-type inputs, 6000 teacher-forced updates on 48-h sequences with a temperature history perturbed after
-    its first 6 hours, every pass holding the first sequence of each training run, 32 closed-loop epochs at
+    """Named training configurations: ``default`` (TrainConfig(): hidden 32, lookback 1, updates in the
+    precision the CPU runs fastest, no day-type inputs, 6000 teacher-forced updates on 48-h sequences with a
+    temperature history perturbed after its first 6 hours, every pass holding the first sequence of each training run, 32 closed-loop epochs at
     5e-4 all run, 48-h chunks then the last 10 on 168-h chunks at a low rate), ``clean_starts`` (without the
     run starts), ``shift2`` (that with warm-start samples offset by up to +-2 degC), ``seventh_pass`` (the
     default of the seventh pass: the whole history perturbed, no run starts), ``lookback1_pretrain4000``
@@ -76,7 +76,7 @@ def recipes() -> dict:
                     long_chunk_epochs=10)
     # the default of the fifth pass: no perturbed history in the one-step phase, closed-loop rate 3e-3
     fifth = replace(sixth, pretrain_noise=0.0, finetune_learning_rate=0.003)
-    base = replace(fifth, inputs=INPUTS_WITH_DAY_TYPE, hidden_size=16, patience=6, bf16_updates=False, epochs=60,
+    base = replace(fifth, inputs=INPUTS_WITH_DAY_TYPE, hidden_size=16, patience=6, precision="float32", epochs=60,
                    pretrain_steps=1200, batch_size=256, long_chunk_hours=(), long_chunk_epochs=0)
     previous = replace(base, lookback=12, epochs=40, ema_decay=0.0, fresh_optimizer=False)
     hidden32 = replace(base, hidden_size=32)  # more accurate on the restaurants, 1.7x the CPU (docs/surrogates.md)
@@ -106,17 +106,17 @@ def recipes() -> dict:
             # run and the best validation epoch is kept (smaller patiences stop on a prefix of this trajectory)
             "no_early_stop": replace(base, patience=base.epochs),
             # hidden 32 with bfloat16 updates (~22 % cheaper per update: benchmarks/README.md, trainer speed)
-            "hidden32_bf16": replace(hidden32, bf16_updates=True),
-            "hidden32_bf16_no_early_stop": replace(hidden32, bf16_updates=True, patience=None),
+            "hidden32_bf16": replace(hidden32, precision="auto"),
+            "hidden32_bf16_no_early_stop": replace(hidden32, precision="auto", patience=None),
             # the default's ablations (docs/surrogates.md, fifth pass): with the day-type inputs; and with them,
             # 1200 one-step updates and 45 epochs (the last 15 long)
             "pretrain6000_day_type": replace(fifth, inputs=INPUTS_WITH_DAY_TYPE),
             "pretrain1200_long": replace(fifth, inputs=INPUTS_WITH_DAY_TYPE, pretrain_steps=1200, epochs=45,
                                          long_chunk_epochs=15),
             # hidden 16, bfloat16 updates, 90 epochs all run (about the CPU of 60 float32 epochs + half)
-            "bf16_epochs90": replace(base, bf16_updates=True, epochs=90, patience=90),
+            "bf16_epochs90": replace(base, precision="auto", epochs=90, patience=90),
             # between the two: hidden 24, bfloat16 updates, 80 epochs all run
-            "hidden24_bf16_epochs80": replace(base, hidden_size=24, bf16_updates=True, epochs=80, patience=80)}
+            "hidden24_bf16_epochs80": replace(base, hidden_size=24, precision="auto", epochs=80, patience=80)}
 
 
 def suite_settings(args: argparse.Namespace) -> rh.SuiteSettings:

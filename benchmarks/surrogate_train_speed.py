@@ -53,9 +53,9 @@ def load_revision(revision: str, folder: Path):
 def run_once(trainer, table, hidden: int, bf16: bool) -> dict:
     """One training of the old trainer's default recipe at ``hidden``; CPU and wall seconds of the whole call.
     The old trainer's own defaults are that recipe; the working tree's moved on, so it gets the suite's
-    ``hidden16`` recipe (the same values) with ``bf16_updates=bf16``."""
+    ``hidden16`` recipe (the same values) with ``precision`` auto (bfloat16 where native) or float32."""
     if trainer is new_train:
-        config = replace(recipes()["hidden16"], hidden_size=hidden, bf16_updates=bf16)
+        config = replace(recipes()["hidden16"], hidden_size=hidden, precision="auto" if bf16 else "float32")
     else:
         config = trainer.TrainConfig(progress=False, test_runs=0, hidden_size=hidden)
     cpu, wall = time.process_time(), time.perf_counter()

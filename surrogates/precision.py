@@ -51,17 +51,21 @@ class Capability:
     isa: tuple[str, ...]
     dispatch: str
     native_bf16: bool
+    #: x86 ``cpu family`` / ``model`` numbers (e.g. ``family 25 model 1``: Zen 3), where the model name is vague
+    family: str = ""
 
     def describe(self) -> str:
-        """One line for logs and benchmark tables, e.g. ``AMD EPYC (avx2 fma; torch AVX2; bfloat16 emulated)``."""
-        return (f"{self.cpu} ({' '.join(self.isa) or 'no listed ISA features'}; torch {self.dispatch}; "
+        """One line for logs and benchmark tables, e.g.
+        ``AMD EPYC, family 25 model 1 (avx2 fma; torch AVX2; bfloat16 emulated)``."""
+        family = f", {self.family}" if self.family else ""
+        return (f"{self.cpu}{family} ({' '.join(self.isa) or 'no listed ISA features'}; torch {self.dispatch}; "
                 f"bfloat16 {'native' if self.native_bf16 else 'emulated'})")
 
 
 @functools.cache
 def capability() -> Capability:
     """This CPU's :class:`Capability` (read once per process)."""
-    model, flags = platform.processor() or platform.machine(), set()
+    model, flags, numbers = platform.processor() or platform.machine(), set(), {}
     try:
         with open("/proc/cpuinfo", encoding="utf-8") as cpuinfo:
             for line in cpuinfo:
@@ -71,13 +75,16 @@ def capability() -> Capability:
                     model = value.strip()
                 elif key in ("flags", "features"):
                     flags.update(value.split())
+                elif key in ("cpu family", "model") and key not in numbers:
+                    numbers[key] = value.strip()
     except OSError:  # not Linux: the model from platform, features unknown
         pass
     import torch
 
     isa = tuple(f for f in RELEVANT_ISA if f in flags)
+    family = f"family {numbers['cpu family']} model {numbers['model']}" if len(numbers) == 2 else ""
     return Capability(model, isa, torch.backends.cpu.get_cpu_capability(),
-                      bool(torch.ops.mkldnn._is_mkldnn_bf16_supported()))
+                      bool(torch.ops.mkldnn._is_mkldnn_bf16_supported()), family)
 
 
 @dataclass(frozen=True)

@@ -120,6 +120,14 @@ def test_every_default_path_runs_float32_without_native_bf16(no_native_bf16, tmp
 
     assert sac_precision(RunOptions().precision, 9, 2).precision == "float32"
     assert update_precision(TrainConfig()).precision == "float32"
+    from surrogates.ilv import read_ilv
+    from surrogates.train import train_surrogate
+
+    table = read_ilv(Path(__file__).parents[1] / "fixtures" / "synthetic_district" / "ilv" / "900001.parquet")
+    tiny = replace(TrainConfig(), hidden_size=4, epochs=1, long_chunk_epochs=0, pretrain_steps=3, progress=False)
+    summary = train_surrogate(table, tiny).summary()
+    assert (summary["precision"], summary["precision_requested"], summary["config"]["precision"]) == (
+        "float32", "auto", "float32")
     config = read_build_config(Path(__file__).parents[2] / "raw" / "district.toml")  # [surrogate] defaults
     assert config.surrogate.precision == "auto" and update_precision(train_config(config)).precision == "float32"
     schema = write_example_district(tmp_path / "district", n_buildings=2, hours=360, seed=3)
