@@ -167,10 +167,11 @@ class RunOptions:
     """How the benchmarks run. ``roles``: buildings playing B1 [B2] (None = the first two); ``rules``:
     "described" or "published" (:data:`pipeline.controllers.RULE_SETS`); ``compat``: the CityLearn 2.1
     preset (``settings="citylearn-2.1"``); ``sac``: the SAC back end (:data:`pipeline.paper_sac.BACKENDS`);
-    ``sac_threads``: torch threads of one SAC training (None: chosen per task, :func:`pipeline.paper_sac.sac_threads`
-    over the ``cores`` the runner leaves each task); ``precision``: the SAC update's numeric mode, ``auto``,
-    ``float32`` or ``bfloat16`` (:func:`pipeline.paper_sac.sac_precision`); ``cores``: CPU cores one task
-    may use (set by :func:`pipeline.paper_tasks.run_paper` from its runner; not part of a result's identity)."""
+    ``sac_threads``: torch threads of one SAC training (None: chosen per task by
+    :func:`pipeline.paper_sac.sac_threads` over the ``cores`` the runner leaves each task); ``precision``: the
+    SAC update's numeric mode, ``auto``, ``float32`` or ``bfloat16`` (:func:`pipeline.paper_sac.sac_precision`);
+    ``cores``: CPU cores one task may use (set by :func:`pipeline.paper_tasks.run_paper` from its runner; not
+    part of a result's identity)."""
 
     sac_episodes: int = 150
     roles: tuple[str, ...] | None = None
@@ -244,8 +245,8 @@ def run_benchmark(district: DistrictConfig, b: Benchmark, *, seed: int = 0, mult
     return {"id": b.id, "buildings": "+".join(env.building_names), "multiplier": multiplier, "seed": seed,
             **first, "average_daily_peak": result["average_daily_peak"], "steps": int(env.t),
             "mean_abs_action": float(np.mean(np.abs(actions))) if env.action_names else 0.0,
-            "precision": precision, "sac_threads": threads, "train_seconds": train_seconds, "train_cpu_seconds": train_cpu,
-            "seconds": time.perf_counter() - started,
+            "precision": precision, "sac_threads": threads, "train_seconds": train_seconds,
+            "train_cpu_seconds": train_cpu, "seconds": time.perf_counter() - started,
             "trace": trace(env, series, actions)}
 
 

@@ -30,7 +30,6 @@ from __future__ import annotations
 
 import functools
 import math
-import statistics
 import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -39,9 +38,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from citylearn_env.errors import InputError
-from surrogates.precision import Choice, check_precision, choose, matmul_probe
+from surrogates.precision import Choice, check_precision, choose, matmul_probe, median_times
 
 BACKENDS = ("fast", "torch", "torch-bf16", "sbx", "sb3")
+#: the libraries' back ends (sb3: torch float32; sbx: JAX float32) take no precision setting
+LIBRARY_PRECISION = Choice("float32", "float32", "sb3 and sbx run in float32")
 
 #: SB3 SAC defaults (the paper used SAC with no hyperparameter changes)
 HIDDEN = 256
@@ -65,7 +66,7 @@ class TrainedPolicy:
     steps: int
     seconds: float
     cpu_seconds: float
-    precision: Choice = Choice("float32", "float32", "sb3 and sbx run in float32")
+    precision: Choice
 
 
 def train_sac(env, episodes: int, seed: int, backend: str = "fast", threads: int = 1,
@@ -134,20 +135,18 @@ def _measured_threads(cores: int) -> tuple[int, str]:
 
     before = torch.get_num_threads()
     probe = matmul_probe("SAC threads", ((BATCH_SIZE, HIDDEN, HIDDEN),), batch=4)
-    times: dict[int, list[float]] = {1: [], cores: []}
-    try:
-        for n in times:  # warm-up: the thread pool started, operands made
-            torch.set_num_threads(n)
+
+    def on(threads: int) -> Callable[[], None]:
+        def run() -> None:
+            torch.set_num_threads(threads)
             probe.run(torch.float32)
-        for _ in range(5):
-            for n, runs in times.items():
-                torch.set_num_threads(n)
-                started = time.perf_counter()
-                probe.run(torch.float32)
-                runs.append(time.perf_counter() - started)
+        return run
+
+    try:
+        times = median_times({1: on(1), cores: on(cores)}, repeats=5, budget_s=1.0)
     finally:
         torch.set_num_threads(before)
-    gain = statistics.median(times[1]) / statistics.median(times[cores])
+    gain = times[1] / times[cores]
     if gain >= THREAD_GAIN:
         return cores, f"{cores} threads measured {gain:.2f}x faster than 1"
     return 1, f"{cores} threads measured only {gain:.2f}x faster than 1"
@@ -157,7 +156,7 @@ def _train(env, steps: int, seed: int, backend: str, threads: int,
            precision: str) -> tuple[Callable[[np.ndarray], np.ndarray], Choice]:
     """The training loop of ``backend``; returns the deterministic policy and the precision that ran."""
     if backend in ("sb3", "sbx"):
-        return _train_library(env, steps, seed, backend, threads), TrainedPolicy.precision
+        return _train_library(env, steps, seed, backend, threads), LIBRARY_PRECISION
     from pipeline.paper_sac_fast import FastSAC
 
     obs_dim, act_dim = env.observation_space.shape[0], env.action_space.shape[0]

@@ -169,26 +169,33 @@ def _choose(requested: str, probe: Probe) -> Choice:
 
 
 def measure_speedup(probe: Probe, repeats: int = 5, budget_s: float = 0.3) -> float:
-    """float32 time / bfloat16 time of ``probe.run``: the median of ``repeats`` alternating timings of each
-    (after one warm-up each), at most about ``budget_s`` seconds in all (fewer repeats when one run is slow,
-    as emulated bfloat16 is)."""
+    """float32 time / bfloat16 time of ``probe.run`` (:func:`median_times`)."""
     import torch
 
-    times: dict[torch.dtype, list[float]] = {torch.float32: [], torch.bfloat16: []}
+    times = median_times({dtype: functools.partial(probe.run, dtype) for dtype in (torch.float32, torch.bfloat16)},
+                         repeats, budget_s)
+    return times[torch.float32] / max(times[torch.bfloat16], 1e-12)
+
+
+def median_times(runs: dict, repeats: int = 5, budget_s: float = 0.3) -> dict:
+    """Median seconds of each callable of ``runs`` (key -> callable): one warm-up each, then ``repeats``
+    rounds alternating over them (the same machine state for all), stopping early once about ``budget_s``
+    seconds are spent and two rounds are done (a slow variant, as emulated bfloat16 is, then runs fewer)."""
+    times: dict = {key: [] for key in runs}
     spent = 0.0
-    for dtype in times:  # warm-up: kernels chosen, buffers allocated
+    for run in runs.values():  # warm-up: kernels chosen, buffers allocated, thread pools started
         started = time.perf_counter()
-        probe.run(dtype)
+        run()
         spent += time.perf_counter() - started
     for _ in range(repeats):
-        for dtype, runs in times.items():
+        for key, run in runs.items():
             started = time.perf_counter()
-            probe.run(dtype)
-            runs.append(time.perf_counter() - started)
-        spent += sum(runs[-1] for runs in times.values())
-        if spent > budget_s and len(times[torch.float32]) >= 2:
+            run()
+            times[key].append(time.perf_counter() - started)
+        spent += sum(values[-1] for values in times.values())
+        if spent > budget_s and len(next(iter(times.values()))) >= 2:
             break
-    return statistics.median(times[torch.float32]) / max(statistics.median(times[torch.bfloat16]), 1e-12)
+    return {key: statistics.median(values) for key, values in times.items()}
 
 
 def matmul_probe(name: str, shapes: tuple[tuple[int, int, int], ...], batch: int = 1) -> Probe:

@@ -297,11 +297,12 @@ def train_surrogate(table: pd.DataFrame, config: TrainConfig = TrainConfig(),
 def update_precision(config: TrainConfig) -> Choice:
     """The precision ``config``'s updates run in on this CPU (:func:`surrogates.precision.choose`), measured
     on the warm start's own update: a teacher-forced ``pretrain_sequence_hours`` sequence batch of
-    ``pretrain_batch_size`` through this network size, forward and backward. Cached per process, so the
-    build's cache key and the trainer see the same choice."""
+    ``pretrain_batch_size`` through this network size, forward and backward, on ``config.threads`` threads.
+    Cached per process, so the build's cache key and the trainer see the same choice."""
     shape = (config.num_layers, config.hidden_size, len(config.inputs), config.pretrain_batch_size,
              config.pretrain_sequence_hours)
-    return choose(config.precision, _update_probe(*shape))
+    with torch_threads(config.threads):
+        return choose(config.precision, _update_probe(*shape))
 
 
 @functools.cache
