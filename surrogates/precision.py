@@ -83,8 +83,11 @@ def capability() -> Capability:
 
     isa = tuple(f for f in RELEVANT_ISA if f in flags)
     family = f"family {numbers['cpu family']} model {numbers['model']}" if len(numbers) == 2 else ""
-    return Capability(model, isa, torch.backends.cpu.get_cpu_capability(),
-                      bool(torch.ops.mkldnn._is_mkldnn_bf16_supported()), family)
+    try:  # builds without oneDNN (some ARM and macOS wheels) lack the op: no native bfloat16 then
+        native = bool(torch.ops.mkldnn._is_mkldnn_bf16_supported())
+    except (AttributeError, RuntimeError):
+        native = False
+    return Capability(model, isa, torch.backends.cpu.get_cpu_capability(), native, family)
 
 
 @dataclass(frozen=True)
