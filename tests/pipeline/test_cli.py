@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import json
 
+import pytest
+
 from citylearn_env.example import write_example_district
 from pipeline.cli import main
 
@@ -37,3 +39,20 @@ def test_bad_build_config_is_one_line_exit_2(tmp_path, capsys):
 def test_verify_reports_a_missing_manifest(tmp_path, capsys):
     assert main(["verify", str(tmp_path)]) == 2
     assert "no manifest.json" in capsys.readouterr().err
+
+
+def test_paper_precision_and_threads_options(tmp_path, capsys):
+    """``--precision`` and ``--sac-threads`` reach the run: a bad thread count is one line (exit 2), and an
+    RBC-only run records no precision for its rows."""
+    schema = write_example_district(tmp_path / "d", n_buildings=2, hours=360, seed=2)
+    assert main(["paper", str(schema), "-o", str(tmp_path / "p"), "--sac-threads", "0"]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and "--sac-threads" in err
+    with pytest.raises(SystemExit):
+        main(["paper", str(schema), "-o", str(tmp_path / "p"), "--precision", "fp8"])
+    capsys.readouterr()
+    assert main(["paper", str(schema), "-o", str(tmp_path / "p"), "--only", "rbc-b1-c-bess_pv",
+                 "--precision", "float32", "--workers", "1"]) == 0
+    stored = json.loads((tmp_path / "p" / "tasks" / "rbc-b1-c-bess_pv-m3-s0.json").read_text())
+    assert stored["fingerprint"]["precision"] == "float32" and stored["result"]["precision"] == "-"
+    assert "cores" not in stored["fingerprint"]  # where a task ran does not make it another result

@@ -99,10 +99,12 @@ def test_cli_train_and_evaluate(table, tmp_path, capsys):
     csv = write_ilv(table, tmp_path / "house.csv")
     out = tmp_path / "out"
     assert main(["surrogate", "train", str(csv), "-o", str(out), "--name", "B1", "--epochs", "1",
-                 "--pretrain-steps", "20", "--hidden", "4", "--quiet"]) == 0
+                 "--pretrain-steps", "20", "--hidden", "4", "--quiet", "--precision", "float32"]) == 0
+    assert json.loads(capsys.readouterr().out)["precision"] == "float32"  # the mode that ran, printed
     assert sorted(p.name for p in out.iterdir()) == ["B1.dynamics.json", "B1.metrics.json", "B1.png", "B1.pth"]
     assert "train_cpu_seconds" in json.loads((out / "B1.metrics.json").read_text())["training"]
     report = json.loads((out / "B1.metrics.json").read_text())
+    assert (report["training"]["precision"], report["training"]["precision_requested"]) == ("float32", "float32")
     assert report["test"]["references"] == [0, 5]
     assert {m["month"] for m in report["test"]["monthly"]} == {1}
     capsys.readouterr()
@@ -114,6 +116,10 @@ def test_cli_train_and_evaluate(table, tmp_path, capsys):
     printed = json.loads(capsys.readouterr().out)
     assert printed["closed_loop_rmse_c"] == report["test"]["closed_loop_rmse_c"]
     assert printed["monthly_rmse_c"]["max"] >= printed["monthly_rmse_c"]["median"] > 0
+    # an unknown precision: argparse names the option and the choices, exit 2
+    with pytest.raises(SystemExit) as stop:
+        main(["surrogate", "train", str(csv), "-o", str(out), "--precision", "half"])
+    assert stop.value.code == 2 and "--precision" in capsys.readouterr().err
     # a table without an input the model uses: one clear error, exit 2
     table.drop(columns="indoor_dry_bulb_temperature_set_point").to_csv(tmp_path / "no_sp.csv", index=False)
     assert main(["surrogate", "evaluate", str(out / "B1.pth"), str(tmp_path / "no_sp.csv")]) == 2
