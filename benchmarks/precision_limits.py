@@ -25,7 +25,7 @@ from pathlib import Path
 
 import torch
 
-from surrogates.precision import capability
+from surrogates.precision import capability, matmul_probe, median_times
 
 BATCH, HIDDEN = 256, 256
 
@@ -56,20 +56,15 @@ def sac_update_flops(obs: int, act: int) -> float:
 
 
 def time_products(products, dtype: torch.dtype, repeats: int, rounds: int = 20) -> float:
-    """Median seconds of one pass over ``products`` (operands made once)."""
-    g = torch.Generator().manual_seed(0)
-    operands = [(torch.randn(b, m, k, generator=g).to(dtype), torch.randn(b, k, n, generator=g).to(dtype))
-                for b, m, k, n in products]
-    for a, b in operands:
-        torch.bmm(a, b)
-    times = []
-    for _ in range(repeats):
-        started = time.perf_counter()
+    """Median seconds of one pass over ``products`` ((batch, m, k, n) each; operands made once): the probe
+    and the alternating median timing of :mod:`surrogates.precision`, ``rounds`` passes per timing."""
+    probe = matmul_probe("products", tuple(products))
+
+    def passes() -> None:
         for _ in range(rounds):
-            for a, b in operands:
-                torch.bmm(a, b)
-        times.append((time.perf_counter() - started) / rounds)
-    return statistics.median(times)
+            probe.run(dtype)
+
+    return median_times({"products": passes}, repeats, budget_s=float("inf"))["products"] / rounds
 
 
 def sac(obs: int, act: int, repeats: int, updates: int, threads: list[int], bf16: bool) -> None:

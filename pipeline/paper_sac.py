@@ -93,10 +93,9 @@ def sac_precision(requested: str, obs_dim: int, act_dim: int, threads: int = 1) 
     import torch
 
     torch.set_num_threads(threads)
-    shapes = ((BATCH_SIZE, HIDDEN, HIDDEN), (BATCH_SIZE, obs_dim + act_dim + 1, HIDDEN),
-              (BATCH_SIZE, HIDDEN, HIDDEN), (HIDDEN, BATCH_SIZE, HIDDEN))
-    return choose(requested, matmul_probe(f"SAC update ({obs_dim} observations, {act_dim} actions)", shapes,
-                                          batch=2))
+    products = ((2, BATCH_SIZE, HIDDEN, HIDDEN), (2, BATCH_SIZE, obs_dim + act_dim + 1, HIDDEN),
+                (2, BATCH_SIZE, HIDDEN, HIDDEN), (2, HIDDEN, BATCH_SIZE, HIDDEN))
+    return choose(requested, matmul_probe(f"SAC update ({obs_dim} observations, {act_dim} actions)", products))
 
 
 @contextmanager
@@ -134,7 +133,7 @@ def _measured_threads(cores: int) -> tuple[int, str]:
     import torch
 
     before = torch.get_num_threads()
-    probe = matmul_probe("SAC threads", ((BATCH_SIZE, HIDDEN, HIDDEN),), batch=4)
+    probe = matmul_probe("SAC threads", ((4, BATCH_SIZE, HIDDEN, HIDDEN),))
 
     def on(threads: int) -> Callable[[], None]:
         def run() -> None:

@@ -201,9 +201,9 @@ def median_times(runs: dict, repeats: int = 5, budget_s: float = 0.3) -> dict:
     return {key: statistics.median(values) for key, values in times.items()}
 
 
-def matmul_probe(name: str, shapes: tuple[tuple[int, int, int], ...], batch: int = 1) -> Probe:
-    """A :class:`Probe` of plain matrix products: ``batch`` x (m, k) @ (k, n) for every (m, k, n) of
-    ``shapes``, operands made once per dtype (the workload's own product shapes)."""
+def matmul_probe(name: str, products: tuple[tuple[int, int, int, int], ...]) -> Probe:
+    """A :class:`Probe` of plain matrix products: for every (batch, m, k, n) of ``products``, ``batch``
+    stacked (m, k) @ (k, n) products (the workload's own shapes), operands made once per dtype."""
     import torch
 
     operands: dict[torch.dtype, list[tuple[torch.Tensor, torch.Tensor]]] = {}
@@ -211,8 +211,8 @@ def matmul_probe(name: str, shapes: tuple[tuple[int, int, int], ...], batch: int
     def run(dtype: torch.dtype) -> None:
         if dtype not in operands:
             g = torch.Generator().manual_seed(0)
-            operands[dtype] = [(torch.randn(batch, m, k, generator=g).to(dtype),
-                                torch.randn(batch, k, n, generator=g).to(dtype)) for m, k, n in shapes]
+            operands[dtype] = [(torch.randn(b, m, k, generator=g).to(dtype),
+                                torch.randn(b, k, n, generator=g).to(dtype)) for b, m, k, n in products]
         for a, b in operands[dtype]:
             torch.bmm(a, b)
 
