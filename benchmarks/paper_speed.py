@@ -10,7 +10,7 @@
 environment+training steps per second of each. ``quality``: each back end's full benchmark run (training
 ``episodes`` episodes, then the deterministic test period) per seed: B1's test-period cost and the seconds.
 ``revision``: the ``fast`` back end of the working tree against the one of git revision ``REV``
-(``pipeline/paper_sac_fast.py`` loaded from ``git show``), alternating, steps per CPU second of each.
+(``pipeline/paper/sac/fast.py`` loaded from ``git show``), alternating, steps per CPU second of each.
 Prints markdown rows and the ``uptime`` load average (for benchmarks/README.md).
 """
 
@@ -27,7 +27,7 @@ BENCH = "rlc-b1-c-bess_pv"
 
 
 def load() -> tuple:
-    from pipeline.paper import BENCHMARKS, load_district
+    from pipeline.paper.benchmarks import BENCHMARKS, load_district
 
     return load_district(SCHEMA), next(b for b in BENCHMARKS if b.id == BENCH)
 
@@ -35,8 +35,8 @@ def load() -> tuple:
 def throughput(backends: list[str], episodes: int, repeats: int, threads: int = 1) -> None:
     from citylearn_env import CityLearnEnv
     from citylearn_env.wrappers import NormalizedActionWrapper, NormalizedObservationWrapper
-    from pipeline.paper import TRAIN_DAYS, benchmark_schema
-    from pipeline.paper_sac import train_sac
+    from pipeline.paper.benchmarks import TRAIN_DAYS, benchmark_schema
+    from pipeline.paper.sac.train import train_sac
 
     district, bench = load()
     config = benchmark_schema(district, bench, (0, TRAIN_DAYS * 24 - 1))
@@ -70,7 +70,7 @@ def collection(repeats: int) -> None:
 
     from citylearn_env import CityLearnEnv
     from citylearn_env.wrappers import NormalizedActionWrapper, NormalizedObservationWrapper
-    from pipeline.paper import TRAIN_DAYS, benchmark_schema
+    from pipeline.paper.benchmarks import TRAIN_DAYS, benchmark_schema
 
     district, bench = load()
     env = NormalizedActionWrapper(NormalizedObservationWrapper(
@@ -93,14 +93,14 @@ def revision(against: str, episodes: int, repeats: int) -> None:
 
     from revisions import import_source, source_at
 
-    import pipeline.paper_sac_fast as current
+    import pipeline.paper.sac.fast as current
     from citylearn_env import CityLearnEnv
     from citylearn_env.wrappers import NormalizedActionWrapper, NormalizedObservationWrapper
-    from pipeline.paper import TRAIN_DAYS, benchmark_schema
-    from pipeline.paper_sac import flushed_subnormals
+    from pipeline.paper.benchmarks import TRAIN_DAYS, benchmark_schema
+    from pipeline.paper.sac.train import flushed_subnormals
 
     with tempfile.TemporaryDirectory() as folder:
-        previous = import_source("paper_sac_fast_at_revision", source_at(against, "pipeline/paper_sac_fast.py"),
+        previous = import_source("paper_sac_fast_at_revision", source_at(against, "pipeline/paper/sac/fast.py"),
                                  Path(folder))
     district, bench = load()
     config = benchmark_schema(district, bench, (0, TRAIN_DAYS * 24 - 1))
@@ -130,8 +130,8 @@ def quality(backends: list[str], episodes: int, seeds: list[int], threads: int |
 
     from citylearn_env import CityLearnEnv
     from citylearn_env.wrappers import NormalizedObservationWrapper
-    from pipeline.paper import TRAIN_DAYS, RunOptions, benchmark_schema, run_benchmark
-    from pipeline.paper_sac import LEARNING_STARTS
+    from pipeline.paper.benchmarks import TRAIN_DAYS, RunOptions, benchmark_schema, run_benchmark
+    from pipeline.paper.sac.lean import LEARNING_STARTS
     from surrogates.precision import capability
 
     district, bench = load()

@@ -32,7 +32,7 @@ BATCH, HIDDEN = 256, 256
 
 def sac_products(obs: int, act: int, batch: int = BATCH, hidden: int = HIDDEN) -> list[tuple[int, int, int, int]]:
     """The matrix products of one ``fast`` SAC update as (members, m, k, n), in the order and orientation the
-    update runs them (pipeline/paper_sac_fast.py ``train_step``; thin products transposed, see ``_thin``)."""
+    update runs them (pipeline/paper/sac/fast.py ``train_step``; thin products transposed, see ``_thin``)."""
     z, x = obs + act + 1, obs + 1
     return [
         # actor on s and s' (2B rows); its output layer transposed
@@ -68,8 +68,9 @@ def time_products(products, dtype: torch.dtype, repeats: int, rounds: int = 20) 
 
 
 def sac(obs: int, act: int, repeats: int, updates: int, threads: list[int], bf16: bool) -> None:
-    from pipeline.paper_sac import LeanSAC, flushed_subnormals
-    from pipeline.paper_sac_fast import FastSAC
+    from pipeline.paper.sac.fast import FastSAC
+    from pipeline.paper.sac.lean import LeanSAC
+    from pipeline.paper.sac.train import flushed_subnormals
 
     g = torch.Generator().manual_seed(0)
     batch = (torch.rand(BATCH, obs, generator=g), torch.rand(BATCH, act, generator=g) * 2 - 1,
@@ -141,9 +142,9 @@ def surrogate(repeats: int, table_path: Path) -> None:
                 spent[name] = spent.get(name, 0.0) + time.process_time() - started
         return run
 
-    original = trainer._pretrain, trainer._closed_loop_epoch
-    trainer._pretrain = timed("warm start", trainer._pretrain)
-    trainer._closed_loop_epoch = timed("closed-loop epochs", trainer._closed_loop_epoch)
+    original = trainer.warm_start, trainer.closed_loop_epoch
+    trainer.warm_start = timed("warm start", trainer.warm_start)
+    trainer.closed_loop_epoch = timed("closed-loop epochs", trainer.closed_loop_epoch)
     try:
         for _ in range(repeats):
             spent: dict[str, float] = {}
@@ -152,7 +153,7 @@ def surrogate(repeats: int, table_path: Path) -> None:
                 phases[name].append(value)
             phases["whole training"].append(trained.cpu_seconds)
     finally:
-        trainer._pretrain, trainer._closed_loop_epoch = original
+        trainer.warm_start, trainer.closed_loop_epoch = original
     n_inputs = len(available_inputs(table, config.inputs))
     train_hours = sum(s.stop - s.start for s in trained.splits["train"])
     hours = {"warm start": config.pretrain_steps * config.pretrain_batch_size * config.pretrain_sequence_hours,

@@ -8,12 +8,13 @@ closed-loop, month by month, in the environment's and CityLearn 2.1's rollout se
 
 ``--loads`` (``net`` or ``gross``: how the zones' loads are aggregated in the ILV tables) and
 ``--timesteps-per-hour`` (EnergyPlus zone timesteps) choose the data
-(:class:`surrogates.energyplus.reference_houses.SuiteSettings`, whose defaults are the suite's); results and
+(:class:`reference_houses.SuiteSettings`, whose defaults are the suite's); results and
 models are kept apart per data variant (:func:`data_label`). Cache (ILV tables, exported models, results):
 ``$DISTRICTGEN_SUITE_CACHE`` or /tmp/districtgen_surrogate_suite (``results/<label>/<recipe>.jsonl``,
-``models/<label>/<recipe>/``); every step skips what is already there, so an interrupted run resumes. ``run`` trains in this one process
-(one torch thread) and records wall seconds and the 1-minute load average at the end of each training.
-Recipes (``--recipe``) are :data:`RECIPES`, the ablations of docs/surrogates.md.
+``models/<label>/<recipe>/``); every step skips what is already there, so an interrupted run resumes. ``run``
+trains in this one process (one torch thread) and records wall seconds and the 1-minute load average at the
+end of each training. Recipes (``--recipe``) are :func:`recipes`: the trainer's default; the ablations of
+docs/surrogates.md ran at the commits it names (check one out and ``run --recipe <name>`` there).
 """
 
 from __future__ import annotations
@@ -31,8 +32,12 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from surrogates.energyplus import reference_houses as rh  # noqa: E402
-from surrogates.model import INPUTS_WITH_DAY_TYPE  # noqa: E402
+from benchmarks import reference_houses as rh  # noqa: E402
+from citylearn_env.settings import CITYLEARN_2_1, CORRECTED  # noqa: E402
+from surrogates.evaluate import bank_rollout, monthly_rmse  # noqa: E402
+from surrogates.export import dynamics_block, save_checkpoint  # noqa: E402
+from surrogates.ilv import read_ilv  # noqa: E402
+from surrogates.train import TrainConfig, run_segments, train_surrogate  # noqa: E402
 
 CACHE = Path(os.environ.get("DISTRICTGEN_SUITE_CACHE", "/tmp/districtgen_surrogate_suite"))
 #: climate -> EPW shipped in pyenergyplus/data/weather (TMY3)
@@ -45,78 +50,13 @@ TRAIN_REFERENCES = (0, 1, 2, 3, 4, 5)
 TEST_REFERENCES = (6, 7)
 
 
-def recipes() -> dict:
-    """Named training configurations: ``default`` (TrainConfig(): hidden 32, lookback 1, updates in the
+def recipes() -> dict[str, TrainConfig]:
+    """Named training configurations: ``default`` is ``TrainConfig()`` (hidden 32, lookback 1, updates in the
     precision the CPU runs fastest, no day-type inputs, 6000 teacher-forced updates on 48-h sequences with a
-    temperature history perturbed after its first 6 hours, every pass holding the first sequence of each training run, 32 closed-loop epochs at
-    5e-4 all run, 48-h chunks then the last 10 on 168-h chunks at a low rate), ``clean_starts`` (without the
-    run starts), ``shift2`` (that with warm-start samples offset by up to +-2 degC), ``seventh_pass`` (the
-    default of the seventh pass: the whole history perturbed, no run starts), ``lookback1_pretrain4000``
-    (the seventh pass with 4000 warm-start updates, 40 epochs), ``sixth_pass`` (the default of the sixth
-    pass: lookback 6, one-step windows, 24 epochs of 12-h then 48-h chunks), ``hidden64`` (the sixth pass at
-    hidden 64 within 30 s), ``fifth_pass`` (the default of the fifth pass:
-    no perturbation, closed-loop rate 3e-3), ``fifth_pass_history_noise`` and ``fifth_pass_low_rate`` (with
-    one of the two changes only),
-    ``pretrain6000_day_type`` (the fifth pass with the day-type inputs), ``pretrain1200_long`` (with
-    them, 1200 one-step updates and 45 epochs, the last 15 long),
-    ``hidden32_bf16_no_early_stop`` (the default of 2026-11-24: batch 256, 1200 one-step updates, 60 epochs of
-    12-h chunks) and the ablations, most of them variations of ``hidden16`` (the default before 2026-11-24:
-    hidden 16, float32, patience 6)."""
-    from surrogates.train import TrainConfig
-
-    default = TrainConfig(progress=False, test_runs=0)
-    # the eighth pass's first step: clean warm-start starts, no run starts in every pass
-    clean_starts = replace(default, pretrain_run_starts=False)
-    # the default of the seventh pass: noise on every hour of the warm-start sequences
-    seventh = replace(clean_starts, pretrain_clean_hours=0)
-    # the default of the sixth pass: lookback 6, one-step warm start on independent windows (history noise
-    # 0.01), 24 closed-loop epochs of 12-h chunks at 1.5e-3, the last 10 on 48-h chunks
-    sixth = replace(seventh, lookback=6, pretrain_steps=6000, pretrain_batch_size=256, pretrain_noise=0.01,
-                    finetune_learning_rate=0.0015, chunk_hours=12, long_chunk_hours=(48,), epochs=24,
-                    long_chunk_epochs=10)
-    # the default of the fifth pass: no perturbed history in the one-step phase, closed-loop rate 3e-3
-    fifth = replace(sixth, pretrain_noise=0.0, finetune_learning_rate=0.003)
-    base = replace(fifth, inputs=INPUTS_WITH_DAY_TYPE, hidden_size=16, patience=6, precision="float32", epochs=60,
-                   pretrain_steps=1200, batch_size=256, long_chunk_hours=(), long_chunk_epochs=0)
-    previous = replace(base, lookback=12, epochs=40, ema_decay=0.0, fresh_optimizer=False)
-    hidden32 = replace(base, hidden_size=32)  # more accurate on the restaurants, 1.7x the CPU (docs/surrogates.md)
-    return {"default": default, "clean_starts": clean_starts, "seventh_pass": seventh, "sixth_pass": sixth,
-            "fifth_pass": fifth,
-            "fifth_pass_history_noise": replace(fifth, pretrain_noise=0.01),
-            "fifth_pass_low_rate": replace(fifth, finetune_learning_rate=0.0015),
-            "hidden64": replace(sixth, hidden_size=64, pretrain_steps=2500, epochs=26, long_chunk_epochs=10,
-                                validation_hours=168),
-            # the seventh pass's first lookback-1 recipe: 4000 warm-start updates, 40 epochs (the last 12 long)
-            "lookback1_pretrain4000": replace(seventh, pretrain_steps=4000, epochs=40, long_chunk_epochs=12),
-            # the eighth pass's ablation: warm-start samples offset by up to +-2 degC (all temperatures alike)
-            "shift2": replace(clean_starts, pretrain_temperature_shift=2.0),
-            "hidden16": base, "previous": previous,
-            "hidden32": hidden32,
-            "hidden32_short": replace(hidden32, pretrain_steps=400, epochs=50, patience=8),
-            "hidden32_one_layer": replace(hidden32, num_layers=1),
-            "hidden32_lookback4": replace(hidden32, lookback=4, pretrain_steps=600, patience=8),
-            "chunk24": replace(base, chunk_hours=24),
-            "curriculum_decay": replace(previous, long_chunk_hours=(48,), lr_decay=0.5),
-            "lookback6": replace(previous, lookback=6, epochs=80),
-            "lookback6_ema": replace(previous, lookback=6, epochs=80, ema_decay=0.95),
-            "lr6_batch128": replace(previous, finetune_learning_rate=0.006, lr_decay=0.5, batch_size=128, plateau=2,
-                                    long_chunk_hours=(48,)),
-            "default_with_ideal": replace(base, use_ideal=True),
-            # early stopping on the held rows (docs/surrogates.md section 9): patience = epochs, so all 60 epochs
-            # run and the best validation epoch is kept (smaller patiences stop on a prefix of this trajectory)
-            "no_early_stop": replace(base, patience=base.epochs),
-            # hidden 32 with bfloat16 updates (~22 % cheaper per update: benchmarks/README.md, trainer speed)
-            "hidden32_bf16": replace(hidden32, precision="auto"),
-            "hidden32_bf16_no_early_stop": replace(hidden32, precision="auto", patience=None),
-            # the default's ablations (docs/surrogates.md, fifth pass): with the day-type inputs; and with them,
-            # 1200 one-step updates and 45 epochs (the last 15 long)
-            "pretrain6000_day_type": replace(fifth, inputs=INPUTS_WITH_DAY_TYPE),
-            "pretrain1200_long": replace(fifth, inputs=INPUTS_WITH_DAY_TYPE, pretrain_steps=1200, epochs=45,
-                                         long_chunk_epochs=15),
-            # hidden 16, bfloat16 updates, 90 epochs all run (about the CPU of 60 float32 epochs + half)
-            "bf16_epochs90": replace(base, precision="auto", epochs=90, patience=90),
-            # between the two: hidden 24, bfloat16 updates, 80 epochs all run
-            "hidden24_bf16_epochs80": replace(base, hidden_size=24, precision="auto", epochs=80, patience=80)}
+    temperature history perturbed after its first 6 hours, every pass holding the first sequence of each
+    training run, 32 closed-loop epochs at 5e-4 all run, 48-h chunks then the last 10 on 168-h chunks at a low
+    rate) with the suite's splits (``test_runs=0``: references 6-7 are scored apart)."""
+    return {"default": TrainConfig(progress=False, test_runs=0)}
 
 
 def suite_settings(args: argparse.Namespace) -> rh.SuiteSettings:
@@ -152,10 +92,6 @@ def generate(args: argparse.Namespace) -> None:
 
 def evaluate_one(table, pth: Path, block: dict) -> dict:
     """Monthly closed-loop RMSE on the test references in both rollout semantics."""
-    from citylearn_env.settings import CITYLEARN_2_1, CORRECTED
-    from surrogates.evaluate import bank_rollout, monthly_rmse
-    from surrogates.train import run_segments
-
     runs = run_segments(table)
     out = {}
     for label, settings in (("env", CORRECTED), ("cl21", CITYLEARN_2_1)):
@@ -167,10 +103,6 @@ def evaluate_one(table, pth: Path, block: dict) -> dict:
 
 
 def run(args: argparse.Namespace) -> None:
-    from surrogates.export import dynamics_block, save_checkpoint
-    from surrogates.ilv import read_ilv
-    from surrogates.train import train_surrogate
-
     config = recipes()[args.recipe]
     if args.seed is not None:
         config = replace(config, seed=args.seed)
@@ -247,7 +179,7 @@ def main() -> None:
     parser.add_argument("--houses", nargs="*")
     parser.add_argument("--climates", nargs="*", default=list(CLIMATES))
     parser.add_argument("--schemes", nargs="*", default=list(rh.SCHEMES))
-    parser.add_argument("--recipe", default="default")
+    parser.add_argument("--recipe", choices=list(recipes()), default="default")
     parser.add_argument("--loads", choices=list(rh.LOAD_AGGREGATIONS), default=rh.SuiteSettings().loads,
                         help="zone-load aggregation of the ILV tables (gross: per-direction sums; net: netted)")
     parser.add_argument("--timesteps-per-hour", type=int, default=rh.SuiteSettings().timesteps_per_hour,

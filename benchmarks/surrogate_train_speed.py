@@ -2,19 +2,20 @@
 one process, one torch thread, on one cached suite building (office2004, Sterling, upstream's hourly
 multipliers; train references 0-5 as in benchmarks/surrogate_suite.py).
 
-    .venv/bin/python benchmarks/surrogate_train_speed.py [--old 266628d] [--repeats 3] [--hidden 16 32]
+    .venv/bin/python benchmarks/surrogate_train_speed.py [--old 428fd94] [--repeats 3] [--hidden 16 32]
                                                          [--variants old new new_bf16]
 
 Per (hidden size, variant) it reports the median process CPU seconds of ``repeats`` trainings (each the
-whole ``train_surrogate`` call: setup, one-step pretraining, closed-loop epochs, validation), the wall
-seconds, the epochs run, the best epoch and its validation RMSE, and whether the weights equal the old
-trainer's bit for bit. Every variant trains the old trainer's default recipe (the suite's ``hidden16``
-recipe at the hidden size asked for; ``new_bf16`` with bfloat16 updates), so only the implementation
-differs. Rounds interleave the variants (old, new, ... then again) so load changes hit all alike; the 1-, 5-
-and 15-minute load averages are printed before and after. The old trainer's ``surrogates/model.py`` and
-``surrogates/train.py`` are read with ``git show`` and imported under other module names; nothing in the
-working tree or the git state changes. The accuracy of a recipe on the suite's buildings is
-``benchmarks/surrogate_suite.py run --recipe hidden32`` (float32) or ``--recipe hidden32_bf16``.
+whole ``train_surrogate`` call: setup, warm start, closed-loop epochs, validation), the wall seconds, the
+epochs run, the best epoch and its validation RMSE, and whether the weights equal the old trainer's bit for
+bit. Every variant trains its own ``TrainConfig()`` at the hidden size asked for, with the suite's splits,
+in float32 (``new_bf16``: ``precision="auto"``, bfloat16 where the CPU runs it natively and faster), so with
+a revision whose default recipe is the working tree's (the eighth pass's, ``c69e254`` and later; the
+``precision`` field needs ``3063899`` or later) only the implementation differs. Rounds interleave the
+variants (old, new, ... then again) so load changes hit all alike; the 1-, 5- and 15-minute load averages
+are printed before and after. The old trainer's ``surrogates/model.py`` and ``surrogates/train.py`` are read
+with ``git show`` and imported under other module names; nothing in the working tree or the git state
+changes. The accuracy of the recipe on the suite's buildings is ``benchmarks/surrogate_suite.py run``.
 """
 
 from __future__ import annotations
@@ -25,7 +26,6 @@ import statistics
 import sys
 import tempfile
 import time
-from dataclasses import replace
 from pathlib import Path
 
 import torch
@@ -34,7 +34,6 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from revisions import import_source, source_at  # noqa: E402
-from surrogate_suite import recipes  # noqa: E402
 
 from surrogates import train as new_train  # noqa: E402
 from surrogates.ilv import read_ilv  # noqa: E402
@@ -51,13 +50,10 @@ def load_revision(revision: str, folder: Path):
 
 
 def run_once(trainer, table, hidden: int, bf16: bool) -> dict:
-    """One training of the old trainer's default recipe at ``hidden``; CPU and wall seconds of the whole call.
-    The old trainer's own defaults are that recipe; the working tree's moved on, so it gets the suite's
-    ``hidden16`` recipe (the same values) with ``precision`` auto (bfloat16 where native) or float32."""
-    if trainer is new_train:
-        config = replace(recipes()["hidden16"], hidden_size=hidden, precision="auto" if bf16 else "float32")
-    else:
-        config = trainer.TrainConfig(progress=False, test_runs=0, hidden_size=hidden)
+    """One training of ``trainer``'s default recipe at ``hidden`` (float32, or ``auto`` with ``bf16``); CPU
+    and wall seconds of the whole call."""
+    config = trainer.TrainConfig(progress=False, test_runs=0, hidden_size=hidden,
+                                 precision="auto" if bf16 else "float32")
     cpu, wall = time.process_time(), time.perf_counter()
     trained = trainer.train_surrogate(table, config)
     cpu, wall = time.process_time() - cpu, time.perf_counter() - wall
@@ -68,7 +64,8 @@ def run_once(trainer, table, hidden: int, bf16: bool) -> dict:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--old", default="266628d", help="git revision of the previous trainer")
+    parser.add_argument("--old", default="428fd94", help="git revision of the previous trainer (3063899 or "
+                                                          "later: it has TrainConfig.precision)")
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--hidden", type=int, nargs="*", default=[16, 32])
     parser.add_argument("--variants", nargs="*", default=["old", "new", "new_bf16"])

@@ -2,7 +2,7 @@
 
 Each feature area registers its own sub-commands through a ``register(subparsers)`` function, so this file
 stays a thin dispatcher: ingest commands live in :mod:`pipeline.ingest.commands`, surrogate commands in
-:mod:`surrogates.cli`, environment commands in :mod:`pipeline.run`, stock selection in :mod:`pipeline.select`.
+:mod:`surrogates.cli`, environment commands in :mod:`pipeline.commands`, stock selection in :mod:`pipeline.select`.
 """
 
 from __future__ import annotations
@@ -21,17 +21,17 @@ _EXTRA_OF = dict.fromkeys(("prefect", "pydantic", "fastapi", "pvlib", "pyarrow",
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from pipeline import run
     from pipeline import select as stock_selection
+    from pipeline.commands import register, register_surrogate_install
     from pipeline.ingest import commands as ingest_commands
     from surrogates import cli as surrogate_commands
 
     parser = argparse.ArgumentParser(prog="districtgen", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True)
-    run.register(sub)
+    register(sub)
     stock_selection.register(sub)
     ingest_commands.register(sub)
-    run.register_surrogate_install(surrogate_commands.register(sub))
+    register_surrogate_install(surrogate_commands.register(sub))
     return parser
 
 

@@ -15,8 +15,8 @@ from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
+from citylearn_env.sizing import BATTERIES, SizingRules
 from pipeline.errors import InputError
-from pipeline.sizing import BATTERIES, SizingRules
 
 #: a district name: it becomes the folder ``<output root>/<name>``, so no separators, no hidden or dot names
 NAME_PATTERN = r"[A-Za-z0-9][A-Za-z0-9_.-]{0,63}"

@@ -9,12 +9,13 @@ of storage capacity per hour, the same for every storage of a building.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from citylearn_env import CityLearnEnv, load_schema
 from citylearn_env.config import DistrictConfig
 
 OFF_PEAK = {23, 24, 1, 2, 3, 4, 5, 6, 7}        # 10 PM - 7 AM
@@ -132,7 +133,6 @@ def run_policy(schema: str | Path | Mapping[str, Any] | DistrictConfig, policy: 
     storage benchmarks); all actions are 0 under no_control; ``random`` samples the action space (seeded).
     ``settings``: the environment's upstream behaviour (a preset name or Behaviour; default corrected).
     """
-    from citylearn_env import CityLearnEnv, load_schema
 
     rule = RULES.get(policy)
     if rule is None and policy not in ("no_control", "random"):
@@ -141,15 +141,24 @@ def run_policy(schema: str | Path | Mapping[str, Any] | DistrictConfig, policy: 
     if ideal_cooling:
         config = without_device_actions(config)
     env = CityLearnEnv(config, settings=settings)
-    env.reset(seed=seed)
+    if rule is not None:
+        run_episode(env, lambda _: rule_actions(env, rule), seed)
+    elif policy == "random":
+        run_episode(env, lambda _: env.action_space.sample(), seed)
+    else:
+        run_episode(env, lambda _: np.zeros(env.action_space.shape), seed)
+    return env
+
+
+def run_episode(env, act: Callable[[np.ndarray], np.ndarray], seed: int = 0) -> list[np.ndarray]:
+    """THE episode loop: reset ``env`` (a CityLearnEnv) and its action space with ``seed``, then step with
+    ``act(observation)`` until the episode ends; returns the actions taken (action ``k`` controls step ``k + 1``)."""
+    obs, _ = env.reset(seed=seed)
     env.action_space.seed(seed)
+    actions = []
     terminated = False
     while not terminated:
-        if rule is not None:
-            action = rule_actions(env, rule)
-        elif policy == "random":
-            action = env.action_space.sample()
-        else:
-            action = np.zeros(env.action_space.shape)
-        _, _, terminated, _, _ = env.step(action)
-    return env
+        action = act(obs)
+        actions.append(action)
+        obs, _, terminated, _, _ = env.step(action)
+    return actions

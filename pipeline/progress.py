@@ -86,7 +86,7 @@ class RichReporter(Reporter):
     """A rich progress display on stderr: one bar per stage and one per building (its step and epochs)."""
 
     def __init__(self, console: Any = None):
-        from rich.console import Console
+        from rich.console import Console  # rich loads only for an interactive progress display
         from rich.progress import (
             BarColumn,
             MofNCompleteColumn,
@@ -134,7 +134,7 @@ def make_reporter(mode: str = "auto", stream: TextIO | None = None) -> Reporter:
     if mode == "quiet":
         return Reporter()
     if mode == "rich" or (mode == "auto" and stream.isatty()):
-        from rich.console import Console
+        from rich.console import Console  # rich loads only for an interactive progress display
 
         return RichReporter(Console(file=stream))
     return LogReporter(stream)

@@ -7,16 +7,16 @@ import json
 import os
 from pathlib import Path
 
+from surrogates.evaluate import evaluate_segments, month_table, plot_predictions
+from surrogates.export import load_surrogate, train_and_export
 from surrogates.precision import PRECISIONS
-from surrogates.train import TrainConfig
+from surrogates.sources.csv import read_ilv_table
+from surrogates.train import TrainConfig, run_segments, split_segments
 
 
 def train(table_path: str | os.PathLike, out_dir: str | os.PathLike, name: str | None = None,
           config: TrainConfig | None = None) -> dict:
     """Read an ILV table (CSV/parquet), train, evaluate and export; returns the metrics report."""
-    from surrogates.export import train_and_export
-    from surrogates.sources.csv import read_ilv_table
-
     table = read_ilv_table(table_path)
     name = name or Path(table_path).stem
     return train_and_export(table, out_dir, name, config, source=table_path)
@@ -26,11 +26,6 @@ def evaluate(pth: str | os.PathLike, table_path: str | os.PathLike, all_runs: bo
              plot: str | os.PathLike | None = None) -> dict:
     """Metrics of an exported model on an ILV table: its held-out test segments (or every run); with ``plot``
     also the PNG of simulated vs predicted temperature."""
-    from surrogates.evaluate import evaluate_segments, plot_predictions
-    from surrogates.export import load_surrogate
-    from surrogates.sources.csv import read_ilv_table
-    from surrogates.train import run_segments, split_segments
-
     model, norm, names, lookback = load_surrogate(pth)
     table = read_ilv_table(table_path)
     segments = list(run_segments(table).values()) if all_runs else split_segments(table)["test"]
@@ -55,8 +50,6 @@ def _train_command(args: argparse.Namespace) -> int:
 
 
 def _evaluate_command(args: argparse.Namespace) -> int:
-    from surrogates.evaluate import month_table
-
     plot = args.plot or Path(args.model).with_suffix(".evaluate.png")
     metrics = evaluate(args.model, args.table, all_runs=args.all, plot=plot)
     if args.json:
@@ -83,8 +76,8 @@ def register(subparsers: argparse._SubParsersAction) -> argparse._SubParsersActi
     train_parser.add_argument("--hidden", type=int, default=defaults.hidden_size, help="LSTM hidden size")
     train_parser.add_argument("--layers", type=int, default=defaults.num_layers, help="stacked LSTM layers")
     train_parser.add_argument("--lookback", type=int, default=defaults.lookback,
-                              help="window length (h); the other defaults are tuned for 1 (for longer windows "
-                                   "see the sixth pass's recipe in docs/surrogates.md)")
+                              help="window length (h); the other defaults are tuned for 1 (longer windows "
+                                   "get a warm start on independent windows; docs/surrogates.md, sixth pass)")
     train_parser.add_argument("--epochs", type=int, default=defaults.epochs, help="closed-loop epochs (max)")
     train_parser.add_argument("--pretrain-steps", type=int, default=defaults.pretrain_steps,
                               help="one-step warm-start updates before the closed-loop epochs")

@@ -16,7 +16,10 @@ import numpy as np
 import pandas as pd
 import torch
 
+from citylearn_env.dataset import DynamicsBlock
+from citylearn_env.dynamics import LSTMBank, LSTMSpec, read_pth_state_dict
 from citylearn_env.errors import InputError
+from citylearn_env.settings import CORRECTED
 from surrogates import model as lstm
 from surrogates.model import LSTMModel, Normalization
 from surrogates.train import Segment
@@ -98,7 +101,7 @@ def write_json(data: dict, path: str | os.PathLike) -> Path:
 def plot_predictions(hours: pd.DataFrame, path: str | os.PathLike, title: str = "") -> Path:
     """PNG: simulated vs closed-loop and one-step predicted indoor temperature of the first evaluated run,
     whole period on top and its first two weeks below."""
-    import matplotlib
+    import matplotlib  # lazy: choosing the Agg backend at import would change the importer's backend
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -133,10 +136,6 @@ def bank_rollout(pth: str | os.PathLike, block: dict, table: pd.DataFrame, segme
     (``CORRECTED``: the environment's default; ``CITYLEARN_2_1``: upstream 2.1's day-type period 8 and
     float32). Returns the hours after warm-up: reference, timestamp, month, simulated, predicted (degC).
     """
-    from citylearn_env.dataset import DynamicsBlock
-    from citylearn_env.dynamics import LSTMBank, LSTMSpec, read_pth_state_dict
-    from citylearn_env.settings import CORRECTED
-
     spec = LSTMSpec(read_pth_state_dict(pth), DynamicsBlock.from_schema(block), source=str(pth))
     bank = LSTMBank([spec], settings=settings or CORRECTED)
     frames = []

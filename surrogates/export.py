@@ -24,9 +24,10 @@ import torch
 
 from citylearn_env.dataset import DynamicsBlock
 from citylearn_env.errors import InputError, SchemaError
-from surrogates.evaluate import write_json
+from surrogates.evaluate import evaluate_segments, plot_predictions, write_json
+from surrogates.ilv import validate_ilv
 from surrogates.model import LSTMModel, Normalization
-from surrogates.train import Trained
+from surrogates.train import TrainConfig, Trained, train_surrogate
 
 
 def dynamics_block(trained: Trained, filename: str) -> DynamicsBlock:
@@ -108,12 +109,7 @@ def train_and_export(table, out_dir: str | os.PathLike, name: str, config=None,
 
     Returns the metrics dict (also in the JSON). Bad input fails before any training or writing.
     """
-    from surrogates.evaluate import evaluate_segments, plot_predictions
-    from surrogates.train import TrainConfig, train_surrogate
-
     trained = train_surrogate(table, config or TrainConfig(), source=source, progress=progress)
-    from surrogates.ilv import validate_ilv
-
     clean = validate_ilv(table, source=source)
     metrics, hours = evaluate_segments(trained.model, trained.normalization, trained.inputs,
                                        trained.config.lookback, clean, trained.splits["test"])

@@ -34,6 +34,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from citylearn_env.dataset import calendar_of
 from citylearn_env.errors import InputError
 
 REQUIRED_COLUMNS: tuple[str, ...] = (
@@ -112,6 +113,21 @@ def validate_ilv(frame: pd.DataFrame, source: object = "<ILV table>", min_refere
     A new DataFrame with the contract columns, sorted by (reference, timestamp), integer columns as int64,
     ``timestamp`` as datetime64[ns], the rest float64, and a fresh RangeIndex.
     """
+    columns = _contract_columns(frame, source)
+    out = pd.DataFrame(index=pd.RangeIndex(len(frame)))
+    out["timestamp"] = _parse_timestamps(frame["timestamp"].reset_index(drop=True), source).to_numpy()
+    for column in columns:
+        if column != "timestamp":
+            out[column] = _clean_numbers(frame, column, source)
+    _check_calendar(out, source)
+    _check_runs(out, source, min_references)
+    order = np.lexsort((out["timestamp"].to_numpy(), out["reference"].to_numpy()))
+    return out.iloc[order][columns].reset_index(drop=True)
+
+
+def _contract_columns(frame: pd.DataFrame, source: object) -> list[str]:
+    """The contract columns of ``frame`` (the required ones, then the optional ones it has), after checking
+    that it is a non-empty DataFrame with every required column and no missing value in them."""
     if not isinstance(frame, pd.DataFrame):
         _fail(f"expected a pandas DataFrame, got {type(frame).__name__}", source)
     missing = [c for c in REQUIRED_COLUMNS if c not in frame.columns]
@@ -125,31 +141,27 @@ def validate_ilv(frame: pd.DataFrame, source: object = "<ILV table>", min_refere
         nan = frame[column].isna().to_numpy()
         if nan.any():
             _fail("missing value (NaN/empty)", source, column, _first(nan))
-    out = pd.DataFrame(index=pd.RangeIndex(len(frame)))
-    out["timestamp"] = _parse_timestamps(frame["timestamp"].reset_index(drop=True), source).to_numpy()
-    for column in columns:
-        if column == "timestamp":
-            continue
-        values = _check_numeric(frame, column, source)
-        if column in INTEGER_COLUMNS:
-            fractional = values != np.round(values)
-            if fractional.any():
-                _fail(f"must be an integer, got {values[_first(fractional)]}", source, column, _first(fractional))
-            out[column] = values.astype(np.int64)
-        else:
-            finite = np.isfinite(values)
-            if not finite.all():
-                _fail(f"not finite: {values[_first(~finite)]}", source, column, _first(~finite))
-            low, high = FLOAT_RANGES[column]
-            outside = (values < low) | (values > high)
-            if outside.any():
-                row = _first(outside)
-                _fail(f"value {values[row]} outside the plausible range [{low}, {high}]", source, column, row)
-            out[column] = values
-    _check_calendar(out, source)
-    _check_runs(out, source, min_references)
-    order = np.lexsort((out["timestamp"].to_numpy(), out["reference"].to_numpy()))
-    return out.iloc[order][columns].reset_index(drop=True)
+    return columns
+
+
+def _clean_numbers(frame: pd.DataFrame, column: str, source: object) -> np.ndarray:
+    """A numeric contract column checked: int64 for :data:`INTEGER_COLUMNS` (no fractional values), else
+    finite float64 inside its :data:`FLOAT_RANGES`."""
+    values = _check_numeric(frame, column, source)
+    if column in INTEGER_COLUMNS:
+        fractional = values != np.round(values)
+        if fractional.any():
+            _fail(f"must be an integer, got {values[_first(fractional)]}", source, column, _first(fractional))
+        return values.astype(np.int64)
+    finite = np.isfinite(values)
+    if not finite.all():
+        _fail(f"not finite: {values[_first(~finite)]}", source, column, _first(~finite))
+    low, high = FLOAT_RANGES[column]
+    outside = (values < low) | (values > high)
+    if outside.any():
+        row = _first(outside)
+        _fail(f"value {values[row]} outside the plausible range [{low}, {high}]", source, column, row)
+    return values
 
 
 def _check_calendar(out: pd.DataFrame, source: object) -> None:
@@ -237,7 +249,5 @@ def write_ilv(frame: pd.DataFrame, path: str | os.PathLike) -> Path:
 def calendar_columns(timestamps: pd.DatetimeIndex | pd.Series, holidays: set | None = None) -> pd.DataFrame:
     """``month``, ``hour`` (1..24, hour-ending) and ``day_type`` (1 = Monday ... 8 = holiday) of
     interval-beginning timestamps; ``holidays`` is a set of ``datetime.date``."""
-    from citylearn_env.dataset import calendar_of
-
     cal = calendar_of(pd.DatetimeIndex(timestamps).to_numpy(), holidays or ())
     return pd.DataFrame({name: cal[name].astype(np.int64) for name in ("month", "hour", "day_type")})

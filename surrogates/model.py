@@ -110,12 +110,6 @@ class Normalization:
     def target_to_celsius(self, y: np.ndarray) -> np.ndarray:
         return y * (self.maximum[-1] - self.minimum[-1]) + self.minimum[-1]
 
-    def temperature_shift(self, inputs: Sequence[str]) -> np.ndarray:
-        """Normalised change of each input when every temperature input (a name holding
-        ``dry_bulb_temperature``: indoor, outdoor, set points, forecasts) rises by 1 degC; 0 for the others."""
-        scale = 1.0 / (self.maximum - self.minimum)
-        return np.array([scale[j] if "dry_bulb_temperature" in name else 0.0 for j, name in enumerate(inputs)])
-
 
 class LSTMModel(nn.Module):
     """Stacked LSTM + linear head with CityLearn's parameter names (``l_lstm``, ``l_linear``)."""

@@ -12,7 +12,7 @@ runs tens of times slower than in float32. So no workload assumes a CPU feature:
   ``bfloat16`` where it is emulated (or measured slower) runs it, and warns once per workload with the
   measured slowdown.
 
-Users: the ``fast`` and ``torch`` SAC back ends of the paper (:mod:`pipeline.paper_sac`) and the surrogate
+Users: the ``fast`` and ``torch`` SAC back ends of the paper (:mod:`pipeline.paper.sac.train`) and the surrogate
 trainer's updates (:mod:`surrogates.train`). Each records the :class:`Choice` that ran in its outputs.
 """
 
@@ -79,7 +79,7 @@ def capability() -> Capability:
                     numbers[key] = value.strip()
     except OSError:  # not Linux: the model from platform, features unknown
         pass
-    import torch
+    import torch  # lazy: the torch-free CLI imports this module (PRECISIONS)
 
     isa = tuple(f for f in RELEVANT_ISA if f in flags)
     family = f"family {numbers['cpu family']} model {numbers['model']}" if len(numbers) == 2 else ""
@@ -115,7 +115,7 @@ class Choice:
 
     @property
     def dtype(self) -> torch.dtype:
-        import torch
+        import torch  # lazy: the torch-free CLI imports this module (PRECISIONS)
 
         return torch.bfloat16 if self.bf16 else torch.float32
 
@@ -140,7 +140,7 @@ def choose(requested: str, probe: Probe) -> Choice:
     measured), else bfloat16 when :func:`measure_speedup` finds it at least :data:`MIN_SPEEDUP` times faster.
     ``bfloat16``: bfloat16, measured where it is not native and a warning (once per workload and process)
     when it is emulated or slower than float32. The result is cached per (request, workload, threads)."""
-    import torch
+    import torch  # lazy: the torch-free CLI imports this module (PRECISIONS)
 
     key = (check_precision(requested), probe.name, torch.get_num_threads())
     if key not in _CHOICES:
@@ -173,7 +173,7 @@ def _choose(requested: str, probe: Probe) -> Choice:
 
 def measure_speedup(probe: Probe, repeats: int = 5, budget_s: float = 0.3) -> float:
     """float32 time / bfloat16 time of ``probe.run`` (:func:`median_times`)."""
-    import torch
+    import torch  # lazy: the torch-free CLI imports this module (PRECISIONS)
 
     times = median_times({dtype: functools.partial(probe.run, dtype) for dtype in (torch.float32, torch.bfloat16)},
                          repeats, budget_s)
@@ -204,7 +204,7 @@ def median_times(runs: dict, repeats: int = 5, budget_s: float = 0.3) -> dict:
 def matmul_probe(name: str, products: tuple[tuple[int, int, int, int], ...]) -> Probe:
     """A :class:`Probe` of plain matrix products: for every (batch, m, k, n) of ``products``, ``batch``
     stacked (m, k) @ (k, n) products (the workload's own shapes), operands made once per dtype."""
-    import torch
+    import torch  # lazy: the torch-free CLI imports this module (PRECISIONS)
 
     operands: dict[torch.dtype, list[tuple[torch.Tensor, torch.Tensor]]] = {}
 

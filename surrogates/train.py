@@ -1,9 +1,9 @@
 """Training of one building's LSTM surrogate on an ILV table.
 
 Objective: the model is trained the way the environment runs it. After many cheap teacher-forced updates
-whose temperature history is perturbed by noise (warm start: they fit the hour-to-hour response without
-copying the temperature input; with the default lookback 1, whole 48-h sequences with the state carried,
-otherwise independent windows from zero state), each training sample is a chunk of a
+whose temperature history is perturbed by noise (warm start, :func:`warm_start`: they fit the hour-to-hour
+response without copying the temperature input; with the default lookback 1, whole 48-h sequences with the
+state carried, otherwise independent windows from zero state), each training sample is a chunk of a
 reference run (``lookback`` warm-up hours + ``chunk_hours`` predicted hours) rolled out closed-loop with the
 stateful sliding window of :func:`surrogates.model.rollout` from zero state, and the loss is the mean squared
 error of the whole rollout (normalised indoor temperature), back-propagated through the feedback; the last
@@ -26,6 +26,7 @@ from dataclasses import asdict, dataclass, field, replace
 import numpy as np
 import pandas as pd
 import torch
+from tqdm.auto import tqdm
 
 from citylearn_env.errors import InputError
 from surrogates.ilv import validate_ilv
@@ -57,12 +58,14 @@ class Segment:
 @dataclass(frozen=True)
 class TrainConfig:
     """Hyper-parameters; the defaults are the best recipe measured on the independent validation suite
-    (docs/surrogates.md, section 4 and its seventh pass): lookback 1 (a plain stateful LSTM), a
+    (docs/surrogates.md, section 4 and its eighth pass): lookback 1 (a plain stateful LSTM), a
     teacher-forced warm start on 48-h sequences, then closed-loop epochs on 48-h and 168-h chunks."""
 
     inputs: tuple[str, ...] = DEFAULT_INPUTS
     hidden_size: int = 32
     num_layers: int = 2
+    #: window length (h); the other defaults are tuned for 1, where the warm start trains whole sequences
+    #: (longer windows run, with a warm start on independent windows from zero state)
     lookback: int = 1
     epochs: int = 32
     seed: int = 0
@@ -73,24 +76,18 @@ class TrainConfig:
     #: each, from zero); at most the longest training segment allows
     pretrain_sequence_hours: int = 48
     chunk_hours: int = 48
-    #: closed-loop chunk lengths (h) of later stages; with ``long_chunk_epochs`` 0 the next stage starts when
-    #: validation stalls for ``plateau`` epochs (a curriculum), otherwise see ``long_chunk_epochs``
-    long_chunk_hours: tuple[int, ...] = (168,)
-    #: the last ``long_chunk_epochs`` epochs (at most ``epochs - 1``) train on chunks of ``long_chunk_hours[0]``
-    #: hours (at most the longest training segment allows) at ``long_chunk_learning_rate``, continuing from the
-    #: current weights: a low-rate fine-tune on longer closed-loop horizons, which corrects multi-day drift
-    #: that shorter chunks do not see (docs/surrogates.md)
+    #: the last ``long_chunk_epochs`` epochs (at most ``epochs - 1``; 0: none) train on chunks of
+    #: ``long_chunk_hours`` hours (at most the longest training segment allows) at
+    #: ``long_chunk_learning_rate``, continuing from the current weights: a low-rate fine-tune on longer
+    #: closed-loop horizons, which corrects multi-day drift that shorter chunks do not see
+    #: (docs/surrogates.md)
+    long_chunk_hours: int = 168
     long_chunk_epochs: int = 10
     long_chunk_learning_rate: float = 2.5e-4
     batch_size: int = 128
     learning_rate: float = 0.01
     #: Adam rate of the closed-loop epochs before the long phase (fresh moments after the warm start)
     finetune_learning_rate: float = 0.0005
-    #: early stopping after this many epochs without a better validation RMSE; None: every epoch runs (the
-    #: best validation epoch is still the one kept)
-    patience: int | None = None
-    plateau: int = 3
-    lr_decay: float = 1.0
     #: standard deviation (normalised temperature units; x the training range in degC) of Gaussian noise
     #: added to every temperature of the history in the one-step phase, drawn afresh per update: the model
     #: learns not to copy its temperature input, which it will be fed back from its own predictions, and
@@ -99,22 +96,11 @@ class TrainConfig:
     #: the first ``pretrain_clean_hours`` temperatures of each warm-start sample (sequence or window) carry no
     #: noise: with its state still empty the model should trust its temperature input, as it must at the start
     #: of a rollout, where that input is measured (docs/surrogates.md, eighth pass). Tuned for lookback 1: a
-    #: window of ``lookback`` <= ``pretrain_clean_hours`` rows gets no noise at all (the sixth pass's
-    #: lookback-6 recipe sets 0)
+    #: window of ``lookback`` <= ``pretrain_clean_hours`` rows gets no noise at all
     pretrain_clean_hours: int = 6
-    #: half-width (degC) of a uniform offset drawn per warm-start sample and added to all its temperatures
-    #: (indoor, outdoor, set points; inputs and targets alike), to show the model temperatures outside the
-    #: training range. An ablation: the heat balance depends on temperature differences, but the loads of an
-    #: ILV table belong to fixed set points and the ground does not move, and +-2 degC made the validation
-    #: suite worse (docs/surrogates.md, eighth pass)
-    pretrain_temperature_shift: float = 0.0
-    #: lookback 1: every pass over the warm-start sequences also holds the first sequence of each training
-    #: run. A run starts from EnergyPlus's converged warm-up, as a rollout starts from zero state at the
-    #: start of a data set; random offsets draw that sequence once in ``pretrain_sequence_hours`` passes
-    #: (docs/surrogates.md, eighth pass). Windows (lookback > 1) already cover every hour.
-    pretrain_run_starts: bool = True
+    #: the validated and exported weights are an exponential moving average of the closed-loop iterates, this
+    #: decay per update (0: the iterates themselves)
     ema_decay: float = 0.95
-    fresh_optimizer: bool = True
     use_free_float: bool = False
     use_ideal: bool = False
     test_runs: int = 1
@@ -132,27 +118,20 @@ class TrainConfig:
     def __post_init__(self):
         if self.inputs and self.inputs[-1] != TARGET:
             raise InputError(f"the last input must be {TARGET!r}", column="inputs")
-        for key in ("hidden_size", "num_layers", "lookback", "epochs", "chunk_hours", "batch_size", "plateau",
-                    "ensemble", "pretrain_batch_size", "pretrain_sequence_hours"):
+        for key in ("hidden_size", "num_layers", "lookback", "epochs", "chunk_hours", "long_chunk_hours",
+                    "batch_size", "ensemble", "pretrain_batch_size", "pretrain_sequence_hours"):
             if getattr(self, key) < 1:
                 raise InputError("must be >= 1", column=key)
-        for key in ("long_chunk_epochs", "pretrain_noise", "pretrain_clean_hours", "pretrain_temperature_shift"):
+        for key in ("long_chunk_epochs", "pretrain_noise", "pretrain_clean_hours", "ema_decay"):
             if getattr(self, key) < 0:
                 raise InputError("must be >= 0", column=key)
         check_precision(self.precision, column="precision")
-        if self.long_chunk_epochs and not self.long_chunk_hours:
-            raise InputError("long_chunk_epochs needs a long_chunk_hours stage", column="long_chunk_epochs")
 
     @property
     def long_start(self) -> int | None:
-        """Epoch at which the fixed long-chunk phase starts (None: no fixed phase)."""
+        """Epoch at which the long-chunk phase starts (None: no long phase)."""
         long = min(self.long_chunk_epochs, self.epochs - 1)
         return self.epochs - long if long > 0 else None
-
-    @property
-    def chunk_schedule(self) -> tuple[int, ...]:
-        """Closed-loop chunk lengths (h) of the curriculum stages: ``chunk_hours`` then ``long_chunk_hours``."""
-        return (self.chunk_hours, *self.long_chunk_hours)
 
 
 @dataclass
@@ -339,71 +318,77 @@ def _fit(table, inputs, splits, config: TrainConfig, started: float, progress=No
     cpu_started = time.process_time()
     torch.manual_seed(config.seed)
     rng = np.random.default_rng(config.seed)
-    raw = feature_matrix(table, inputs)
-    train_rows = np.concatenate([np.arange(s.start, s.stop) for s in splits["train"]])
-    norm = Normalization.fit(raw[train_rows])
-    x = norm.apply(raw)
+    norm, x = _normalised(table, inputs, splits["train"])
     scale = float(norm.maximum[-1] - norm.minimum[-1])
-    val = torch.from_numpy(_chunks(x, splits["validation"], config.lookback + config.validation_hours, None,
-                                   config.validation_hours))
-    if len(val) == 0:  # short validation segments: use each whole
-        shortest = min(s.stop - s.start for s in splits["validation"] if s.stop - s.start >= config.lookback + 24)
-        val = torch.from_numpy(_chunks(x, splits["validation"], shortest, None, shortest))
+    val = _validation_chunks(x, splits["validation"], config)
     model = LSTMModel(len(inputs), config.hidden_size, config.num_layers)
+    run_starts = {run.start for run in run_segments(table).values()}
+    anchors = [seg for seg in splits["train"] if seg.start in run_starts]  # training segments starting a run
     optimizer = _adam(model, config.learning_rate, _bf16(config))
-    anchors = []
-    if config.pretrain_run_starts:  # the training segments that start a run
-        run_starts = {run.start for run in run_segments(table).values()}
-        anchors = [seg for seg in splits["train"] if seg.start in run_starts]
-    per_degree = norm.temperature_shift(inputs) if config.pretrain_temperature_shift > 0 else None
-    _pretrain(model, optimizer, x, splits["train"], config, rng, anchors, per_degree)
-    if config.fresh_optimizer:  # closed-loop phase without the one-step phase's Adam moments
-        optimizer = _adam(model, config.finetune_learning_rate, _bf16(config))
-    averaged = copy.deepcopy(model) if config.ema_decay > 0 else model  # exponential moving average of weights
+    warm_start(model, optimizer, x, splits["train"], config, rng, anchors)
+    best, best_epoch, history = _closed_loop_phase(model, x, splits["train"], val, config, rng, scale,
+                                                   started, progress)
+    model.load_state_dict(best)
+    model.eval()
+    return Trained(model, norm, inputs, config, splits, history, best_epoch, time.perf_counter() - started,
+                   time.process_time() - cpu_started, precision)
+
+
+def _normalised(table: pd.DataFrame, inputs: Sequence[str],
+                train: Sequence[Segment]) -> tuple[Normalization, np.ndarray]:
+    """Min-max bounds of the training rows and every row of ``table``'s inputs normalised by them."""
+    raw = feature_matrix(table, inputs)
+    train_rows = np.concatenate([np.arange(s.start, s.stop) for s in train])
+    norm = Normalization.fit(raw[train_rows])
+    return norm, norm.apply(raw)
+
+
+def _validation_chunks(x: np.ndarray, segments: Sequence[Segment], config: TrainConfig) -> torch.Tensor:
+    """Closed-loop validation samples: chunks of ``validation_hours`` (+ lookback warm-up) of the validation
+    segments, or each long-enough segment whole (the shortest length) when none is that long."""
+    val = _chunks(x, segments, config.lookback + config.validation_hours, None, config.validation_hours)
+    if len(val) == 0:  # short validation segments: use each whole
+        shortest = min(s.stop - s.start for s in segments if s.stop - s.start >= config.lookback + 24)
+        val = _chunks(x, segments, shortest, None, shortest)
+    return torch.from_numpy(val)
+
+
+def _closed_loop_phase(model: LSTMModel, x: np.ndarray, segments: Sequence[Segment], val: torch.Tensor,
+                       config: TrainConfig, rng: np.random.Generator, scale: float, started: float,
+                       progress: Callable[[int, int], None] | None) -> tuple[dict, int, list[dict]]:
+    """The closed-loop epochs after the warm start, with a fresh Adam (the warm start's moments made the first
+    closed-loop epochs diverge): ``chunk_hours`` chunks at ``finetune_learning_rate``, then the last
+    ``long_chunk_epochs`` on ``long_chunk_hours`` chunks at ``long_chunk_learning_rate``. The weights'
+    exponential moving average is validated after every epoch; returns the best epoch's averaged weights, that
+    epoch and the history (RMSE in degC: ``scale`` is the training temperature range)."""
+    optimizer = _adam(model, config.finetune_learning_rate, _bf16(config))
+    averaged = copy.deepcopy(model)
     lr = config.finetune_learning_rate
-    best, best_rmse, best_epoch, history, stale, stage, updates = None, math.inf, 0, [], 0, 0, 0
-    stages = config.chunk_schedule
-    longest = max(s.stop - s.start for s in splits["train"])  # check_trainable: >= lookback + chunk_hours
+    longest = max(s.stop - s.start for s in segments)  # check_trainable: >= lookback + chunk_hours
+    hours = min(config.chunk_hours, longest - config.lookback)
+    best, best_rmse, best_epoch, history, updates = None, math.inf, 0, [], 0
     bar = _progress(config)
     for epoch in range(config.epochs):
         if epoch == config.long_start:
-            stage, lr = 1, config.long_chunk_learning_rate
+            hours = min(config.long_chunk_hours, longest - config.lookback)
+            lr = config.long_chunk_learning_rate
         for group in optimizer.param_groups:
             group["lr"] = lr
-        hours = min(stages[stage], longest - config.lookback)
-        train_rmse, updates = _closed_loop_epoch(model, optimizer, x, splits["train"], config, hours, rng,
-                                                 averaged, updates)
+        train_rmse, updates = closed_loop_epoch(model, optimizer, x, segments, config, hours, rng, averaged,
+                                                updates)
         train_rmse *= scale
         val_rmse = _validation_rmse(averaged, val, config.lookback) * scale
         history.append({"epoch": epoch, "chunk_hours": hours, "learning_rate": lr,
                         "train_rmse_c": round(train_rmse, 4), "val_closed_loop_rmse_c": round(val_rmse, 4),
                         "seconds": round(time.perf_counter() - started, 2)})
-        if bar is not None:
-            bar.update(1)
-            bar.set_postfix(train=f"{train_rmse:.3f}C", val=f"{val_rmse:.3f}C")
-        if progress is not None:
-            progress(epoch + 1, config.epochs)
+        _report(bar, progress, epoch + 1, config.epochs, train_rmse, val_rmse)
         if val_rmse < best_rmse:
-            best, best_rmse, best_epoch, stale = copy.deepcopy(averaged.state_dict()), val_rmse, epoch, 0
-        else:
-            stale += 1
-        if stale >= config.plateau and config.long_start is None:  # plateau-driven curriculum and decay
-            if stage + 1 < len(stages):  # next curriculum stage from the best weights
-                stage, stale = stage + 1, 0
-                model.load_state_dict(best)
-                averaged.load_state_dict(best)
-            elif config.lr_decay < 1.0 and stale % config.plateau == 0:
-                lr *= config.lr_decay
-                model.load_state_dict(best)
-                averaged.load_state_dict(best)
-        if (config.patience is not None and stale >= config.patience) or (config.max_seconds and time.perf_counter() - started > config.max_seconds):
+            best, best_rmse, best_epoch = copy.deepcopy(averaged.state_dict()), val_rmse, epoch
+        if config.max_seconds and time.perf_counter() - started > config.max_seconds:
             break
     if bar is not None:
         bar.close()
-    model.load_state_dict(best)
-    model.eval()
-    return Trained(model, norm, inputs, config, splits, history, best_epoch, time.perf_counter() - started,
-                   time.process_time() - cpu_started, precision)
+    return best, best_epoch, history
 
 
 def _adam(model: LSTMModel, lr: float, fused: bool) -> torch.optim.Adam:
@@ -440,17 +425,17 @@ def ema_update(averaged: Sequence[torch.Tensor], values: Sequence[torch.Tensor],
         torch._foreach_add_(averaged, values, alpha=1.0 - decay)
 
 
-def _closed_loop_epoch(model: LSTMModel, optimizer, x: np.ndarray, segments: Sequence[Segment],
-                       config: TrainConfig, hours: int, rng: np.random.Generator, averaged: LSTMModel,
-                       updates: int) -> tuple[float, int]:
+def closed_loop_epoch(model: LSTMModel, optimizer, x: np.ndarray, segments: Sequence[Segment],
+                      config: TrainConfig, hours: int, rng: np.random.Generator, averaged: LSTMModel,
+                      updates: int) -> tuple[float, int]:
     """One epoch of closed-loop training on chunks of ``hours`` predicted hours (+ lookback warm-up), batch
-    size scaled so each update sees about ``batch_size x chunk_hours`` predicted hours; ``averaged`` (when
-    it is not ``model``) follows the weights as an exponential moving average (``config.ema_decay`` per
-    update, debiased over the first of all ``updates`` so far). Returns the RMSE of the normalised
-    temperature over the epoch and the update count after it."""
+    size scaled so each update sees about ``batch_size x chunk_hours`` predicted hours; ``averaged`` follows
+    the weights as an exponential moving average (``config.ema_decay`` per update, debiased over the first of
+    all ``updates`` so far). Returns the RMSE of the normalised temperature over the epoch and the update
+    count after it."""
     chunks = torch.from_numpy(_chunks(x, segments, config.lookback + hours, rng, hours))
     order = torch.from_numpy(rng.permutation(len(chunks)))
-    batch_size = max(16, config.batch_size * config.chunk_schedule[0] // hours)
+    batch_size = max(16, config.batch_size * config.chunk_hours // hours)
     model.train()
     parameters, means = list(model.parameters()), list(averaged.parameters())
     losses = []
@@ -464,27 +449,25 @@ def _closed_loop_epoch(model: LSTMModel, optimizer, x: np.ndarray, segments: Seq
         torch.nn.utils.clip_grad_norm_(parameters, 1.0, foreach=True)
         optimizer.step()
         updates += 1
-        if averaged is not model:  # debiased start: the average follows closely over the first updates
-            ema_update(means, parameters, min(config.ema_decay, (1 + updates) / (10 + updates)))
+        # debiased start: the average follows closely over the first updates
+        ema_update(means, parameters, min(config.ema_decay, (1 + updates) / (10 + updates)))
         losses.append(float(loss.detach()))
     return math.sqrt(float(np.mean(losses))), updates
 
 
-def _pretrain(model: LSTMModel, optimizer, x: np.ndarray, segments: Sequence[Segment], config: TrainConfig,
-              rng: np.random.Generator, anchors: Sequence[Segment] = (), per_degree: np.ndarray | None = None) -> None:
+def warm_start(model: LSTMModel, optimizer, x: np.ndarray, segments: Sequence[Segment], config: TrainConfig,
+               rng: np.random.Generator, anchors: Sequence[Segment] = ()) -> None:
     """Teacher-forced warm start (fast, batched): brings the weights near a good one-step predictor before
     the closed-loop stateful fine-tuning. Every temperature of the history but the first
     ``pretrain_clean_hours`` of a sample is perturbed by ``pretrain_noise`` drawn afresh per update (robustness
     to the fed-back errors of closed loop).
 
-    * lookback > 1: independent windows of ``lookback`` rows from zero state, the last hour predicted;
-    * lookback 1: the stateful sliding window of one row is a plain recurrent model, so whole sequences of
-      ``pretrain_sequence_hours`` are teacher-forced in one LSTM call (:meth:`LSTMModel.sequence`; state from
-      zero at each sequence's start, every hour predicted, offsets re-drawn on every pass, gradients clipped
-      at norm 1); every pass also holds the first sequence of each segment in ``anchors``.
-
-    With ``per_degree`` (normalised change per input for +1 degC, :meth:`Normalization.temperature_shift`),
-    each sample is first offset by up to ``pretrain_temperature_shift`` degC (:func:`offset_temperatures`).
+    * lookback 1 (the default): the stateful sliding window of one row is a plain recurrent model, so whole
+      sequences of ``pretrain_sequence_hours`` are teacher-forced in one LSTM call
+      (:meth:`LSTMModel.sequence`; state from zero at each sequence's start, every hour predicted, offsets
+      re-drawn on every pass, gradients clipped at norm 1); every pass also holds the first sequence of each
+      segment in ``anchors`` (:func:`warm_start_sequences`);
+    * lookback > 1: independent windows of ``lookback`` rows from zero state, the last hour predicted.
 
     Row ``t`` of a sample holds the exogenous inputs of hour ``t+1`` and the temperature of hour ``t``."""
     if config.pretrain_steps < 1:
@@ -502,8 +485,6 @@ def _pretrain(model: LSTMModel, optimizer, x: np.ndarray, segments: Sequence[Seg
     weights, parameters = model.flat_weights(), list(model.parameters())
     model.train()
     for batch in _batches(draw, config.pretrain_batch_size, config.pretrain_steps, rng):
-        if per_degree is not None:
-            batch = offset_temperatures(batch, per_degree, config.pretrain_temperature_shift, rng)
         temps = perturb_history(batch[:, :-1, -1:], config.pretrain_noise, config.pretrain_clean_hours, rng)
         rows = torch.cat([batch[:, 1:, :-1], temps], dim=2)
         with _autocast(config):
@@ -525,15 +506,6 @@ def warm_start_sequences(x: np.ndarray, segments: Sequence[Segment], hours: int,
     samples = _chunks(x, segments, hours + 1, rng, hours)
     starts = [x[seg.start:seg.start + hours + 1] for seg in anchors if seg.stop - seg.start > hours]
     return np.concatenate([samples, np.stack(starts).astype(np.float32)]) if starts else samples
-
-
-def offset_temperatures(samples: torch.Tensor, per_degree: np.ndarray, half_width: float,
-                        rng: np.random.Generator) -> torch.Tensor:
-    """``samples`` (n, hours, inputs; normalised) with one offset per sample, uniform in +-``half_width``
-    degC, added to every input in proportion to ``per_degree`` (normalised change for +1 degC:
-    :meth:`Normalization.temperature_shift`, 0 for the inputs that are not temperatures)."""
-    offset = rng.uniform(-half_width, half_width, (len(samples), 1, 1)).astype(np.float32)
-    return samples + torch.from_numpy(offset) * torch.from_numpy(per_degree.astype(np.float32))
 
 
 def perturb_history(temps: torch.Tensor, std: float, clean_hours: int, rng: np.random.Generator) -> torch.Tensor:
@@ -563,9 +535,16 @@ def _batches(draw: Callable[[], torch.Tensor], batch_size: int, steps: int,
             yield samples[order[k:k + batch_size]]
 
 
-def _progress(config: TrainConfig):
-    if not config.progress:
-        return None
-    from tqdm.auto import tqdm
+def _progress(config: TrainConfig) -> tqdm | None:
+    """The epochs' progress bar (None without ``config.progress``)."""
+    return tqdm(total=config.epochs, desc="surrogate", unit="epoch", leave=False) if config.progress else None
 
-    return tqdm(total=config.epochs, desc="surrogate", unit="epoch", leave=False)
+
+def _report(bar: tqdm | None, progress: Callable[[int, int], None] | None, done: int, epochs: int,
+            train_rmse: float, val_rmse: float) -> None:
+    """An epoch's end on the progress bar and to the caller's ``progress(epochs_done, epochs)``."""
+    if bar is not None:
+        bar.update(1)
+        bar.set_postfix(train=f"{train_rmse:.3f}C", val=f"{val_rmse:.3f}C")
+    if progress is not None:
+        progress(done, epochs)

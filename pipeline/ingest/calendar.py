@@ -9,6 +9,8 @@ from zoneinfo import ZoneInfo
 import numpy as np
 import pandas as pd
 
+from citylearn_env.dataset import calendar_of
+
 
 def calendar_columns(
     index: pd.DatetimeIndex,
@@ -33,8 +35,6 @@ def calendar_columns(
     DataFrame with int columns ``month`` (1-12), ``hour`` (1-24, hour-ending: the row starting at 00:00 is
     hour 1), ``day_type`` (1 = Monday ... 7 = Sunday, 8 = holiday) and ``daylight_savings_status`` (0/1).
     """
-    from citylearn_env.dataset import calendar_of
-
     index = pd.DatetimeIndex(index)
     cal = calendar_of(index.to_numpy(), holidays)
     dst = np.zeros(len(index), dtype=np.int64)

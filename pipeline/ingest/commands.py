@@ -16,6 +16,7 @@ import pandas as pd
 
 from citylearn_env.dataset import LAYOUTS, write_table
 from pipeline.errors import InputError
+from pipeline.ingest.eulp import citylearn_building, read_eulp_building
 from pipeline.ingest.timeindex import period_index, select_period
 
 DEFAULT_CACHE = Path(".cache") / "districtgen"
@@ -81,22 +82,9 @@ def write_building(source: PathLike, building: int, start: DateLike, end: DateLi
                    weather: PathLike | None = None, tilt: float | None = None, azimuth: float = 180.0,
                    timezone: str | None = None, holidays: Iterable[DateLike] = ()) -> Path:
     """Write one CityLearn building CSV from EULP data (local release folder or base URL)."""
-    from pipeline.ingest.eulp import (
-        building_loads,
-        citylearn_building,
-        locate_building,
-        read_eulp_metadata,
-        read_eulp_timeseries,
-    )
-
     index = period_index(start, end)
-    metadata_path, series_path = locate_building(str(source), int(building), upgrade=upgrade, state=state,
-                                                 cache_dir=cache_dir)
-    metadata = read_eulp_metadata(metadata_path)
-    if int(building) not in metadata.index:
-        raise InputError(f"building {building} not in the metadata", file=metadata_path, column="bldg_id")
-    series, _ = read_eulp_timeseries(series_path, timestamp_offset_hours)
-    loads = building_loads(series, metadata.loc[int(building)], file=series_path)
+    eulp = read_eulp_building(str(source), int(building), upgrade=upgrade, state=state, cache_dir=cache_dir,
+                              timestamp_offset_hours=timestamp_offset_hours)
     solar = None
     if weather is not None:
         from pipeline.pv import PVSite, pv_yield
@@ -107,9 +95,9 @@ def write_building(source: PathLike, building: int, start: DateLike, end: DateLi
         site = PVSite(meta["latitude"], meta["longitude"], tilt=tilt, azimuth=azimuth,
                       altitude=meta.get("elevation_m", 0.0))
         solar = pv_yield(frame, site, meta["utc_offset_hours"])
-        _warn_if_shifted(series, meta["longitude"], meta["utc_offset_hours"])
-    table = citylearn_building(loads, index, holidays=holidays, timezone=timezone, solar_generation=solar,
-                               file=series_path)
+        _warn_if_shifted(eulp.series, meta["longitude"], meta["utc_offset_hours"])
+    table = citylearn_building(eulp.loads, index, holidays=holidays, timezone=timezone,
+                               solar_generation=solar, file=eulp.series_path)
     return _write(output, "building", table, layout)
 
 

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import re
 from collections.abc import Iterable
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -34,6 +35,7 @@ from pipeline.ingest import fetch
 from pipeline.ingest.calendar import calendar_columns
 from pipeline.ingest.messages import one_line
 from pipeline.ingest.timeindex import check_regular, select_period
+from surrogates.energyplus.metadata import parse_setpoint
 
 KWH_PER_KBTU = 0.29307107017222  # 1 kBtu = 1055.05585262 kJ (International Table Btu) / 3600 kJ/kWh
 ELECTRICITY = re.compile(r"^out\.electricity\.([a-z0-9_]+)\.energy_consumption(\.kwh)?$")
@@ -167,8 +169,9 @@ def citylearn_building(loads: pd.DataFrame, index: pd.DatetimeIndex, *, holidays
                        file: object = None) -> pd.DataFrame:
     """CityLearn building columns (internal names of :data:`BUILDING_COLUMNS`) for the hours of ``index``.
 
-    ``solar_generation`` [W/kW] defaults to 0 (filled later by PV sizing); indoor relative humidity is not
-    in EULP timeseries and is written as 0; ``hvac_mode`` is 1 (cooling) unless the heating demand of the
+    ``solar_generation`` [W/kW] defaults to 0 (filled later by PV sizing); indoor relative humidity [%] comes
+    from the loads' ``indoor_relative_humidity`` column when they have one (simulated houses; EULP timeseries
+    do not) and is 0 otherwise; ``hvac_mode`` is 1 (cooling) unless the heating demand of the
     hour exceeds its cooling demand (2); ``power_outage`` 0.
     """
     part = select_period(loads, index, file=file)
@@ -182,7 +185,8 @@ def citylearn_building(loads: pd.DataFrame, index: pd.DatetimeIndex, *, holidays
     out["indoor_dry_bulb_temperature"] = part["indoor_dry_bulb_temperature_c"].to_numpy()
     out["average_unmet_cooling_setpoint_difference"] = (part["indoor_dry_bulb_temperature_c"]
                                                         - part["set_point_c"]).to_numpy()
-    out["indoor_relative_humidity"] = 0.0
+    out["indoor_relative_humidity"] = (part["indoor_relative_humidity"].to_numpy()
+                                       if "indoor_relative_humidity" in part.columns else 0.0)
     out["non_shiftable_load"] = part["non_shiftable_load_kwh"].to_numpy()
     out["dhw_demand"] = part["dhw_demand_kwh"].to_numpy()
     out["cooling_demand"] = part["cooling_demand_kwh"].to_numpy()
@@ -262,6 +266,30 @@ def locate_building(source: str, bldg_id: int, *, upgrade: int = 0, state: str |
     return metadata_path, find(series, f"timeseries for building {bldg_id}")
 
 
+@dataclass(frozen=True)
+class EulpBuilding:
+    """One EULP building read from its release: the hourly loads (:func:`building_loads`), its raw timeseries
+    (for checks of its own columns, e.g. its outdoor temperature) and where the timeseries came from."""
+
+    loads: pd.DataFrame
+    series: pd.DataFrame
+    series_path: Path
+
+
+def read_eulp_building(source: str, bldg_id: int, *, upgrade: int = 0, state: str | None = None,
+                       cache_dir: str | Path = ".cache/districtgen",
+                       timestamp_offset_hours: float = 0.0) -> EulpBuilding:
+    """Locate (:func:`locate_building`), read and convert one building of an EULP release; a building missing
+    from the metadata is one :class:`InputError` naming the metadata file."""
+    metadata_path, series_path = locate_building(source, int(bldg_id), upgrade=upgrade, state=state,
+                                                 cache_dir=cache_dir)
+    metadata = read_eulp_metadata(metadata_path)
+    if int(bldg_id) not in metadata.index:
+        raise InputError(f"building {bldg_id} not in the metadata", file=metadata_path, column="bldg_id")
+    series, _ = read_eulp_timeseries(series_path, timestamp_offset_hours)
+    return EulpBuilding(building_loads(series, metadata.loc[int(bldg_id)], file=series_path), series, series_path)
+
+
 def _read_table(path: Path) -> pd.DataFrame:
     try:
         if path.suffix == ".parquet":
@@ -286,7 +314,6 @@ def _metadata_number(metadata: pd.Series, column: str, file: object) -> float:
 def metadata_set_point_c(metadata: pd.Series, column: str, file: object) -> float:
     """A ResStock set point cell (``"76F"``, bare numbers are degF) -> degC, via the one shared parser
     :func:`surrogates.energyplus.metadata.parse_setpoint`."""
-    from surrogates.energyplus.metadata import parse_setpoint
 
     if column not in metadata.index:
         raise InputError("missing metadata column", file=file, column=column, row=f"bldg_id {metadata.name}")

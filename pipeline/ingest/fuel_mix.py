@@ -18,6 +18,7 @@ import datetime as dt
 import functools
 import re
 from pathlib import Path
+from typing import NamedTuple
 from zoneinfo import ZoneInfo
 
 import numpy as np
@@ -39,7 +40,7 @@ def read_fuel_mix_workbook(path: str | Path, timezone: str = TIMEZONE) -> tuple[
 
     Returns ``(hourly, metadata)``; metadata holds the file, the sheets read and the fuels.
     """
-    import openpyxl
+    import openpyxl  # lazy: openpyxl comes with the optional `pipeline` extra
 
     path = Path(path)
     try:
@@ -54,8 +55,9 @@ def read_fuel_mix_workbook(path: str | Path, timezone: str = TIMEZONE) -> tuple[
     for name in sheets:
         sheet = book[name]
         sheet.reset_dimensions()  # the stored dimension is wrong in ERCOT files
-        parts.append(parse_fuel_mix_sheet(list(sheet.iter_rows(values_only=True)), file=f"{path} [sheet {name}]",
-                                          known_fuels=known, timezone=timezone))
+        rows = list(sheet.iter_rows(values_only=True))
+        parts.append(parse_fuel_mix_sheet(rows, file=f"{path} [sheet {name}]", known_fuels=known,
+                                          timezone=timezone))
     book.close()
     long = pd.concat(parts, ignore_index=True)
     hourly = hourly_generation(long, file=path)
@@ -71,49 +73,16 @@ def parse_fuel_mix_sheet(rows: list[tuple], *, file: str, known_fuels: pd.DataFr
     """
     if not rows:
         raise InputError("empty sheet", file=file)
-    head = [str(c).strip() if c is not None else "" for c in rows[0]]
-    for key in KEY_COLUMNS:
-        if key not in head:
-            raise InputError("missing column", file=file, column=key, row=1)
-    col = {key: head.index(key) for key in (*KEY_COLUMNS, "Settlement Type") if key in head}
-    regular, extra = _interval_columns(head, file)
-    chunks: dict[tuple, tuple] = {}
+    layout = _sheet_layout(rows[0], file)
+    chunks: dict[tuple[dt.date, str], _SheetRow] = {}
     for number, row in enumerate(rows[1:], start=2):
-        if row is None or all(cell is None or str(cell).strip() == "" for cell in row):
+        if _is_blank_row(row):
             continue
-        day = _cell_date(row[col["Date"]], file, number)
-        fuel = str(row[col["Fuel"]]).strip() if row[col["Fuel"]] is not None else ""
-        if fuel not in known_fuels.index:
-            raise InputError(f"unknown fuel {fuel!r}; known: {', '.join(known_fuels.index)}",
-                             file=file, column="Fuel", row=number)
-        settlement = str(row[col["Settlement Type"]]).strip() if "Settlement Type" in col else "FINAL"
-        total = _number(row[col["Total"]], file, "Total", number)
-        begins, columns = _day_columns(day, timezone, regular, extra, file, number)
-        values = _row_values(row, columns, head, file, number, day)
-        if not known_fuels.at[fuel, "negative_allowed"] and (values < 0).any():
-            k = int(np.argmax(values < 0))
-            raise InputError(f"negative energy {values[k]} MWh", file=file, column=head[columns[k]], row=number)
-        if abs(values.sum() - total) > 1e-3 + 1e-6 * abs(total):
-            raise InputError(f"Total {total} differs from the sum of the intervals {values.sum():.6f}",
-                             file=file, column="Total", row=number)
-        key = (day, fuel)
-        if key in chunks:
-            before, before_row = chunks[key][0], chunks[key][1]
-            if before == "FINAL" and settlement != "FINAL":
-                continue
-            if not (before != "FINAL" and settlement == "FINAL"):
-                raise InputError(f"duplicate row for {day} {fuel} (also row {before_row})",
-                                 file=file, column="Date", row=number)
-        chunks[key] = (settlement, number, begins, values)
-    if not chunks:
-        return pd.DataFrame({"begin": pd.DatetimeIndex([]), "fuel": [], "mwh": [], "where": []})
-    parts = list(chunks.items())
-    return pd.DataFrame({
-        "begin": np.concatenate([c[2] for _, c in parts]),
-        "fuel": np.concatenate([np.full(len(c[3]), key[1], dtype=object) for key, c in parts]),
-        "mwh": np.concatenate([c[3] for _, c in parts]),
-        "where": np.concatenate([np.full(len(c[3]), f"{file}, row {c[1]}", dtype=object) for _, c in parts]),
-    })
+        parsed = _parse_sheet_row(row, number, layout, file=file, known_fuels=known_fuels, timezone=timezone)
+        key = (parsed.day, parsed.fuel)
+        if _supersedes(parsed, chunks.get(key), file):
+            chunks[key] = parsed
+    return _sheet_frame(list(chunks.values()), file)
 
 
 def hourly_generation(long: pd.DataFrame, *, file: object) -> pd.DataFrame:
@@ -199,20 +168,23 @@ def read_fuel_mix_csv(path: str | Path, clock: str = "prevailing",
         i = int(np.argmax(negative.to_numpy()))
         raise InputError(f"negative energy {mwh.iloc[i]} MWh", file=path, column="mwh", row=i + 2)
     ends = _csv_interval_ends(raw["timestamp"], fuels, clock, ZoneInfo(timezone), path)
-    steps = ends.groupby(fuels).transform(lambda s: s.diff().mode().iloc[0] if len(s) > 1 else pd.Timedelta("1h"))
+    steps = ends.groupby(fuels).transform(
+        lambda s: s.diff().mode().iloc[0] if len(s) > 1 else pd.Timedelta("1h"))
     long = pd.DataFrame({"begin": ends - steps, "fuel": fuels, "mwh": mwh,
                          "where": [f"{path}, row {i + 2}" for i in range(len(raw))]})
     hourly = hourly_generation(long, file=path)
     return hourly, {"file": str(path), "clock": clock, "timezone": timezone, "fuels": list(hourly.columns)}
 
 
-def _csv_interval_ends(text: pd.Series, fuels: pd.Series, clock: str, zone: ZoneInfo, path: Path) -> pd.Series:
+def _csv_interval_ends(text: pd.Series, fuels: pd.Series, clock: str, zone: ZoneInfo,
+                       path: Path) -> pd.Series:
     """Interval-end timestamps in local standard time (naive) from the CSV ``timestamp`` strings."""
     text = text.str.strip()
     aware = text.str.contains(r"(?:Z|[+-]\d{2}:?\d{2})$", regex=True).to_numpy()
     if aware.any() and not aware.all():
         i = int(np.argmin(aware) if aware[0] else np.argmax(aware))
-        raise InputError("mixes timestamps with and without UTC offset", file=path, column="timestamp", row=i + 2)
+        raise InputError("mixes timestamps with and without UTC offset", file=path, column="timestamp",
+                         row=i + 2)
     parsed = pd.to_datetime(text, errors="coerce", utc=bool(aware.all()), format="ISO8601")
     if parsed.isna().any():
         i = int(np.argmax(parsed.isna().to_numpy()))
@@ -232,6 +204,108 @@ def _csv_interval_ends(text: pd.Series, fuels: pd.Series, clock: str, zone: Zone
                              file=path, column="timestamp") from None
         out.loc[part.index] = local.tz_convert("UTC").tz_localize(None) + std
     return out
+
+
+class _SheetLayout(NamedTuple):
+    """Where things are in a month sheet: the header, key-column indexes and interval-label columns."""
+
+    head: list[str]
+    col: dict[str, int]
+    regular: dict[int, int]
+    extra: dict[int, int]
+
+
+class _SheetRow(NamedTuple):
+    """One parsed data row: its day and fuel, settlement type, sheet row number, 15-min interval
+    beginnings (local standard time) and energies [MWh] in time order."""
+
+    day: dt.date
+    fuel: str
+    settlement: str
+    number: int
+    begins: np.ndarray
+    values: np.ndarray
+
+
+def _sheet_layout(header: tuple, file: str) -> _SheetLayout:
+    """The sheet's column layout from its header row; InputError if a key or interval column is missing."""
+    head = [str(c).strip() if c is not None else "" for c in header]
+    for key in KEY_COLUMNS:
+        if key not in head:
+            raise InputError("missing column", file=file, column=key, row=1)
+    col = {key: head.index(key) for key in (*KEY_COLUMNS, "Settlement Type") if key in head}
+    regular, extra = _interval_columns(head, file)
+    return _SheetLayout(head, col, regular, extra)
+
+
+def _is_blank_row(row: tuple | None) -> bool:
+    """True for a missing row or one whose cells are all empty or whitespace."""
+    return row is None or all(cell is None or str(cell).strip() == "" for cell in row)
+
+
+def _parse_sheet_row(row: tuple, number: int, layout: _SheetLayout, *, file: str, known_fuels: pd.DataFrame,
+                     timezone: str) -> _SheetRow:
+    """Read and check one data row (sheet row ``number``): date, fuel, settlement, Total and intervals."""
+    col = layout.col
+    day = _cell_date(row[col["Date"]], file, number)
+    fuel = _row_fuel(row[col["Fuel"]], known_fuels, file, number)
+    settlement = str(row[col["Settlement Type"]]).strip() if "Settlement Type" in col else "FINAL"
+    total = _number(row[col["Total"]], file, "Total", number)
+    begins, columns = _day_columns(day, timezone, layout.regular, layout.extra, file, number)
+    values = _row_values(row, columns, layout.head, file, number, day)
+    negative_allowed = known_fuels.at[fuel, "negative_allowed"]
+    _check_row_energy(values, total, negative_allowed, [layout.head[c] for c in columns], file, number)
+    return _SheetRow(day, fuel, settlement, number, begins, values)
+
+
+def _row_fuel(cell: object, known_fuels: pd.DataFrame, file: str, number: int) -> str:
+    """The fuel name in a ``Fuel`` cell; InputError if it is not a fuel of ``known_fuels``."""
+    fuel = str(cell).strip() if cell is not None else ""
+    if fuel not in known_fuels.index:
+        raise InputError(f"unknown fuel {fuel!r}; known: {', '.join(known_fuels.index)}",
+                         file=file, column="Fuel", row=number)
+    return fuel
+
+
+def _check_row_energy(values: np.ndarray, total: float, negative_allowed: bool, labels: list[str], file: str,
+                      number: int) -> None:
+    """InputError on a negative interval energy [MWh] (unless the fuel allows it) or a ``Total`` [MWh]
+    that differs from the sum of the intervals by more than 1e-3 MWh + 1e-6 of the total."""
+    if not negative_allowed and (values < 0).any():
+        k = int(np.argmax(values < 0))
+        raise InputError(f"negative energy {values[k]} MWh", file=file, column=labels[k], row=number)
+    if abs(values.sum() - total) > 1e-3 + 1e-6 * abs(total):
+        raise InputError(f"Total {total} differs from the sum of the intervals {values.sum():.6f}",
+                         file=file, column="Total", row=number)
+
+
+def _supersedes(new: _SheetRow, old: _SheetRow | None, file: str) -> bool:
+    """Whether ``new`` should be kept over ``old``, an earlier row for the same day and fuel.
+
+    A FINAL row replaces a non-FINAL one and is kept over a later non-FINAL one; any other repeat is an
+    InputError.
+    """
+    if old is None:
+        return True
+    if old.settlement == "FINAL" and new.settlement != "FINAL":
+        return False
+    if not (old.settlement != "FINAL" and new.settlement == "FINAL"):
+        raise InputError(f"duplicate row for {new.day} {new.fuel} (also row {old.number})",
+                         file=file, column="Date", row=new.number)
+    return True
+
+
+def _sheet_frame(rows: list[_SheetRow], file: str) -> pd.DataFrame:
+    """The long frame (``begin``, ``fuel``, ``mwh`` [MWh], ``where``) of the kept rows, in order."""
+    if not rows:
+        return pd.DataFrame({"begin": pd.DatetimeIndex([]), "fuel": [], "mwh": [], "where": []})
+    return pd.DataFrame({
+        "begin": np.concatenate([r.begins for r in rows]),
+        "fuel": np.concatenate([np.full(len(r.values), r.fuel, dtype=object) for r in rows]),
+        "mwh": np.concatenate([r.values for r in rows]),
+        "where": np.concatenate([np.full(len(r.values), f"{file}, row {r.number}", dtype=object)
+                                 for r in rows]),
+    })
 
 
 @functools.lru_cache(maxsize=512)
@@ -287,7 +361,8 @@ def _day_columns(day: dt.date, timezone: str, regular: dict[int, int], extra: di
     return begins, columns
 
 
-def _row_values(row: tuple, columns: list[int], head: list[str], file: str, number: int, day: dt.date) -> np.ndarray:
+def _row_values(row: tuple, columns: list[int], head: list[str], file: str, number: int,
+                day: dt.date) -> np.ndarray:
     """The row's interval values in time order; InputError on empty, non-numeric or misplaced cells."""
     cells = [row[i] if i < len(row) else None for i in columns]
     try:
@@ -305,13 +380,16 @@ def _row_values(row: tuple, columns: list[int], head: list[str], file: str, numb
     if len(columns) != 96 or len(row) > 100:
         used = set(columns)
         for index, name in enumerate(head):
-            if index not in used and _LABEL.match(name) and index < len(row) and row[index] not in (None, "", 0):
+            if index in used or not _LABEL.match(name):
+                continue
+            if index < len(row) and row[index] not in (None, "", 0):
                 raise InputError(f"value in an interval that does not exist on {day} (DST change)",
                                  file=file, column=name, row=number)
     return values
 
 
-def _number(cell, file, column, row) -> float:
+def _number(cell: object, file: object, column: str, row: int) -> float:
+    """A cell as a finite float (numbers as they are, text parsed); InputError naming the cell otherwise."""
     if isinstance(cell, bool):
         cell = str(cell)
     if isinstance(cell, int | float):
@@ -326,7 +404,8 @@ def _number(cell, file, column, row) -> float:
     return value
 
 
-def _cell_date(cell, file, row) -> dt.date:
+def _cell_date(cell: object, file: object, row: int) -> dt.date:
+    """A ``Date`` cell (date, datetime or date text) as a date; InputError naming the cell otherwise."""
     if isinstance(cell, dt.datetime):
         return cell.date()
     if isinstance(cell, dt.date):
@@ -338,5 +417,6 @@ def _cell_date(cell, file, row) -> dt.date:
 
 
 def _standard_offset(zone: ZoneInfo, year: int) -> dt.timedelta:
+    """UTC offset of the zone's standard time (offset minus DST) in ``year``."""
     probe = dt.datetime(year, 1, 15, 12, tzinfo=zone)
     return probe.utcoffset() - probe.dst()

@@ -62,44 +62,14 @@ def read_tariff(path: str | Path) -> Tariff:
 
 def parse_tariff(data: dict, *, file: object = "<tariff>") -> Tariff:
     """Validate a tariff mapping (the parsed TOML); InputError names the key that is wrong."""
-    for key in ("prices", "schedules"):
-        if not isinstance(data.get(key), dict):
-            raise InputError("missing table", file=file, column=key)
-    if data.get("unit", "$/kWh") != "$/kWh":
-        raise InputError(f"unit must be '$/kWh', got {data['unit']!r}", file=file, column="unit")
-    clock = data.get("clock", "standard")
-    if clock not in ("standard", "prevailing"):
-        raise InputError(f"must be 'standard' or 'prevailing', got {clock!r}", file=file, column="clock")
-    timezone = data.get("timezone")
-    if clock == "prevailing" and not timezone:
-        raise InputError("required when clock = 'prevailing'", file=file, column="timezone")
-    if timezone:
-        try:
-            ZoneInfo(timezone)
-        except (ZoneInfoNotFoundError, ValueError):
-            raise InputError(f"unknown time zone {timezone!r}", file=file, column="timezone") from None
-    prices = {}
-    for name, value in data["prices"].items():
-        if isinstance(value, bool) or not isinstance(value, int | float) or not np.isfinite(value) or value < 0:
-            raise InputError(f"price must be a non-negative number, got {value!r}", file=file,
-                             column=f"prices.{name}")
-        prices[name] = float(value)
+    _check_tables_and_unit(data, file)
+    clock, timezone = _clock_and_timezone(data, file)
+    prices = _period_prices(data["prices"], file)
     schedules = {name: _day_prices(spec, prices, file, f"schedules.{name}")
                  for name, spec in data["schedules"].items()}
-    for name in ("weekday", "weekend"):
-        if name not in schedules:
-            raise InputError("missing schedule", file=file, column=f"schedules.{name}")
-    holiday_key = data.get("holiday_schedule", "weekend")
-    if holiday_key not in schedules:
-        raise InputError(f"unknown schedule {holiday_key!r}; known: {', '.join(schedules)}", file=file,
-                         column="holiday_schedule")
-    holidays = set()
-    for i, day in enumerate(data.get("holidays", [])):
-        try:
-            holidays.add(day if isinstance(day, dt.date) else dt.date.fromisoformat(str(day)))
-        except ValueError:
-            raise InputError(f"not a date YYYY-MM-DD: {day!r}", file=file, column=f"holidays[{i}]") from None
-    return Tariff(name=str(data.get("name", "")), clock=clock, timezone=timezone, holidays=frozenset(holidays),
+    holiday_key = _holiday_schedule_key(data, schedules, file)
+    holidays = _holiday_dates(data.get("holidays", []), file)
+    return Tariff(name=str(data.get("name", "")), clock=clock, timezone=timezone, holidays=holidays,
                   weekday=schedules["weekday"], weekend=schedules["weekend"], holiday=schedules[holiday_key],
                   periods=prices)
 
@@ -130,7 +100,73 @@ def citylearn_pricing(tariff: Tariff, index: pd.DatetimeIndex) -> pd.DataFrame:
     return pd.DataFrame(out, index=index)[list(PRICING_COLUMNS)]
 
 
+def _check_tables_and_unit(data: dict, file: object) -> None:
+    """InputError unless ``[prices]`` and ``[schedules]`` are tables and ``unit`` (if given) is $/kWh."""
+    for key in ("prices", "schedules"):
+        if not isinstance(data.get(key), dict):
+            raise InputError("missing table", file=file, column=key)
+    if data.get("unit", "$/kWh") != "$/kWh":
+        raise InputError(f"unit must be '$/kWh', got {data['unit']!r}", file=file, column="unit")
+
+
+def _clock_and_timezone(data: dict, file: object) -> tuple[str, str | None]:
+    """The schedule clock (``"standard"`` by default or ``"prevailing"``) and the IANA time zone, checked.
+
+    The zone is required for the prevailing clock and must be known to :mod:`zoneinfo` when given.
+    """
+    clock = data.get("clock", "standard")
+    if clock not in ("standard", "prevailing"):
+        raise InputError(f"must be 'standard' or 'prevailing', got {clock!r}", file=file, column="clock")
+    timezone = data.get("timezone")
+    if clock == "prevailing" and not timezone:
+        raise InputError("required when clock = 'prevailing'", file=file, column="timezone")
+    if timezone:
+        try:
+            ZoneInfo(timezone)
+        except (ZoneInfoNotFoundError, ValueError):
+            raise InputError(f"unknown time zone {timezone!r}", file=file, column="timezone") from None
+    return clock, timezone
+
+
+def _period_prices(table: dict, file: object) -> dict[str, float]:
+    """Period name -> price [$/kWh] from the ``[prices]`` table; each must be a finite number >= 0."""
+    prices = {}
+    for name, value in table.items():
+        if (isinstance(value, bool) or not isinstance(value, int | float) or not np.isfinite(value)
+                or value < 0):
+            raise InputError(f"price must be a non-negative number, got {value!r}", file=file,
+                             column=f"prices.{name}")
+        prices[name] = float(value)
+    return prices
+
+
+def _holiday_schedule_key(data: dict, schedules: dict[str, tuple[float, ...]], file: object) -> str:
+    """The schedule used on holidays (``holiday_schedule``, default ``"weekend"``), after checking that
+    the required ``weekday`` and ``weekend`` schedules exist."""
+    for name in ("weekday", "weekend"):
+        if name not in schedules:
+            raise InputError("missing schedule", file=file, column=f"schedules.{name}")
+    holiday_key = data.get("holiday_schedule", "weekend")
+    if holiday_key not in schedules:
+        raise InputError(f"unknown schedule {holiday_key!r}; known: {', '.join(schedules)}", file=file,
+                         column="holiday_schedule")
+    return holiday_key
+
+
+def _holiday_dates(days: list, file: object) -> frozenset[dt.date]:
+    """The ``holidays`` list (TOML dates or ``YYYY-MM-DD`` strings) as dates."""
+    holidays = set()
+    for i, day in enumerate(days):
+        try:
+            holidays.add(day if isinstance(day, dt.date) else dt.date.fromisoformat(str(day)))
+        except ValueError:
+            raise InputError(f"not a date YYYY-MM-DD: {day!r}", file=file, column=f"holidays[{i}]") from None
+    return frozenset(holidays)
+
+
 def _day_prices(spec: object, prices: dict[str, float], file: object, key: str) -> tuple[float, ...]:
+    """Price [$/kWh] of each clock hour 0..23 from a schedule (a list of ``{ hours = [start, end),
+    period = name }`` blocks covering every hour exactly once); InputError names the block that is wrong."""
     if not isinstance(spec, list) or not spec:
         raise InputError("must be a list of { hours = [start, end], period = name }", file=file, column=key)
     hours: list[float | None] = [None] * 24

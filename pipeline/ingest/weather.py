@@ -84,45 +84,16 @@ def read_epw(path: str | Path, tmy_year: int | None = None) -> tuple[pd.DataFram
     return parse_epw(lines, tmy_year=tmy_year, file=path)
 
 
-def parse_epw(lines: list[str], *, tmy_year: int | None = None, file: object = "<epw>") -> tuple[pd.DataFrame, dict]:
+def parse_epw(lines: list[str], *, tmy_year: int | None = None,
+              file: object = "<epw>") -> tuple[pd.DataFrame, dict]:
     """Parse EPW text lines; see :func:`read_epw`."""
-    if len(lines) <= EPW_HEADER_LINES or not lines[0].startswith("LOCATION"):
-        raise InputError("not an EPW file (first line must start with LOCATION)", file=file, row=1)
-    loc = lines[0].split(",")
-    try:
-        meta = {"city": loc[1], "state": loc[2], "country": loc[3], "source": loc[4], "wmo": loc[5],
-                "latitude": float(loc[6]), "longitude": float(loc[7]), "utc_offset_hours": float(loc[8]),
-                "elevation_m": float(loc[9])}
-    except (IndexError, ValueError) as error:
-        raise InputError(f"malformed LOCATION line ({one_line(error)})", file=file, row=1) from None
-    rows = [line.split(",") for line in lines[EPW_HEADER_LINES:] if line.strip()]
-    dates = np.empty((len(rows), 4), dtype=np.int64)
-    values = {name: np.empty(len(rows)) for name in EPW_FIELDS.values()}
-    for i, fields in enumerate(rows):
-        row = EPW_HEADER_LINES + 1 + i
-        if len(fields) < 22:
-            raise InputError(f"row has {len(fields)} fields, expected 35", file=file, row=row)
-        for j in range(4):
-            dates[i, j] = _epw_number(fields[j], file, ("year", "month", "day", "hour")[j], row)
-        for index, name in EPW_FIELDS.items():
-            values[name][i] = _epw_number(fields[index], file, f"{name} (field {index + 1})", row)
-    years = np.unique(dates[:, 0])
-    meta["typical"] = bool(len(years) > 1)
+    meta = _epw_location(lines, file)
+    dates, values = _epw_rows(lines[EPW_HEADER_LINES:], file)
+    years, typical = _row_years(dates[:, 0], tmy_year, file)
+    dates[:, 0] = years
+    meta["typical"] = typical
     meta["file"] = str(file)
-    if meta["typical"]:
-        if tmy_year is None:
-            raise InputError(f"typical-year file (rows carry years {years.min()}..{years.max()}); "
-                             "give tmy_year (the CLI uses the year of --start)", file=file)
-        dates[:, 0] = tmy_year
-    if not ((dates[:, 3] >= 1) & (dates[:, 3] <= 24)).all():
-        i = int(np.argmax((dates[:, 3] < 1) | (dates[:, 3] > 24)))
-        raise InputError(f"hour {dates[i, 3]} outside 1..24", file=file, column="hour", row=EPW_HEADER_LINES + 1 + i)
-    try:
-        days = pd.to_datetime(pd.DataFrame({"year": dates[:, 0], "month": dates[:, 1], "day": dates[:, 2]}))
-    except (ValueError, OverflowError) as error:
-        raise InputError(f"invalid date ({one_line(error)})", file=file, column="month/day") from None
-    index = pd.DatetimeIndex(days) + pd.to_timedelta(dates[:, 3] - 1, unit="h")
-    frame = pd.DataFrame(values, index=index)
+    frame = pd.DataFrame(values, index=_epw_index(dates, file))
     if meta["typical"] and tmy_year is not None:
         frame = _fill_leap_day(frame, tmy_year)
     _validate(frame, file, first_row=EPW_HEADER_LINES + 1)
@@ -154,7 +125,8 @@ def read_resstock_weather(path: str | Path) -> tuple[pd.DataFrame, dict]:
         numbers = pd.to_numeric(raw[source].str.strip(), errors="coerce")
         if numbers.isna().any():
             i = int(np.argmax(numbers.isna().to_numpy()))
-            raise InputError(f"non-numeric value {raw[source].iloc[i]!r}", file=path, column=source, row=i + 2)
+            raise InputError(f"non-numeric value {raw[source].iloc[i]!r}", file=path, column=source,
+                             row=i + 2)
         data[name] = numbers.to_numpy(dtype=float)
     frame = pd.DataFrame(data, index=pd.DatetimeIndex(ends) - HOUR)
     _validate(frame, path, first_row=2, names={v: k for k, v in RESSTOCK_COLUMNS.items()})
@@ -210,7 +182,72 @@ def citylearn_weather(frame: pd.DataFrame, index: pd.DatetimeIndex, forecast: Fo
     return result[list(WEATHER_COLUMNS)]
 
 
-def _validate(frame: pd.DataFrame, file: object, *, first_row: int, names: dict[str, str] | None = None) -> None:
+def _epw_location(lines: list[str], file: object) -> dict:
+    """Metadata from the EPW ``LOCATION`` line: place names, ``latitude``/``longitude`` [degrees north/east],
+    ``utc_offset_hours`` [h] and ``elevation_m`` [m]; InputError if the text is not an EPW file."""
+    if len(lines) <= EPW_HEADER_LINES or not lines[0].startswith("LOCATION"):
+        raise InputError("not an EPW file (first line must start with LOCATION)", file=file, row=1)
+    loc = lines[0].split(",")
+    try:
+        return {"city": loc[1], "state": loc[2], "country": loc[3], "source": loc[4], "wmo": loc[5],
+                "latitude": float(loc[6]), "longitude": float(loc[7]), "utc_offset_hours": float(loc[8]),
+                "elevation_m": float(loc[9])}
+    except (IndexError, ValueError) as error:
+        raise InputError(f"malformed LOCATION line ({one_line(error)})", file=file, row=1) from None
+
+
+def _epw_rows(data_lines: list[str], file: object) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """The data rows (the lines after the header; blank lines skipped): an int array of
+    (year, month, day, hour 1..24) per row and each :data:`EPW_FIELDS` column as floats (temperature [C],
+    RH [%], irradiance [Wh/m2 over the hour], wind speed [m/s])."""
+    rows = [line.split(",") for line in data_lines if line.strip()]
+    dates = np.empty((len(rows), 4), dtype=np.int64)
+    values = {name: np.empty(len(rows)) for name in EPW_FIELDS.values()}
+    for i, fields in enumerate(rows):
+        row = EPW_HEADER_LINES + 1 + i
+        if len(fields) < 22:
+            raise InputError(f"row has {len(fields)} fields, expected 35", file=file, row=row)
+        for j in range(4):
+            dates[i, j] = _epw_number(fields[j], file, ("year", "month", "day", "hour")[j], row)
+        for index, name in EPW_FIELDS.items():
+            values[name][i] = _epw_number(fields[index], file, f"{name} (field {index + 1})", row)
+    return dates, values
+
+
+def _row_years(years: np.ndarray, tmy_year: int | None, file: object) -> tuple[np.ndarray, bool]:
+    """The year to place each row in and whether the file is a typical year (rows from several years).
+
+    A typical-year file goes into ``tmy_year`` (InputError if it is not given); a single-year file keeps
+    its years.
+    """
+    distinct = np.unique(years)
+    typical = bool(len(distinct) > 1)
+    if not typical:
+        return years, typical
+    if tmy_year is None:
+        raise InputError(f"typical-year file (rows carry years {distinct.min()}..{distinct.max()}); "
+                         "give tmy_year (the CLI uses the year of --start)", file=file)
+    return np.full(len(years), tmy_year, dtype=years.dtype), typical
+
+
+def _epw_index(dates: np.ndarray, file: object) -> pd.DatetimeIndex:
+    """Interval-beginning timestamps (local standard time) of rows given as (year, month, day, hour 1..24)
+    with the hour ending at the label; InputError on an hour outside 1..24 or an invalid date."""
+    hours = dates[:, 3]
+    if not ((hours >= 1) & (hours <= 24)).all():
+        i = int(np.argmax((hours < 1) | (hours > 24)))
+        raise InputError(f"hour {hours[i]} outside 1..24", file=file, column="hour",
+                         row=EPW_HEADER_LINES + 1 + i)
+    try:
+        days = pd.to_datetime(pd.DataFrame({"year": dates[:, 0], "month": dates[:, 1], "day": dates[:, 2]}))
+    except (ValueError, OverflowError) as error:
+        raise InputError(f"invalid date ({one_line(error)})", file=file, column="month/day") from None
+    return pd.DatetimeIndex(days) + pd.to_timedelta(hours - 1, unit="h")
+
+
+def _validate(frame: pd.DataFrame, file: object, *, first_row: int,
+              names: dict[str, str] | None = None) -> None:
+    """InputError on an irregular hourly index or a value outside :data:`RANGES` (names the file column)."""
     check_regular(frame.index, HOUR, file=file, column="timestamp", first_row=first_row)
     for name, (low, high) in RANGES.items():
         values = frame[name].to_numpy()
@@ -224,6 +261,7 @@ def _validate(frame: pd.DataFrame, file: object, *, first_row: int, names: dict[
 
 
 def _fill_leap_day(frame: pd.DataFrame, year: int) -> pd.DataFrame:
+    """``frame`` with Feb 29 copied from Feb 28 when ``year`` is a leap year and the file lacks that day."""
     if not pd.Timestamp(year=year, month=1, day=1).is_leap_year:
         return frame
     feb28 = frame.loc[f"{year}-02-28"]
@@ -235,6 +273,7 @@ def _fill_leap_day(frame: pd.DataFrame, year: int) -> pd.DataFrame:
 
 
 def _epw_number(text: str, file: object, column: str, row: int) -> float:
+    """An EPW field as a float; InputError naming the field otherwise."""
     try:
         return float(text)
     except ValueError:

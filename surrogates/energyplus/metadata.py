@@ -44,11 +44,13 @@ from __future__ import annotations
 
 import math
 import re
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
+from typing import TypeVar
 
 from citylearn_env.errors import InputError
 
+T = TypeVar("T")
 FT2_TO_M2 = 0.09290304
 #: 1 h*ft2*F/Btu (an "R-1" in US units) in m2*K/W.
 R_IP_TO_SI = 0.1761102
@@ -325,6 +327,29 @@ def parse_heating_system(fuel: object, system: object) -> str:
     return "electric_resistance"
 
 
+@dataclass(frozen=True)
+class _Fields:
+    """The optional fields of one metadata row, read by ``fields(column, parse)``: ``None`` when the field is
+    absent (or ``None``/NaN/empty), else ``parse(value)``; an unreadable value is an :class:`InputError`
+    naming ``source``, the column and the building."""
+
+    row: Mapping[str, object]
+    source: object
+    bldg_id: int
+
+    def __call__(self, column: str, parse: Callable[[object], T]) -> T | None:
+        value = self.row.get(column)
+        if _missing(value):
+            return None
+        try:
+            return parse(value)
+        except (TypeError, ValueError) as error:
+            raise self.error(str(error), column) from None
+
+    def error(self, message: str, column: str) -> InputError:
+        return InputError(message, file=self.source, column=column, row=f"bldg_id={self.bldg_id}")
+
+
 def house_parameters_from_metadata(row: Mapping[str, object], *,
                                    source: object = "metadata") -> HouseParameters:
     """Map one EULP metadata row (``bldg_id``, ``in.*``) to :class:`HouseParameters`.
@@ -337,73 +362,38 @@ def house_parameters_from_metadata(row: Mapping[str, object], *,
     if _missing(row.get("bldg_id")):
         raise InputError("missing building id (expected column bldg_id or building_id)", file=source,
                          column="bldg_id")
-    bldg_id = int(row["bldg_id"])
-
-    def field(column: str, parse):
-        value = row.get(column)
-        if _missing(value):
-            return None
-        try:
-            return parse(value)
-        except (TypeError, ValueError) as error:
-            raise InputError(str(error), file=source, column=column, row=f"bldg_id={bldg_id}") from None
-
-    sqft = field("in.sqft", float)
-    if sqft is None:
-        sqft = field("in.geometry_floor_area", parse_floor_area_bin)
-    if sqft is None or not sqft > 100:
-        raise InputError(f"conditioned floor area missing or < 100 ft2 ({sqft})", file=source,
-                         column="in.sqft", row=f"bldg_id={bldg_id}")
+    field = _Fields(row, source, int(row["bldg_id"]))
+    sqft = _floor_area_ft2(field)
     vintage = field("in.vintage", parse_vintage) or 1990
-    decade = min(max(vintage, 1930), 2010)
-    wall_r, ceiling_r, ach50, glazing = VINTAGE_DEFAULTS[decade]
-    glazing = field("in.windows", parse_glazing) or glazing
-    window_u, window_shgc = GLAZING[glazing]
-    stories = int(field("in.geometry_stories", parse_leading_number) or 1)
-    if not 1 <= stories <= 4:
-        raise InputError(f"expected 1 to 4 stories, got {stories}", file=source, column="in.geometry_stories",
-                         row=f"bldg_id={bldg_id}")
-    wwr = field("in.window_areas", parse_window_to_wall)
-    if wwr is None:
-        window = field("in.window_area_ft_2", float)
-        wall = field("in.wall_area_above_grade_exterior_ft_2", float)
-        wwr = window / (window + wall) if window and wall else 0.15
+    defaults = VINTAGE_DEFAULTS[min(max(vintage, 1930), 2010)]  # wall R, ceiling R, ACH50, glazing
+    window_u, window_shgc = GLAZING[field("in.windows", parse_glazing) or defaults[3]]
+    stories = _stories(field)
+    wwr = _window_to_wall(field)
     wall_r = field("in.insulation_wall", parse_r_value)
     ceiling_r = field("in.insulation_ceiling", parse_r_value)
     slab_r = field("in.insulation_slab", parse_r_value)
-    defaults = VINTAGE_DEFAULTS[decade]
     occupants = field("in.occupants", parse_leading_number)
     lamp = field("in.lighting", parse_lighting)
     plug = field("in.plug_loads", parse_percent)
     fixtures = field("in.hot_water_fixtures", parse_percent)
     fuel = row.get("in.heating_fuel")
-    system_text = row.get("in.hvac_heating_type_and_fuel", row.get("in.hvac_heating_efficiency"))
-    heating_system = "heat_pump" if _missing(fuel) else parse_heating_system(
-        fuel, "" if _missing(system_text) else system_text)
-
-    def offset(kind: str) -> tuple[float, int]:
-        if str(row.get(f"in.{kind}_setpoint_has_offset", "No")).strip().lower() != "yes":
-            return 0.0, 0
-        return (field(f"in.{kind}_setpoint_offset_magnitude", parse_offset_f) or 0.0,
-                field(f"in.{kind}_setpoint_offset_period", parse_offset_shift) or 0)
-
-    cooling_offset, heating_offset = offset("cooling"), offset("heating")
+    cooling_offset, heating_offset = _setpoint_offset(field, "cooling"), _setpoint_offset(field, "heating")
     cooling_sp = field("in.cooling_setpoint", parse_setpoint)
     heating_sp = field("in.heating_setpoint", parse_setpoint)
+    azimuth = field("in.orientation", parse_orientation)
     return HouseParameters(
-        bldg_id=bldg_id,
+        bldg_id=field.bldg_id,
         floor_area_m2=sqft * FT2_TO_M2,
         stories=stories,
         vintage=vintage,
-        front_azimuth_deg=field("in.orientation", parse_orientation) if "in.orientation" in row
-        and not _missing(row["in.orientation"]) else 180.0,
+        front_azimuth_deg=180.0 if azimuth is None else azimuth,
         window_to_wall=min(max(wwr, 0.0), 0.6),
         window_u=window_u,
         window_shgc=window_shgc,
         wall_r_si=(defaults[0] if wall_r is None else wall_r) * R_IP_TO_SI,
         ceiling_r_si=(defaults[1] if ceiling_r is None else ceiling_r) * R_IP_TO_SI,
         slab_r_si=(slab_r or 0.0) * R_IP_TO_SI,
-        ach50=field("in.infiltration", parse_ach50) or ach50,
+        ach50=field("in.infiltration", parse_ach50) or defaults[2],
         occupants=3.0 if occupants is None else occupants,
         cooling_setpoint_c=24.0 if cooling_sp is None else cooling_sp,
         heating_setpoint_c=20.0 if heating_sp is None else heating_sp,
@@ -412,8 +402,55 @@ def house_parameters_from_metadata(row: Mapping[str, object], *,
         dhw_scale=1.0 if fixtures is None else fixtures,
         offsets_k=(cooling_offset[0], heating_offset[0]), offset_shifts_h=(cooling_offset[1], heating_offset[1]),
         heating_fuel="Electricity" if _missing(fuel) else str(fuel),
-        heating_system=heating_system,
+        heating_system=_heating_system(row),
     )
+
+
+def _floor_area_ft2(field: _Fields) -> float:
+    """Conditioned floor area (ft2): ``in.sqft``, else the mid-point of the ``in.geometry_floor_area`` bin;
+    required, and more than 100 ft2."""
+    sqft = field("in.sqft", float)
+    if sqft is None:
+        sqft = field("in.geometry_floor_area", parse_floor_area_bin)
+    if sqft is None or not sqft > 100:
+        raise field.error(f"conditioned floor area missing or < 100 ft2 ({sqft})", "in.sqft")
+    return sqft
+
+
+def _stories(field: _Fields) -> int:
+    """Stories above grade, 1 to 4 (default 1)."""
+    stories = int(field("in.geometry_stories", parse_leading_number) or 1)
+    if not 1 <= stories <= 4:
+        raise field.error(f"expected 1 to 4 stories, got {stories}", "in.geometry_stories")
+    return stories
+
+
+def _window_to_wall(field: _Fields) -> float:
+    """Window-to-wall ratio: ``in.window_areas``, else window / (window + wall) area, else 0.15."""
+    wwr = field("in.window_areas", parse_window_to_wall)
+    if wwr is not None:
+        return wwr
+    window = field("in.window_area_ft_2", float)
+    wall = field("in.wall_area_above_grade_exterior_ft_2", float)
+    return window / (window + wall) if window and wall else 0.15
+
+
+def _heating_system(row: Mapping[str, object]) -> str:
+    """:func:`parse_heating_system` of the row's heating fuel and system (a heat pump without a fuel)."""
+    fuel = row.get("in.heating_fuel")
+    if _missing(fuel):
+        return "heat_pump"
+    system = row.get("in.hvac_heating_type_and_fuel", row.get("in.hvac_heating_efficiency"))
+    return parse_heating_system(fuel, "" if _missing(system) else system)
+
+
+def _setpoint_offset(field: _Fields, kind: str) -> tuple[float, int]:
+    """Night set-point offset of ``kind`` (``cooling`` or ``heating``): (magnitude K, shift h); (0, 0) unless
+    ``in.<kind>_setpoint_has_offset`` is ``Yes``."""
+    if str(field.row.get(f"in.{kind}_setpoint_has_offset", "No")).strip().lower() != "yes":
+        return 0.0, 0
+    return (field(f"in.{kind}_setpoint_offset_magnitude", parse_offset_f) or 0.0,
+            field(f"in.{kind}_setpoint_offset_period", parse_offset_shift) or 0)
 
 
 def parse_lighting(text: object) -> str:

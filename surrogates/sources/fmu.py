@@ -48,7 +48,7 @@ def check_variables(fmu_path: str | os.PathLike, variables: Mapping[str, str]):
     Raises :class:`InputError` for unknown keys, a missing required mapping, or FMU variables that do not
     exist or have the wrong causality.
     """
-    from fmpy import read_model_description
+    from fmpy import read_model_description  # lazy: fmpy is optional (extra fmu)
 
     fmu_path = Path(fmu_path)
     if not fmu_path.is_file():
@@ -161,7 +161,7 @@ def simulate_ilv_fmu(
     missing = [name for name in start_values if name not in by_name]
     if missing:
         raise InputError(f"the FMU has no variable named {missing[0]!r}", file=fmu_path, column="start_values")
-    from fmpy import extract
+    from fmpy import extract  # lazy: fmpy is optional (extra fmu)
 
     unzipped = extract(str(fmu_path))
     try:
@@ -189,7 +189,7 @@ def simulate_ilv_fmu(
 
 
 def _one_run(description, unzipped, refs, by_name, start_values, loads, reference, multiplier):
-    from fmpy.fmi2 import FMU2Slave
+    from fmpy.fmi2 import FMU2Slave  # lazy: fmpy is optional (extra fmu)
 
     slave = FMU2Slave(guid=description.guid, unzipDirectory=unzipped,
                       modelIdentifier=description.coSimulation.modelIdentifier, instanceName=f"ilv{reference}")

@@ -12,11 +12,14 @@ import pandas as pd
 import pytest
 
 from citylearn_env import CityLearnEnv
-from pipeline import build
+from citylearn_env.sizing import SizingRules, dhw_tank, heat_pump_power, pv_power
+from pipeline.build.driver import build_district_local
+from pipeline.build.manifest import verify_district
+from pipeline.build.steps import check_weather, ingest_building, schema_dict, site_signals
+from pipeline.build.surrogates import surrogate_cache_parts, train_config
 from pipeline.config import parse_build_config, read_build_config
 from pipeline.controllers import cost_rbc, emission_rbc, peak_rbc
 from pipeline.errors import InputError
-from pipeline.sizing import SizingRules, dhw_tank, heat_pump_power, pv_power
 
 ROOT = Path(__file__).resolve().parents[2]
 RAW_CONFIG = ROOT / "tests" / "fixtures" / "synthetic_district" / "district.toml"
@@ -80,7 +83,7 @@ def test_rule_based_controllers_follow_the_paper():
 
 
 def test_local_build_is_complete_verifiable_and_loads(short_config, tmp_path):
-    folder = build.build_district_local(short_config, tmp_path)
+    folder = build_district_local(short_config, tmp_path)
     for name in ("schema.json", "Building_1.csv", "Building_2.csv", "weather.csv", "pricing.csv",
                  "carbon_intensity.csv", "manifest.json", "report/summary.md", "report/kpis_cost_rbc.csv",
                  "report/district_net.png"):
@@ -89,7 +92,7 @@ def test_local_build_is_complete_verifiable_and_loads(short_config, tmp_path):
     # one site, one PV yield: every building's solar_generation column is the same series
     solar = [np.loadtxt(folder / f"Building_{i}.csv", delimiter=",", skiprows=1)[:, 11] for i in (1, 2)]
     assert np.array_equal(solar[0], solar[1]) and solar[0].max() > 0
-    assert build.verify_district(folder) == []
+    assert verify_district(folder) == []
     summary = (folder / "report" / "summary.md").read_text()
     schema = json.loads((folder / "schema.json").read_text())
     battery = schema["buildings"]["Building_1"]["electrical_storage"]["attributes"]
@@ -101,24 +104,24 @@ def test_local_build_is_complete_verifiable_and_loads(short_config, tmp_path):
     assert manifest["outputs"]["schema.json"]["sha256"] and manifest["seeds"]["build"] == 0
     with open(folder / "pricing.csv", "a") as handle:
         handle.write("0.1,0.1,0.1,0.1\n")
-    assert build.verify_district(folder) == ["pricing.csv: sha256 differs from the manifest"]
+    assert verify_district(folder) == ["pricing.csv: sha256 differs from the manifest"]
 
 
 def test_failed_build_leaves_nothing(short_config, tmp_path):
     bad = short_config.model_copy(update={"inputs": short_config.inputs.model_copy(update={"buildings": [4242]})})
     with pytest.raises(InputError, match="4242"):
-        build.build_district_local(bad, tmp_path)
+        build_district_local(bad, tmp_path)
     assert list(tmp_path.iterdir()) == []
 
 
 def test_prefect_flow_builds_the_same_district(short_config, tmp_path):
     from prefect.settings import PREFECT_FLOWS_HEARTBEAT_FREQUENCY, temporary_settings
 
-    from pipeline.flows import build_district
+    from pipeline.build.flows import build_district
 
     with temporary_settings(updates={PREFECT_FLOWS_HEARTBEAT_FREQUENCY: None}):
         folder = build_district(short_config, str(tmp_path / "flow"))
-    local = build.build_district_local(short_config, tmp_path / "local")
+    local = build_district_local(short_config, tmp_path / "local")
     for name in ("schema.json", "Building_1.csv", "weather.csv", "carbon_intensity.csv"):
         assert (folder / name).read_bytes() == (local / name).read_bytes(), name
     shutil.rmtree(tmp_path / "flow")
@@ -130,7 +133,7 @@ def test_build_with_surrogates_emits_lstm_buildings(tmp_path):
     path = _short_config(tmp_path, source="csv", epochs=1, max_seconds=3.0)
     try:
         config = read_build_config(path).model_copy(update={"cache_dir": tmp_path / "cache"})
-        folder = build.build_district_local(config, tmp_path / "out")
+        folder = build_district_local(config, tmp_path / "out")
     finally:
         path.unlink(missing_ok=True)
     schema = json.loads((folder / "schema.json").read_text())
@@ -147,18 +150,18 @@ def test_build_with_surrogates_emits_lstm_buildings(tmp_path):
     data = env.series()["indoor_dry_bulb_temperature_without_partial_load"]
     assert not np.allclose(temps[:, 13:21], data[:, 13:21])   # the surrogate, not the data, from t = 13
     assert np.all((temps > 5) & (temps < 45))
-    assert build.verify_district(folder) == []
+    assert verify_district(folder) == []
 
 
 @pytest.mark.slow  # a local Dask cluster starts in ~10-30 s here
 def test_dask_task_runner_builds_the_same_district(short_config, tmp_path):
     from prefect.settings import PREFECT_FLOWS_HEARTBEAT_FREQUENCY, temporary_settings
 
-    from pipeline.flows import build_district_on_dask
+    from pipeline.build.flows import build_district_on_dask
 
     with temporary_settings(updates={PREFECT_FLOWS_HEARTBEAT_FREQUENCY: None}):
         folder = build_district_on_dask(short_config, str(tmp_path / "dask"), workers=2)
-    local = build.build_district_local(short_config, tmp_path / "local")
+    local = build_district_local(short_config, tmp_path / "local")
     for name in ("schema.json", "Building_2.csv", "pricing.csv"):
         assert (folder / name).read_bytes() == (local / name).read_bytes(), name
 
@@ -218,7 +221,7 @@ def test_schema_activates_heating_where_a_heating_device_is(short_config):
         "filename": "x.pth", "input_normalization_minimum": [0.0], "input_normalization_maximum": [1.0],
         "input_observation_names": ["indoor_dry_bulb_temperature"], "hidden_size": 1, "num_layers": 1,
         "lookback": 1}}
-    schema = build.schema_dict(short_config, ["Building_1", "Building_2"], sizes,
+    schema = schema_dict(short_config, ["Building_1", "Building_2"], sizes,
                                {"Building_1": block, "Building_2": block})
     assert schema["actions"]["heating_device"]["active"] and schema["actions"]["cooling_device"]["active"]
     one, two = schema["buildings"]["Building_1"], schema["buildings"]["Building_2"]
@@ -230,26 +233,26 @@ def test_schema_activates_heating_where_a_heating_device_is(short_config):
 def test_weather_check_by_hand():
     index = pd.date_range("2018-06-01", periods=4, freq="h")
     weather = pd.Series([20.0, 22.0, 24.0, 26.0], index=index)
-    assert build.check_weather(weather + 1.0, weather, what="t", file="f") == pytest.approx(1.0)
+    assert check_weather(weather + 1.0, weather, what="t", file="f") == pytest.approx(1.0)
     with pytest.raises(InputError, match=r"t was simulated on other weather.*mean \|dT_out\| = 2.00"):
-        build.check_weather(weather - 2.0, weather, what="t", file="f")
+        check_weather(weather - 2.0, weather, what="t", file="f")
     with pytest.raises(InputError, match="no hour in common"):
-        build.check_weather(weather.set_axis(index + pd.Timedelta(days=1)), weather, what="t", file="f")
+        check_weather(weather.set_axis(index + pd.Timedelta(days=1)), weather, what="t", file="f")
 
 
 def test_loads_and_ilv_on_other_weather_are_refused(short_config):
     on_travis = short_config.model_copy(update={"inputs": short_config.inputs.model_copy(
         update={"weather": TRAVIS})})
-    outdoor = build.site_signals(on_travis).outdoor
+    outdoor = site_signals(on_travis).outdoor
     # the fixture's EULP timeseries and ILV tables were simulated on Tampa TMY3, not Austin 2018
     with pytest.raises(InputError, match="EULP timeseries of building 900001 was simulated on other weather"):
-        build.ingest_building(on_travis, 900001, pd.Series(dtype=float), outdoor)
+        ingest_building(on_travis, 900001, pd.Series(dtype=float), outdoor)
     csv = on_travis.model_copy(update={"surrogate": on_travis.surrogate.model_copy(update={"source": "csv"})})
     with pytest.raises(InputError, match="ILV table of building 900001 was simulated on other weather"):
-        build.surrogate_cache_parts(csv, 900001, "Building_1", weather=outdoor)
+        surrogate_cache_parts(csv, 900001, "Building_1", weather=outdoor)
     # on its own weather the same table passes
-    build.surrogate_cache_parts(csv.model_copy(update={"inputs": short_config.inputs}), 900001, "Building_1",
-                                weather=build.site_signals(short_config).outdoor)
+    surrogate_cache_parts(csv.model_copy(update={"inputs": short_config.inputs}), 900001, "Building_1",
+                                weather=site_signals(short_config).outdoor)
 
 
 @pytest.fixture(scope="module")
@@ -264,7 +267,7 @@ def winter_week(tmp_path_factory):
                                                                       "end": date(2018, 1, 7)}),
         "selection": None, "inputs": config.inputs.model_copy(update={"buildings": [43, 21]}),
         "surrogate": config.surrogate.model_copy(update={"source": "none"}), "cache_dir": tmp / "cache"})
-    return build.build_district_local(config, tmp / "out")
+    return build_district_local(config, tmp / "out")
 
 
 @pytest.mark.slow
@@ -358,4 +361,4 @@ def test_surrogate_section_defaults_are_the_trainers():
     from surrogates.train import TrainConfig
 
     config = read_build_config(ROOT / "raw" / "district.toml")  # [surrogate]: source and seed only
-    assert build.train_config(config) == replace(TrainConfig(), progress=False, threads=1)
+    assert train_config(config) == replace(TrainConfig(), progress=False, threads=1)

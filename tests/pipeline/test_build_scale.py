@@ -9,8 +9,8 @@ from pathlib import Path
 
 import pytest
 
-from pipeline import build
-from pipeline.cache import district_digest
+from pipeline.build.driver import build_district_local
+from pipeline.build.manifest import district_digest
 from pipeline.config import read_build_config
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -34,7 +34,7 @@ def test_two_houses_on_a_two_process_dask_cluster_match_the_in_process_build(tmp
         pytest.skip(f"EnergyPlus is not installed ({error}): the houses cannot be simulated")
     from prefect.settings import PREFECT_FLOWS_HEARTBEAT_FREQUENCY, temporary_settings
 
-    from pipeline.flows import build_district_on_dask
+    from pipeline.build.flows import build_district_on_dask
 
     scale = _benchmark()
     data = scale.scale_config(2, date(2018, 6, 1), date(2018, 6, 3))
@@ -51,7 +51,7 @@ def test_two_houses_on_a_two_process_dask_cluster_match_the_in_process_build(tmp
     # deterministic; the benchmark compares cold simulations too)
     shutil.copytree(tmp_path / "cache_dask" / "simulations", tmp_path / "cache_local" / "simulations")
     local_config = config.model_copy(update={"cache_dir": tmp_path / "cache_local"})
-    local = build.build_district_local(local_config, tmp_path / "local")
+    local = build_district_local(local_config, tmp_path / "local")
 
     for name in ("schema.json", "Building_1.csv", "Building_2.csv", "Building_1.pth", "Building_2.pth",
                  "buildings.json", "report/summary.md"):
@@ -59,5 +59,5 @@ def test_two_houses_on_a_two_process_dask_cluster_match_the_in_process_build(tmp
     # manifest.json records the cache folder: equal once both builds name the same one
     assert sorted(p.relative_to(on_dask) for p in on_dask.rglob("*")) == sorted(
         p.relative_to(local) for p in local.rglob("*"))
-    rebuilt = build.build_district_local(dask_config, tmp_path / "again")   # every result from the cache
+    rebuilt = build_district_local(dask_config, tmp_path / "again")   # every result from the cache
     assert district_digest(rebuilt) == district_digest(on_dask)

@@ -9,8 +9,10 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from pipeline import build
-from pipeline.cache import CACHE_ENV, FileCache, cache_key, cache_root, district_digest, table_digest
+from pipeline.build.cache import CACHE_ENV, FileCache, cache_key, cache_root, table_digest
+from pipeline.build.driver import build_district_local
+from pipeline.build.manifest import district_digest, verify_district
+from pipeline.build.surrogates import surrogate_cache_parts
 from pipeline.config import read_build_config
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -114,15 +116,15 @@ def _cache_use(folder: Path) -> dict:
 def test_the_key_ignores_what_training_does_not_use(one_building):
     other_battery = one_building.model_copy(update={"sizing": one_building.sizing.model_copy(
         update={"battery": "Tesla Powerwall 2"}), "seed": 7})
-    key = cache_key(build.surrogate_cache_parts(one_building, 900001, "Building_1")[0])
-    assert cache_key(build.surrogate_cache_parts(other_battery, 900001, "Building_1")[0]) == key
+    key = cache_key(surrogate_cache_parts(one_building, 900001, "Building_1")[0])
+    assert cache_key(surrogate_cache_parts(other_battery, 900001, "Building_1")[0]) == key
     more_epochs = one_building.model_copy(update={"surrogate": one_building.surrogate.model_copy(
         update={"epochs": 2})})
-    assert cache_key(build.surrogate_cache_parts(more_epochs, 900001, "Building_1")[0]) != key
+    assert cache_key(surrogate_cache_parts(more_epochs, 900001, "Building_1")[0]) != key
 
 
 def test_battery_change_reuses_ilv_change_and_tampering_retrain(one_building, tmp_path):
-    first = build.build_district_local(one_building, tmp_path / "a")
+    first = build_district_local(one_building, tmp_path / "a")
     use = _cache_use(first)
     assert use["hit"] is False
     pth = (first / "Building_1.pth").read_bytes()
@@ -130,17 +132,17 @@ def test_battery_change_reuses_ilv_change_and_tampering_retrain(one_building, tm
     # another battery: the same surrogate from the cache, no training
     tesla = one_building.model_copy(update={"sizing": one_building.sizing.model_copy(
         update={"battery": "Tesla Powerwall 2"})})
-    second = build.build_district_local(tesla, tmp_path / "b")
+    second = build_district_local(tesla, tmp_path / "b")
     assert _cache_use(second) == {"key": use["key"], "hit": True}
     assert (second / "Building_1.pth").read_bytes() == pth
     battery = json.loads((second / "schema.json").read_text())["buildings"]["Building_1"]["electrical_storage"]
     assert battery["attributes"]["capacity"] == 13.5
-    assert build.verify_district(second) == []
+    assert verify_district(second) == []
 
     # a tampered cached file: the entry fails its sha256 check, the surrogate is retrained and stored again
     entry = one_building.cache_dir / "surrogates" / use["key"]
     (entry / "Building_1.pth").write_bytes(b"not a model")
-    third = build.build_district_local(tesla, tmp_path / "c")
+    third = build_district_local(tesla, tmp_path / "c")
     assert _cache_use(third) == {"key": use["key"], "hit": False}
     assert FileCache(one_building.cache_dir / "surrogates").get(use["key"]) is not None
 
@@ -149,6 +151,6 @@ def test_battery_change_reuses_ilv_change_and_tampering_retrain(one_building, tm
     table = pd.read_csv(csv)
     table.loc[5, "outdoor_dry_bulb_temperature"] += 0.01
     table.to_csv(csv, index=False)
-    fourth = build.build_district_local(tesla, tmp_path / "d")
+    fourth = build_district_local(tesla, tmp_path / "d")
     changed = _cache_use(fourth)
     assert changed["hit"] is False and changed["key"] != use["key"]

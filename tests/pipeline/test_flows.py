@@ -14,8 +14,11 @@ from pathlib import Path
 
 import pytest
 
-from pipeline import build, progress
-from pipeline.cache import cache_key
+from pipeline import progress
+from pipeline.build.cache import cache_key
+from pipeline.build.driver import run_build
+from pipeline.build.houses import simulation_cache_parts
+from pipeline.build.surrogates import csv_ilv_path, surrogate_cache_parts
 from pipeline.config import read_build_config
 from tests.pipeline.test_build import _short_config
 
@@ -128,10 +131,10 @@ def test_surrogate_and_simulation_keys_cover_only_what_they_use(short_toml):
     or a house simulation's cache key; the epochs, the seed and the ILV data do."""
     config = read_build_config(short_toml)
     config = config.model_copy(update={"surrogate": config.surrogate.model_copy(update={"source": "csv"})})
-    ilv = build.csv_ilv_path(config, 900001)
+    ilv = csv_ilv_path(config, 900001)
 
     def surrogate_key(c, table=None):
-        return cache_key(build.surrogate_cache_parts(c, 900001, "Building_1", table)[0])
+        return cache_key(surrogate_cache_parts(c, 900001, "Building_1", table)[0])
 
     def edit(c, **sections):
         return c.model_copy(update={k: getattr(c, k).model_copy(update=v) if isinstance(v, dict) else v
@@ -153,12 +156,12 @@ def test_surrogate_and_simulation_keys_cover_only_what_they_use(short_toml):
     assert surrogate_key(config, changed) != base
 
     row = {"bldg_id": 1, "in.sqft": 1900}
-    sim = cache_key(build.simulation_cache_parts(config, row))
+    sim = cache_key(simulation_cache_parts(config, row))
     for other in unrelated[:3]:
-        assert cache_key(build.simulation_cache_parts(other, row)) == sim
+        assert cache_key(simulation_cache_parts(other, row)) == sim
     next_year = edit(config, period={"start": date(2019, 6, 1), "end": date(2019, 6, 3)})
-    assert cache_key(build.simulation_cache_parts(next_year, row)) != sim    # another calendar year
-    assert cache_key(build.simulation_cache_parts(edit(config, simulation={"partial_runs": 2}), row)) != sim
+    assert cache_key(simulation_cache_parts(next_year, row)) != sim    # another calendar year
+    assert cache_key(simulation_cache_parts(edit(config, simulation={"partial_runs": 2}), row)) != sim
 
 
 def test_log_reporter_writes_a_few_plain_lines():
@@ -203,7 +206,7 @@ def test_in_process_runner_reports_each_building_and_quiet_build_prints_nothing(
     assert captured.out == "" and captured.err == ""
     stream = io.StringIO()
     with progress.active(progress.LogReporter(stream)):
-        build.run_build(read_build_config(short_toml), tmp_path / "logged")
+        run_build(read_build_config(short_toml), tmp_path / "logged")
     text = stream.getvalue()
     for line in ("buildings: ingest: Building_1 done (1/2)", "buildings: ingest: Building_2 done (2/2)",
                  "validate: no control + RBC: finished", "site signals (weather, PV, prices, carbon): finished"):

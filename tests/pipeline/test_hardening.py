@@ -19,8 +19,8 @@ import pytest
 from citylearn_env import SchemaError
 from citylearn_env.dynamics import read_pth_state_dict
 from citylearn_env.example import write_example_district
-from pipeline import build
-from pipeline.cache import FileCache, sha256_bytes
+from pipeline.build.cache import FileCache, sha256_bytes
+from pipeline.build.staging import staging
 from pipeline.cli import main
 from pipeline.config import parse_build_config
 from pipeline.errors import InputError
@@ -80,7 +80,7 @@ def test_poisoned_cache_entry_is_never_executed(tmp_path):
 
 def test_the_cache_and_the_flows_never_unpickle():
     """Source check: the cache and the flow modules import no pickle/cloudpickle/torch.load."""
-    for module in ("pipeline/cache.py", "pipeline/flows.py"):
+    for module in ("pipeline/build/cache.py", "pipeline/build/flows.py"):
         text = (ROOT / module).read_text()
         code = [line for line in text.splitlines() if not line.lstrip().startswith(("#", '"', "'"))]
         for word in ("import pickle", "cloudpickle", "torch.load", "persist_result=True"):
@@ -98,7 +98,7 @@ def test_unsafe_district_names_are_refused(name):
 def test_staging_refuses_an_unsafe_name_even_without_validation(tmp_path):
     config = _config().model_copy(update={"name": "."})     # model_copy does not validate
     with pytest.raises(InputError, match="'name': not a safe district name"):
-        build.staging(config, tmp_path)
+        staging(config, tmp_path)
     assert list(tmp_path.iterdir()) == []
 
 
@@ -107,7 +107,7 @@ def test_a_folder_that_is_not_a_build_is_never_replaced(tmp_path):
     user.mkdir()
     (user / "thesis.tex").write_text("precious")
     with pytest.raises(InputError, match=r"x, column/key 'name': exists and is not a districtgen build"):
-        with build.staging(_config(), tmp_path):
+        with staging(_config(), tmp_path):
             pass
     assert (user / "thesis.tex").read_text() == "precious"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["x"]
@@ -116,7 +116,7 @@ def test_a_folder_that_is_not_a_build_is_never_replaced(tmp_path):
 def test_a_build_replaces_its_own_previous_build_and_leaves_nothing_hidden(tmp_path):
     config = _config()
     for round_ in (1, 2):
-        with build.staging(config, tmp_path) as out:
+        with staging(config, tmp_path) as out:
             (out / "manifest.json").write_text(json.dumps({"district": "x", "round": round_}))
     assert sorted(p.name for p in tmp_path.iterdir()) == ["x"]
     assert json.loads((tmp_path / "x" / "manifest.json").read_text())["round"] == 2
@@ -124,7 +124,7 @@ def test_a_build_replaces_its_own_previous_build_and_leaves_nothing_hidden(tmp_p
 
 def test_a_failed_build_leaves_nothing(tmp_path):
     with pytest.raises(RuntimeError):
-        with build.staging(_config(), tmp_path):
+        with staging(_config(), tmp_path):
             raise RuntimeError("boom")
     assert list(tmp_path.iterdir()) == []
 
@@ -148,7 +148,7 @@ def test_staging_of_a_killed_build_is_cleaned_on_the_next_run(tmp_path):
     live = tmp_path / f".x.building-{os.getppid()}"  # marked but its process is alive: a concurrent build, kept
     live.mkdir()
     (tmp_path / f".x.building-{os.getppid()}.districtgen").write_text(json.dumps({"pid": os.getppid()}))
-    with build.staging(_config(), tmp_path) as out:
+    with staging(_config(), tmp_path) as out:
         (out / "manifest.json").write_text(json.dumps({"district": "x"}))
     left = sorted(p.name for p in tmp_path.iterdir())
     assert left == sorted([".x.building-1", f".x.building-{os.getppid()}",
@@ -232,7 +232,7 @@ def test_no_prefect_server_outlives_a_killed_build(tmp_path, how):
     """A process inside prefect_api() (as `districtgen build` runs) is killed: its server goes too."""
     script = textwrap.dedent("""
         import sys, time
-        from pipeline.flows import prefect_api
+        from pipeline.build.flows import prefect_api
         from prefect.server.api.server import SubprocessASGIServer
         with prefect_api():
             print(SubprocessASGIServer().server_process.pid, flush=True)

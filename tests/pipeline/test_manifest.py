@@ -11,10 +11,10 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from pipeline import build
+from pipeline.build.driver import build_district_local
+from pipeline.build.manifest import check_district, verify_district, write_manifest, write_timings
 from pipeline.cli import main
 from pipeline.config import read_build_config
-from pipeline.manifest import check_district, verify_district, write_manifest, write_timings
 
 ROOT = Path(__file__).resolve().parents[2]
 FIXTURE = ROOT / "tests" / "fixtures" / "synthetic_district"
@@ -55,7 +55,7 @@ def verify_lines(folder: Path, capsys) -> tuple[int, list[str]]:
 def built(tmp_path_factory):
     """One short build without surrogates (relative input paths); tests work on copies of it."""
     tmp = tmp_path_factory.mktemp("manifest")
-    return build.build_district_local(read_build_config(district_config(tmp)), tmp / "out")
+    return build_district_local(read_build_config(district_config(tmp)), tmp / "out")
 
 
 @pytest.fixture()
@@ -156,7 +156,7 @@ def tiny_model(table: Path, out: Path, **settings) -> Path:
 def test_install_a_retrained_surrogate_then_verify(tmp_path, capsys):
     path = district_config(tmp_path, source="csv")
     config = read_build_config(path).model_copy(update={"cache_dir": tmp_path / "cache"})
-    district = build.build_district_local(config, tmp_path / "out")
+    district = build_district_local(config, tmp_path / "out")
     table = tmp_path / "inputs" / "ilv" / "900001.parquet"
     model = tiny_model(table, tmp_path / "model")
 
@@ -186,8 +186,8 @@ def test_install_a_retrained_surrogate_then_verify(tmp_path, capsys):
 
 
 def test_install_refuses_a_folder_that_is_not_a_district(tmp_path):
+    from pipeline.build.install import install_surrogate
     from pipeline.errors import InputError
-    from pipeline.manifest import install_surrogate
 
     with pytest.raises(InputError, match="no manifest.json"):
         install_surrogate(tmp_path, "Building_1", tmp_path / "x.pth")

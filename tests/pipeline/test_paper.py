@@ -10,8 +10,8 @@ import pytest
 from citylearn_env import CityLearnEnv, load_schema
 from citylearn_env.errors import InputError
 from citylearn_env.example import write_example_district
-from pipeline.paper import BENCHMARKS, RunOptions, benchmark_schema, resolve_roles, run_all
-from pipeline.paper_tasks import plan_tasks, run_paper
+from pipeline.paper.benchmarks import BENCHMARKS, RunOptions, benchmark_schema, resolve_roles
+from pipeline.paper.tasks import plan_tasks, run_paper
 
 BY_ID = {x.id: x for x in BENCHMARKS}
 
@@ -103,7 +103,8 @@ def test_results_name_the_buildings_and_runs_resume(district, tmp_path):
     path, _ = district
     ids = ["x-b1_b2-x-x", "x-b1_b2-x-pv", "rbc-b1-c-bess_pv", "rbc-b1_b2-p-bess_pv", "rlc-b1-e-dhw"]
     options = RunOptions(sac_episodes=1, roles=("Building_2", "Building_3"))
-    results = {r["id"]: r for r in run_all(path, tmp_path, only=ids, options=options, log=lambda *_: None)}
+    results = {r["id"]: r for r in run_paper(path, tmp_path, only=ids, sweep=(), options=options,
+                                            log=lambda *_: None)["results"]}
     assert results["rbc-b1-c-bess_pv"]["buildings"] == "Building_2"
     assert results["x-b1_b2-x-x"]["buildings"] == "Building_2+Building_3"
     table = (tmp_path / "results.md").read_text()
@@ -120,10 +121,12 @@ def test_results_name_the_buildings_and_runs_resume(district, tmp_path):
     stored = json.loads(task.read_text())
     stored["result"]["cost"] = -1.0
     task.write_text(json.dumps(stored))
-    again = {r["id"]: r for r in run_all(path, tmp_path, only=ids, options=options, log=lambda *_: None)}
+    again = {r["id"]: r for r in run_paper(path, tmp_path, only=ids, sweep=(), options=options,
+                                            log=lambda *_: None)["results"]}
     assert again["rbc-b1-c-bess_pv"]["cost"] == -1.0
     published = RunOptions(sac_episodes=1, roles=("Building_2", "Building_3"), rules="published")
-    rerun = run_all(path, tmp_path, only=["rbc-b1-c-bess_pv"], options=published, log=lambda *_: None)
+    rerun = run_paper(path, tmp_path, only=["rbc-b1-c-bess_pv"], sweep=(), options=published,
+                      log=lambda *_: None)["results"]
     assert rerun[0]["cost"] == pytest.approx(results["rbc-b1-c-bess_pv"]["cost"], rel=0.05)
     assert rerun[0]["cost"] != results["rbc-b1-c-bess_pv"]["cost"]
 
@@ -152,7 +155,7 @@ def test_task_plan():
 
 def test_overcooling_statistics_by_hand():
     """Over-/under-cooling statistics of a run: mean and std of the set-point deviation on each side."""
-    from pipeline.paper import mean_or_zero, std_or_zero
+    from pipeline.paper.benchmarks import mean_or_zero, std_or_zero
 
     delta = np.array([-1.0, -3.0, 0.5, 0.0, 1.5])
     over, under = -delta[delta < 0], delta[delta > 0]
@@ -189,7 +192,7 @@ def test_lean_sac_squashed_gaussian_matches_torch_distributions():
     from torch.distributions import Normal, TransformedDistribution
     from torch.distributions.transforms import TanhTransform
 
-    from pipeline.paper_sac import LeanSAC
+    from pipeline.paper.sac.lean import LeanSAC
 
     agent = LeanSAC(5, 2, seed=3)
     obs = torch.rand(64, 5)
@@ -211,7 +214,7 @@ def test_tasks_on_a_local_dask_cluster_equal_in_process(district, tmp_path):
     """The same tasks on a 2-process Dask LocalCluster give the in-process results (rule rows are
     deterministic), written as task files the in-process run then resumes from."""
     pytest.importorskip("dask.distributed")
-    from pipeline.paper_tasks import DaskRunner
+    from pipeline.runners import DaskRunner
 
     path, _ = district
     ids = ["x-b1_b2-x-pv", "rbc-b1-c-bess_pv", "rbc-b1-e-bess_pv"]
@@ -232,8 +235,8 @@ def test_cores_per_task_follow_the_runner():
     a remote scheduler's machines are not this one (1)."""
     import os
 
-    from pipeline.build import InProcessRunner
-    from pipeline.paper_tasks import DaskRunner, ProcessRunner, cores_per_task
+    from pipeline.paper.tasks import cores_per_task
+    from pipeline.runners import DaskRunner, InProcessRunner, ProcessRunner
 
     cpus = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
     assert cores_per_task(InProcessRunner(), 5) == cpus
@@ -244,7 +247,7 @@ def test_cores_per_task_follow_the_runner():
 
 
 def test_sac_threads_are_measured_only_with_cores_to_spare():
-    from pipeline.paper_sac import THREAD_GAIN, sac_threads
+    from pipeline.paper.sac.train import THREAD_GAIN, sac_threads
 
     assert sac_threads(1) == (1, "one core per task")
     threads, reason = sac_threads(2)  # what this machine measures now: either answer is legitimate,

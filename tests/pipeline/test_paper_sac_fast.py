@@ -6,8 +6,8 @@ import pytest
 
 torch = pytest.importorskip("torch")
 
-from pipeline.paper_sac import LeanSAC  # noqa: E402
-from pipeline.paper_sac_fast import FastSAC, FusedAdam, ScalarAdam  # noqa: E402
+from pipeline.paper.sac.fast import FastSAC, FusedAdam, ScalarAdam  # noqa: E402
+from pipeline.paper.sac.lean import LeanSAC  # noqa: E402
 from surrogates.precision import capability  # noqa: E402
 
 OBS, ACT, BATCH = 7, 3, 256
@@ -105,7 +105,7 @@ def test_numpy_rollout_draw_equals_torch_draw():
 def test_subnormals_flushed_only_while_training():
     """Training flushes subnormal floats to zero (a process-wide CPU flag) and gives the flag back: code that
     runs after it (hypothesis, NumPy) sees IEEE subnormals again."""
-    from pipeline.paper_sac import flushed_subnormals
+    from pipeline.paper.sac.train import flushed_subnormals
 
     tiny = torch.tensor([1e-40], dtype=torch.float32)  # below float32's smallest normal, 1.18e-38
     assert float(tiny * 1.0) > 0
@@ -119,7 +119,7 @@ def test_bfloat16_relu_through_int16_view_equals_torch():
     """The int16-view ReLU and its gradient give torch's bfloat16 results, on the values where a sign-bit
     trick could go wrong: -0.0, the smallest subnormals of both signs, +-inf and ordinary values. The one
     difference is the sign of zero: torch keeps -0.0, the clamp gives +0.0 (equal as numbers)."""
-    from pipeline.paper_sac_fast import relu_, relu_backward
+    from pipeline.paper.sac.fast import relu_, relu_backward
 
     tiny = 2.0 ** -133  # the smallest positive bfloat16 subnormal
     special = torch.tensor([-0.0, 0.0, tiny, -tiny, 1e-38, -1e-38, float("inf"), -float("inf"), 3.5, -3.5])

@@ -12,9 +12,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from pipeline import build
+from pipeline.build.driver import build_district_local
+from pipeline.build.report_figures import day_hour_matrix, parse_calendar, peak_week, price_bands, runs
+from pipeline.build.validate import validate_district
 from pipeline.config import read_build_config
-from pipeline.report_figures import day_hour_matrix, parse_calendar, peak_week, price_bands, runs
 
 ROOT = Path(__file__).resolve().parents[2]
 FIXTURE = ROOT / "tests" / "fixtures" / "synthetic_district" / "district.toml"
@@ -38,7 +39,7 @@ def _fixture_config(tmp: Path, end: date, **surrogate):
 def small_build(tmp_path_factory) -> Path:
     """Nine June days of the fixture district, no surrogates (a build of a few seconds)."""
     tmp = tmp_path_factory.mktemp("report")
-    return build.build_district_local(_fixture_config(tmp, date(2018, 6, 9)), tmp / "out")
+    return build_district_local(_fixture_config(tmp, date(2018, 6, 9)), tmp / "out")
 
 
 def _png_size(path: Path) -> tuple[int, int]:
@@ -141,7 +142,7 @@ def test_no_control_objectives_by_hand_from_the_emitted_files(small_build):
 
 
 def test_a_second_report_has_the_same_bytes(small_build, tmp_path):
-    build.validate_district(small_build / "schema.json", tmp_path, "default")
+    validate_district(small_build / "schema.json", tmp_path, "default")
     first = small_build / "report"
     written = sorted(p.name for p in tmp_path.iterdir())
     assert set(FIGURES) | {"summary.md"} <= set(written)
@@ -178,7 +179,7 @@ def test_tariff_levels_and_runs():
 
 @pytest.mark.slow  # ~1-2 min: trains two tiny surrogates on a year of ILV data
 def test_surrogate_table_has_each_building_fit(tmp_path):
-    folder = build.build_district_local(_fixture_config(tmp_path, date(2018, 6, 3), source="csv", epochs=1,
+    folder = build_district_local(_fixture_config(tmp_path, date(2018, 6, 3), source="csv", epochs=1,
                                                         max_seconds=3.0), tmp_path / "out")
     rows = _table((folder / "report" / "summary.md").read_text(), "Surrogates")
     assert [row[0] for row in rows] == list(BUILDINGS)

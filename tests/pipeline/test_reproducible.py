@@ -11,9 +11,9 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from pipeline import build
+from pipeline.build.driver import build_district_local
+from pipeline.build.manifest import TIMINGS, split_metrics_timings
 from pipeline.config import read_build_config
-from pipeline.manifest import TIMINGS, split_metrics_timings
 
 ROOT = Path(__file__).resolve().parents[2]
 FIXTURE = ROOT / "tests" / "fixtures" / "synthetic_district"
@@ -63,8 +63,8 @@ def two_builds(tmp_path_factory):
     """The same configuration built twice, into two output roots: first under umask 077, then 022."""
     tmp = tmp_path_factory.mktemp("reproducible")
     config = read_build_config(short_config_file(tmp))
-    first = with_umask(0o077, build.build_district_local, config, tmp / "first")
-    second = with_umask(0o022, build.build_district_local, config, tmp / "second")
+    first = with_umask(0o077, build_district_local, config, tmp / "first")
+    second = with_umask(0o022, build_district_local, config, tmp / "second")
     return first, second
 
 
@@ -116,7 +116,7 @@ def test_surrogate_builds_are_byte_identical_with_fresh_caches(tmp_path):
     """Trained twice from scratch (two empty caches): .pth, metrics, plots and report agree byte for byte."""
     path = short_config_file(tmp_path, source="csv", ilv=small_ilv_tables(tmp_path / "ilv"))
     config = read_build_config(path)
-    folders = [build.build_district_local(config.model_copy(update={"cache_dir": tmp_path / f"cache{i}"}),
+    folders = [build_district_local(config.model_copy(update={"cache_dir": tmp_path / f"cache{i}"}),
                                           tmp_path / f"out{i}") for i in (1, 2)]
     first, second = (read_tree(f) for f in folders)
     assert {"Building_1.pth", "surrogates/Building_1.metrics.json", "surrogates/Building_1.png"} <= set(first)

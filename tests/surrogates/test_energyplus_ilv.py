@@ -25,6 +25,7 @@ from surrogates.energyplus.runner import (  # noqa: E402
     run_energyplus,
 )
 from surrogates.ilv import read_ilv, validate_ilv  # noqa: E402
+from surrogates.sources.energyplus import build_ilv_table  # noqa: E402
 
 ROW = {"bldg_id": 4242, "in.sqft": 1900, "in.geometry_stories": "2", "in.vintage": "1990s",
        "in.orientation": "South", "in.infiltration": "8 ACH50", "in.occupants": "3",
@@ -98,14 +99,10 @@ def test_zone_areas_add_up_to_metadata_floor_area(summer):
     assert sum(summer.zone_areas.values()) == pytest.approx(1900 * 0.09290304, rel=1e-3)
 
 
-def test_prefect_task_writes_a_readable_table(tmp_path, monkeypatch):
-    monkeypatch.setenv("PREFECT_HOME", str(tmp_path / "prefect"))
-    monkeypatch.setenv("PREFECT_SERVER_ANALYTICS_ENABLED", "false")
-    from surrogates.sources.energyplus import energyplus_ilv_task
-
+def test_build_ilv_table_writes_a_readable_table(tmp_path):
     out = tmp_path / "ilv" / "4242.parquet"
     config = ILVConfig(run_period=((1, 8), (1, 10)), partial_runs=0)
-    summary = energyplus_ilv_task.fn(ROW, str(tampa_epw()), str(out), config=config)
+    summary = build_ilv_table(ROW, str(tampa_epw()), str(out), config=config)
     table = read_ilv(out)
     assert summary["rows"] == len(table) == 2 * 3 * 24  # ideal replay + free float, 3 days
     assert summary["replay_mad_c"] <= 0.2
@@ -113,8 +110,6 @@ def test_prefect_task_writes_a_readable_table(tmp_path, monkeypatch):
 
 
 def test_missing_epw_is_a_clear_error_and_writes_nothing(tmp_path):
-    from surrogates.sources.energyplus import build_ilv_table
-
     out = tmp_path / "t.parquet"
     with pytest.raises(InputError, match="EPW weather file not found"):
         build_ilv_table(ROW, tmp_path / "nowhere.epw", out)
@@ -122,8 +117,6 @@ def test_missing_epw_is_a_clear_error_and_writes_nothing(tmp_path):
 
 
 def test_failed_simulation_reports_err_excerpt_and_writes_nothing(tmp_path):
-    from surrogates.sources.energyplus import build_ilv_table
-
     # a real EPW cut after ten days (DATA PERIODS says so): a January run period is a fatal error
     lines = tampa_epw().read_text().splitlines(keepends=True)
     lines[7] = "DATA PERIODS,1,1,Data,Sunday, 1/ 1,1/10\n"

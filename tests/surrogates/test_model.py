@@ -124,19 +124,6 @@ def test_history_perturbation_leaves_the_clean_start_alone():
     assert perturb_history(temps, 0.0, 6, np.random.default_rng(3)) is temps
 
 
-def test_temperature_shift_is_one_degree_on_the_temperature_inputs():
-    """The warm start's per-sample offset: +1 degC on every temperature input moves the normalised features
-    by exactly ``temperature_shift``; the other inputs do not move."""
-    names = ["outdoor_dry_bulb_temperature", "occupant_count", "indoor_dry_bulb_temperature_set_point",
-             "indoor_dry_bulb_temperature"]
-    raw = np.array([[-5.0, 0.0, 20.0, 18.0], [35.0, 12.0, 24.0, 26.0], [10.0, 3.0, 22.0, 21.0]])
-    norm = Normalization.fit(raw)
-    shift = norm.temperature_shift(names)
-    warmer = raw + np.array([1.0, 0.0, 1.0, 1.0])
-    np.testing.assert_allclose(norm.apply(warmer) - norm.apply(raw), np.broadcast_to(shift, raw.shape))
-    np.testing.assert_allclose(shift, [1 / 40, 0.0, 1 / 4, 1 / 8])
-
-
 def test_run_starts_are_in_every_warm_start_pass():
     """With anchors, each pass holds the first sequence of each anchored run; with random offsets alone, it
     is drawn only when the offset happens to be 0."""

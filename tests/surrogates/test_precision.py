@@ -114,10 +114,11 @@ def test_every_default_path_runs_float32_without_native_bf16(no_native_bf16, tmp
     """Forced "no bfloat16": the paper's default SAC back end (and the torch one), the surrogate trainer's
     default and the build's [surrogate] defaults all resolve to float32, and the paper records it."""
     from citylearn_env.example import write_example_district
-    from pipeline.build import train_config
+    from pipeline.build.surrogates import train_config
     from pipeline.config import read_build_config
-    from pipeline.paper import RunOptions, run_all
-    from pipeline.paper_sac import sac_precision
+    from pipeline.paper.benchmarks import RunOptions
+    from pipeline.paper.sac.train import sac_precision
+    from pipeline.paper.tasks import run_paper
     from surrogates.train import TrainConfig, update_precision
 
     assert sac_precision(RunOptions().precision, 9, 2).precision == "float32"
@@ -133,8 +134,8 @@ def test_every_default_path_runs_float32_without_native_bf16(no_native_bf16, tmp
     config = read_build_config(Path(__file__).parents[2] / "raw" / "district.toml")  # [surrogate] defaults
     assert config.surrogate.precision == "auto" and update_precision(train_config(config)).precision == "float32"
     schema = write_example_district(tmp_path / "district", n_buildings=2, hours=360, seed=3)
-    rows = run_all(schema, tmp_path / "paper", only=["rlc-b1-c-bess_pv", "rbc-b1-c-bess_pv"],
-                   options=RunOptions(sac_episodes=1), log=lambda *_: None)
+    rows = run_paper(schema, tmp_path / "paper", only=["rlc-b1-c-bess_pv", "rbc-b1-c-bess_pv"], sweep=(),
+                     options=RunOptions(sac_episodes=1), log=lambda *_: None)["results"]
     by_id = {r["id"]: r for r in rows}
     assert by_id["rlc-b1-c-bess_pv"]["precision"] == "float32" and by_id["rbc-b1-c-bess_pv"]["precision"] == "-"
     assert "SAC: fast in float32 (--precision auto) on " in (tmp_path / "paper" / "results.md").read_text()

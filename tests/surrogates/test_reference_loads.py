@@ -10,8 +10,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from benchmarks import reference_houses as rh
 from citylearn_env.errors import InputError
-from surrogates.energyplus import reference_houses as rh
 
 SITE = "ENVIRONMENT"
 

@@ -10,8 +10,8 @@ import pandas as pd
 import pytest
 import torch
 
+from benchmarks import reference_houses as rh
 from citylearn_env.settings import CORRECTED
-from surrogates.energyplus import reference_houses as rh
 from surrogates.evaluate import bank_rollout, monthly_rmse, predict_segment
 from surrogates.export import dynamics_block, save_checkpoint
 from surrogates.ilv import calendar_columns, validate_ilv
@@ -48,7 +48,7 @@ def one_r_one_c(hours: int = 24 * 75, references=(0, 2, 3, 4, 5, 6)) -> pd.DataF
     return validate_ilv(pd.concat(frames, ignore_index=True))
 
 
-SMALL = TrainConfig(hidden_size=8, epochs=12, pretrain_steps=400, chunk_hours=12, long_chunk_hours=(24,),
+SMALL = TrainConfig(hidden_size=8, epochs=12, pretrain_steps=400, chunk_hours=12, long_chunk_hours=24,
                     long_chunk_epochs=4, validation_hours=168, progress=False)
 
 

@@ -151,8 +151,10 @@ def test_bad_config():
         TrainConfig(pretrain_noise=-0.01)
     with pytest.raises(InputError, match="pretrain_clean_hours"):
         TrainConfig(pretrain_clean_hours=-1)
-    with pytest.raises(InputError, match="pretrain_temperature_shift"):
-        TrainConfig(pretrain_temperature_shift=-0.5)
+    with pytest.raises(InputError, match="ema_decay"):
+        TrainConfig(ema_decay=-0.5)
+    with pytest.raises(InputError, match="long_chunk_hours"):
+        TrainConfig(long_chunk_hours=0)
     assert set(REQUIRED_COLUMNS) > {"cooling_demand", "heating_demand"}
 
 

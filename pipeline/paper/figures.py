@@ -26,7 +26,7 @@ PEAK_ROWS = ("x-b1_b2-x-pv", "rbc-b1_b2-p-bess_pv", "rlc-b1_b2-p-bess_pv")
 def write_figures(out: Path, results: Sequence[Mapping[str, Any]], sweep: Sequence[Mapping[str, Any]] = ()
                   ) -> list[Path]:
     """Draw every figure whose runs are in ``results``; return the files written."""
-    import matplotlib
+    import matplotlib  # matplotlib loads only when a figure is drawn
 
     matplotlib.use("Agg")
     by_id = {r["id"]: r for r in results}
@@ -37,7 +37,7 @@ def write_figures(out: Path, results: Sequence[Mapping[str, Any]], sweep: Sequen
         if figure is not None:
             figure.savefig(out / name, dpi=110, bbox_inches="tight")
             written.append(out / name)
-            import matplotlib.pyplot as plt
+            import matplotlib.pyplot as plt  # matplotlib loads only when a figure is drawn
 
             plt.close(figure)
     return written
@@ -45,7 +45,7 @@ def write_figures(out: Path, results: Sequence[Mapping[str, Any]], sweep: Sequen
 
 def cost_emissions(by_id: Mapping[str, Mapping[str, Any]]):
     """Bars of B1's cost and emissions per controlled benchmark, baselines as lines; None without rows."""
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # matplotlib loads only when a figure is drawn
 
     rows = [r for i, r in by_id.items() if i not in BASELINES and "-b1-" in f"{i}-" and "d_o" not in i]
     if not rows:
@@ -71,7 +71,7 @@ def cost_emissions(by_id: Mapping[str, Mapping[str, Any]]):
 
 def actions_soc(by_id: Mapping[str, Mapping[str, Any]]):
     """Action and SOC of the learning storage benchmarks over the first 7 test days; None without rows."""
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # matplotlib loads only when a figure is drawn
 
     rows = [by_id[i] for i in STORAGE_RL if i in by_id]
     if not rows:
@@ -111,7 +111,7 @@ def shade_tou(ax, price: np.ndarray) -> None:
 
 def daily_peak(by_id: Mapping[str, Mapping[str, Any]]):
     """District daily peak per test day for no control + PV, peak RBC and peak SAC; None without rows."""
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # matplotlib loads only when a figure is drawn
 
     rows = [by_id[i] for i in PEAK_ROWS if i in by_id]
     if not rows:

@@ -9,12 +9,13 @@ buildings play the paper's B1 and B2, which devices exist, which actions and obs
 which reward), runs its controller (none, the paper's rule, or SAC trained on the first 13 days), and
 reports the paper's objectives over the test period (days 14 to the end): cost, emissions, discomfort and
 consumption of B1, and the district's average daily peak. Power outages are off in every run, as in the
-paper. The runs are independent tasks (:mod:`pipeline.paper_tasks`); figures in :mod:`pipeline.paper_figures`.
+paper. The runs are independent tasks (:mod:`pipeline.paper.tasks`); tables in :mod:`pipeline.paper.results`, figures in
+:mod:`pipeline.paper.figures`.
 """
 
 from __future__ import annotations
 
-import dataclasses
+import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -22,9 +23,15 @@ from typing import Any
 
 import numpy as np
 
+from citylearn_env import CityLearnEnv, load_schema
 from citylearn_env.config import BuildingConfig, DistrictConfig
+from citylearn_env.errors import InputError
+from citylearn_env.wrappers import NormalizedActionWrapper, NormalizedObservationWrapper
+from pipeline.controllers import RULE_SETS, rule_actions, run_episode
+from pipeline.paper.sac.train import sac_threads, train_sac
 
 TRAIN_DAYS = 13
+
 
 #: the paper's RL observations, always / per DER / per objective
 ALWAYS = ("hour", "day_type")
@@ -59,8 +66,11 @@ BENCHMARKS = tuple(_bench(i) for i in (
     "rlc-b1-e-dhw_bess_pv", "rlc-b1-d_o-hp", "rlc-b1_b2-p-bess_pv",
 ))
 
+
 REWARDS = {"cost": "cost", "emissions": "emissions", "peak": "average_daily_peak",
            "discomfort_consumption": "discomfort_consumption", "none": "default"}
+
+
 RULES = {"cost": "cost_rbc", "emissions": "emission_rbc", "peak": "peak_rbc"}
 
 
@@ -82,13 +92,11 @@ def observations(b: Benchmark) -> list[str]:
     return names
 
 
-
 ROLES = ("B1", "B2")
 
 
 def resolve_roles(district: DistrictConfig, names: Sequence[str] | None = None) -> tuple[str, ...]:
     """The schema buildings playing B1 (and B2): ``names`` (one or two) or the district's first two."""
-    from citylearn_env.errors import InputError
 
     names = tuple(names) if names else district.building_names[:2]
     if not 1 <= len(names) <= 2 or len(set(names)) != len(names):
@@ -112,7 +120,6 @@ def missing_devices(building: BuildingConfig, b: Benchmark) -> list[str]:
 
 def check_devices(district: DistrictConfig, b: Benchmark, roles: Sequence[str]) -> None:
     """Raise one clear InputError when a building playing a role in ``b`` lacks a device ``b`` needs."""
-    from citylearn_env.errors import InputError
 
     by_name = dict(zip(district.building_names, district.buildings, strict=True))
     for role, name in zip(ROLES, roles[:b.buildings], strict=False):
@@ -133,7 +140,6 @@ def benchmark_schema(district: DistrictConfig, b: Benchmark, split: tuple[int, i
     """
     roles = resolve_roles(district, roles)
     if len(roles) < b.buildings:
-        from citylearn_env.errors import InputError
 
         raise InputError(f"{b.id} needs two buildings (B1 and B2), got only {list(roles)}", column="--buildings")
     check_devices(district, b, roles)
@@ -157,20 +163,35 @@ def benchmark_schema(district: DistrictConfig, b: Benchmark, split: tuple[int, i
 def load_district(schema_path: str | Path, settings: str | None = None) -> DistrictConfig:
     """The district schema loaded once (data files read and validated); benchmarks derive from it.
     ``settings``: the environment's upstream behaviour preset (None = corrected, "citylearn-2.1")."""
-    from citylearn_env import load_schema
 
     return load_schema(Path(schema_path), settings=settings)
+
+
+SWEEP_ID = "rlc-b1-d_o-hp"
+
+
+@dataclass(frozen=True)
+class Task:
+    """One run: benchmark ``id`` with over-cooling multiplier ``multiplier`` and seed ``seed``."""
+
+    id: str
+    multiplier: float
+    seed: int
+
+    @property
+    def key(self) -> str:
+        return f"{self.id}-m{self.multiplier:g}-s{self.seed}"
 
 
 @dataclass(frozen=True)
 class RunOptions:
     """How the benchmarks run. ``roles``: buildings playing B1 [B2] (None = the first two); ``rules``:
     "described" or "published" (:data:`pipeline.controllers.RULE_SETS`); ``compat``: the CityLearn 2.1
-    preset (``settings="citylearn-2.1"``); ``sac``: the SAC back end (:data:`pipeline.paper_sac.BACKENDS`);
+    preset (``settings="citylearn-2.1"``); ``sac``: the SAC back end (:data:`pipeline.paper.sac.train.BACKENDS`);
     ``sac_threads``: torch threads of one SAC training (None: chosen per task by
-    :func:`pipeline.paper_sac.sac_threads` over the ``cores`` the runner leaves each task); ``precision``: the
-    SAC update's numeric mode, ``auto``, ``float32`` or ``bfloat16`` (:func:`pipeline.paper_sac.sac_precision`);
-    ``cores``: CPU cores one task may use (set by :func:`pipeline.paper_tasks.run_paper` from its runner; not
+    :func:`pipeline.paper.sac.train.sac_threads` over the ``cores`` the runner leaves each task); ``precision``: the
+    SAC update's numeric mode, ``auto``, ``float32`` or ``bfloat16`` (:func:`pipeline.paper.sac.train.sac_precision`);
+    ``cores``: CPU cores one task may use (set by :func:`pipeline.paper.tasks.run_paper` from its runner; not
     part of a result's identity)."""
 
     sac_episodes: int = 150
@@ -192,20 +213,11 @@ TRACE_STEPS = 7 * 24
 
 
 def run_benchmark(district: DistrictConfig, b: Benchmark, *, seed: int = 0, multiplier: float = 3.0,
-                  options: RunOptions = RunOptions(), **legacy: Any) -> dict[str, Any]:
-    """Run one benchmark; return its test-period objectives (B1; district peak) and a trace for the figures.
+                  options: RunOptions = RunOptions()) -> dict[str, Any]:
+    """Run one benchmark; return its test-period objectives (B1; district peak) and a trace for the figures."""
 
-    ``legacy``: ``sac_episodes=`` overrides ``options.sac_episodes`` (older call sites).
-    """
-    import time
 
-    from citylearn_env import CityLearnEnv
-    from pipeline.controllers import RULE_SETS, rule_actions
-
-    if legacy:
-        options = dataclasses.replace(options, **legacy)
     if options.rules not in RULE_SETS:
-        from citylearn_env.errors import InputError
 
         raise InputError(f"unknown rule set {options.rules!r}; known: {', '.join(RULE_SETS)}", column="--rules")
     started = time.perf_counter()
@@ -214,7 +226,6 @@ def run_benchmark(district: DistrictConfig, b: Benchmark, *, seed: int = 0, mult
     env = CityLearnEnv(benchmark_schema(district, b, test, multiplier, options.roles), settings=options.settings)
     policy, train_seconds, train_cpu, precision, threads = None, 0.0, 0.0, "-", 0
     if b.control == "sac":
-        from pipeline.paper_sac import sac_threads
 
         threads = options.sac_threads or sac_threads(options.cores)[0]
         trained = sac_policy(
@@ -223,18 +234,12 @@ def run_benchmark(district: DistrictConfig, b: Benchmark, *, seed: int = 0, mult
         policy, train_seconds, train_cpu, precision = trained
     rules, lookahead = RULE_SETS[options.rules]
     rule = rules[RULES[b.objective]] if b.control == "rbc" else None
-    obs, _ = env.reset(seed=seed)
-    terminated = False
-    actions = []
-    while not terminated:
-        if rule is not None:
-            action = rule_actions(env, rule, lookahead)
-        elif policy is not None:
-            action = policy(obs)
-        else:
-            action = np.zeros(env.action_space.shape)
-        actions.append(action)
-        obs, _, terminated, _, _ = env.step(action)
+    if rule is not None:
+        actions = run_episode(env, lambda _: rule_actions(env, rule, lookahead), seed)
+    elif policy is not None:
+        actions = run_episode(env, policy, seed)
+    else:
+        actions = run_episode(env, lambda _: np.zeros(env.action_space.shape), seed)
     result = env.objectives()
     first = {k: float(v[0]) for k, v in result["per_building"].items()}
     series = env.series()
@@ -271,8 +276,6 @@ def sac_policy(env, episodes: int, seed: int, backend: str, threads: int = 1, pr
     """SAC trained on ``env`` (the paper's normalisation: periodic encoding, min-max; [0, 1] actions);
     returns (raw observation -> environment action, training wall seconds, training CPU seconds, the
     precision the updates ran in)."""
-    from citylearn_env.wrappers import NormalizedActionWrapper, NormalizedObservationWrapper
-    from pipeline.paper_sac import train_sac
 
     wrapped = NormalizedActionWrapper(NormalizedObservationWrapper(env))
     trained = train_sac(wrapped, episodes, seed, backend, threads, precision)
@@ -285,50 +288,9 @@ def sac_policy(env, episodes: int, seed: int, backend: str, threads: int = 1, pr
     return policy, trained.seconds, trained.cpu_seconds, trained.precision.precision
 
 
-def run_all(schema_path: str | Path, out_dir: str | Path, *, only: list[str] | None = None,
-            sac_episodes: int = 150, seed: int = 0, multiplier: float = 3.0, log=print,
-            options: RunOptions | None = None, seeds: int = 1, workers: int = 1) -> list[dict]:
-    """Run the benchmarks (all 17, or ``only``) on a district schema; write results.csv / results.md (and
-    the figures). Learning rows run ``seeds`` times (seeds ``seed`` .. ``seed + seeds - 1``); returns one
-    summary row per benchmark (mean over seeds; ``*_std`` columns)."""
-    from pipeline.paper_tasks import run_paper
-
-    options = options or RunOptions(sac_episodes=sac_episodes)
-    return run_paper(schema_path, out_dir, only=only, sweep=(), seed=seed, seeds=seeds, multiplier=multiplier,
-                     options=options, workers=workers, log=log)["results"]
-
-
 def mean_or_zero(x: np.ndarray) -> float:
     return float(x.mean()) if x.size else 0.0
 
 
 def std_or_zero(x: np.ndarray) -> float:
     return float(x.std()) if x.size else 0.0
-
-
-def multiplier_sweep(schema_path: str | Path, out_dir: str | Path, multipliers=(1.0, 3.0, 6.0, 12.0), *,
-                     sac_episodes: int = 150, seed: int = 0, log=print, options: RunOptions | None = None,
-                     seeds: int = 1, workers: int = 1) -> list[dict]:
-    """The paper's m-sweep of rlc-b1-d_o-hp: discomfort, over/under-cooling, consumption, % change vs m = 1."""
-    from pipeline.paper_tasks import run_paper
-
-    options = options or RunOptions(sac_episodes=sac_episodes)
-    return run_paper(schema_path, out_dir, only=[], sweep=tuple(multipliers), seed=seed, seeds=seeds,
-                     options=options, workers=workers, log=log)["sweep"]
-
-
-def sweep_table(rows: Sequence[Mapping[str, Any]]) -> str:
-    """The m-sweep table (markdown): one row per multiplier, changes against the first row (m = 1)."""
-    base = rows[0]
-    lines = ["| m | discomfort C h | over-cooling C (mean +- std) | under-cooling C (mean +- std) | "
-             "consumption kWh | discomfort change | consumption change |", "|---|---|---|---|---|---|---|"]
-    for r in rows:
-        lines.append(f"| {r['multiplier']:g} | {r['discomfort']:.1f} | {r['overcooling_mean']:.2f} +- "
-                     f"{r['overcooling_std']:.2f} | {r['undercooling_mean']:.2f} +- {r['undercooling_std']:.2f} | "
-                     f"{r['consumption']:.2f} | {_change(r['discomfort'], base['discomfort'])} | "
-                     f"{_change(r['consumption'], base['consumption'])} |")
-    return "\n".join(lines) + "\n"
-
-
-def _change(value: float, base: float) -> str:
-    return f"{100.0 * (value - base) / base:+.1f} %" if base else "-"

@@ -5,7 +5,7 @@ surrogate) as a task of the running flow, on the flow's task runner: a thread po
 DaskTaskRunner in :func:`build_district_on_dask` (a local Dask cluster, or the ``address`` of an existing
 one). Runs locally with no server (Prefect's ephemeral mode).
 
-No Prefect caching or result persistence: trained surrogates are cached by :mod:`pipeline.cache` (plain
+No Prefect caching or result persistence: trained surrogates are cached by :mod:`pipeline.build.cache` (plain
 files checked by sha256, keyed on what training uses), never pickled.
 
 Prefect's API: :func:`prefect_api` uses a configured server (``PREFECT_API_URL``), else starts Prefect's
@@ -22,36 +22,22 @@ import subprocess
 import sys
 import threading
 import time
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Iterator
+from concurrent.futures import ThreadPoolExecutor
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
-from prefect import flow, task
-from prefect.cache_policies import NO_CACHE
+import httpx
+from prefect import flow
 from prefect.task_runners import ThreadPoolTaskRunner
 
-from pipeline import build
+from pipeline import progress
+from pipeline.build.driver import run_build
 from pipeline.config import BuildConfig, read_build_config
 from pipeline.errors import InputError
-
-
-class PrefectRunner:
-    """Each call a Prefect task (named ``<step>-<label>``) of the running flow; waits for all, in order."""
-
-    def map(self, step: str, fn: Callable[..., Any], calls: Mapping[str, tuple]) -> dict[str, Any]:
-        from prefect.futures import as_completed
-
-        from pipeline import progress
-
-        work = task(fn, name=step, cache_policy=NO_CACHE, persist_result=False)
-        futures = {label: work.with_options(task_run_name=f"{step}-{label}").submit(*args)
-                   for label, args in calls.items()}
-        labels = {id(future): label for label, future in futures.items()}
-        for future in as_completed(list(futures.values())):
-            future.result()  # the first failure ends the build (its own error, one line in the CLI)
-            progress.advance(step, labels[id(future)])
-        return {label: future.result() for label, future in futures.items()}
+from pipeline.progress import forward_dask_events
+from pipeline.runners import PrefectRunner
 
 
 @flow(name="build_district", task_runner=ThreadPoolTaskRunner(max_workers=2), log_prints=True)
@@ -59,7 +45,7 @@ def build_district(config: BuildConfig | str | Path, output_root: str = "artifac
     """Build the district of ``config`` (a BuildConfig or a TOML path) into ``output_root/<name>``."""
     if not isinstance(config, BuildConfig):
         config = read_build_config(config)
-    return build.run_build(config, output_root, PrefectRunner())
+    return run_build(config, output_root, PrefectRunner())
 
 
 def build_district_on_dask(config: BuildConfig | str | Path, output_root: str = "artifacts", *,
@@ -70,12 +56,10 @@ def build_district_on_dask(config: BuildConfig | str | Path, output_root: str = 
     Every worker runs one task at a time with one torch thread (training sets it; Dask sets OMP/MKL threads
     to 1), so results do not depend on the worker count. Building reports (step, epochs) reach this process's
     progress display as Dask events (:func:`pipeline.progress.forward_dask_events`)."""
-    from concurrent.futures import ThreadPoolExecutor
 
-    from distributed import Client
+    from distributed import Client  # optional extra: dask
     from prefect_dask import DaskTaskRunner
 
-    from pipeline.progress import forward_dask_events
 
     with ThreadPoolExecutor(max_workers=1, thread_name_prefix="dask_cluster") as pool:
         cluster = None if address else pool.submit(local_cluster, workers or os.cpu_count() or 1)
@@ -94,7 +78,7 @@ def build_district_on_dask(config: BuildConfig | str | Path, output_root: str = 
 
 def local_cluster(workers: int):
     """A local Dask cluster of ``workers`` worker processes, one thread each, no dashboard, quiet logs."""
-    import dask
+    import dask  # optional extra: dask
     from distributed import LocalCluster
 
     with dask.config.set({"logging.distributed": "error"}):
@@ -129,21 +113,27 @@ def prefect_api() -> Iterator[str]:
     by this call (stopped on exit, on an error, on SIGINT/SIGTERM/SIGHUP, and by a watchdog process if this
     process is killed with SIGKILL). The temporary server keeps its run records in memory unless a database
     is configured (``PREFECT_SERVER_DATABASE_CONNECTION_URL``)."""
-    from prefect.settings import PREFECT_API_URL, temporary_settings
+    from prefect.settings import (  # optional: Prefect (pipeline extra) loads only when a flow runs
+        PREFECT_API_URL,
+        temporary_settings,
+    )
 
     configured = PREFECT_API_URL.value()
     if configured:
         yield configured
         return
-    from prefect.server.api.server import SubprocessASGIServer
+    from prefect.server.api.server import (
+        SubprocessASGIServer,  # optional: Prefect (pipeline extra) loads only when a flow runs
+    )
 
-    from pipeline import progress
 
     server = SubprocessASGIServer()
     previous = _exit_on_signals()
     watchdog = None
     try:
-        from prefect.settings import PREFECT_SERVER_DATABASE_CONNECTION_URL
+        from prefect.settings import (
+            PREFECT_SERVER_DATABASE_CONNECTION_URL,  # optional: Prefect (pipeline extra) loads only when a flow runs
+        )
 
         own_database = any(name in os.environ for name in (
             "PREFECT_SERVER_DATABASE_CONNECTION_URL", "PREFECT_API_DATABASE_CONNECTION_URL"))
@@ -188,7 +178,7 @@ def patient_settings() -> dict:
         PREFECT_API_REQUEST_TIMEOUT,
         PREFECT_SERVER_DATABASE_CONNECTION_TIMEOUT,
         PREFECT_SERVER_DATABASE_TIMEOUT,
-    )
+    )  # optional: Prefect (pipeline extra) loads only when a flow runs
 
     wanted = {PREFECT_API_REQUEST_TIMEOUT: 300.0, PREFECT_SERVER_DATABASE_TIMEOUT: 60.0,
               PREFECT_SERVER_DATABASE_CONNECTION_TIMEOUT: 60.0}
@@ -202,7 +192,6 @@ def start_server(server: Any, timeout_s: float) -> None:
     Prefect's own wait (``SubprocessASGIServer.start``) counts only its sleeps and gives up when a health
     request is slow to answer (a loaded machine); its server process is still starting then, so this keeps
     asking it (each request may take 30 s) until the deadline, and stops it only on giving up."""
-    import httpx
 
     deadline = time.monotonic() + timeout_s
     try:

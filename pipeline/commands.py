@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from pipeline.errors import InputError
-from pipeline.paper_sac import BACKENDS
+from pipeline.paper.sac.train import BACKENDS
 from surrogates.precision import PRECISIONS
 
 ARTIFACTS = Path("artifacts")
@@ -109,7 +109,7 @@ def run_command(args: argparse.Namespace) -> int:
 
 
 def build_command(args: argparse.Namespace) -> int:
-    from pipeline.build import staging
+    from pipeline.build.staging import staging
     from pipeline.config import read_build_config
 
     config = read_build_config(args.config)
@@ -143,15 +143,15 @@ def _build(config, args: argparse.Namespace) -> Path:
     _quiet_orchestration()
     try:
         if args.no_prefect:
-            from pipeline.build import build_district_local
+            from pipeline.build.driver import build_district_local
 
             return build_district_local(config, args.output_root)
         if args.dask:
-            from pipeline.flows import build_district_on_dask
+            from pipeline.build.flows import build_district_on_dask
 
             address = None if args.dask == "local" else args.dask
             return build_district_on_dask(config, str(args.output_root), address=address, workers=args.workers)
-        from pipeline.flows import build_district, prefect_api
+        from pipeline.build.flows import build_district, prefect_api
 
         with prefect_api():  # no Prefect server outlives the build
             return build_district(config, str(args.output_root))
@@ -172,10 +172,10 @@ def _quiet_orchestration() -> None:
 
 
 def verify_command(args: argparse.Namespace) -> int:
-    """Re-hash every artifact and input of a district against its manifest (pipeline.manifest.check_district):
+    """Re-hash every artifact and input of a district against its manifest (pipeline.build.manifest.check_district):
     one line per problem or warning, naming the file; exit 2 when anything differs, else a validation run."""
-    from pipeline.build import validate_district
-    from pipeline.manifest import check_district
+    from pipeline.build.manifest import check_district
+    from pipeline.build.validate import validate_district
 
     if not args.folder.is_dir():
         raise InputError("not a folder (verify takes a built district's folder)", file=args.folder, column="folder")
@@ -202,8 +202,8 @@ def verify_command(args: argparse.Namespace) -> int:
 
 
 def paper_command(args: argparse.Namespace) -> int:
-    from pipeline.paper import RunOptions
-    from pipeline.paper_tasks import run_paper
+    from pipeline.paper.benchmarks import RunOptions
+    from pipeline.paper.tasks import run_paper
 
     if args.sac_threads is not None and args.sac_threads < 1:
         raise InputError("--sac-threads N needs N >= 1 (leave it out to choose per task)", column="--sac-threads")
@@ -214,7 +214,7 @@ def paper_command(args: argparse.Namespace) -> int:
     only = args.only if args.only or args.full or not args.sweep else []
     runner = None
     if args.dask:
-        from pipeline.paper_tasks import DaskRunner
+        from pipeline.runners import DaskRunner
 
         runner = DaskRunner(None if args.dask == "local" else args.dask, args.workers)
     run_paper(args.schema, args.output, only=only, sweep=sweep, seed=args.seed, seeds=args.seeds,
@@ -238,8 +238,9 @@ def register_surrogate_install(surrogate_commands: argparse._SubParsersAction) -
 
 def _install_command(args: argparse.Namespace) -> int:
     """``surrogate install DISTRICT BUILDING MODEL``: a retrained model into a built district, re-verified
-    (the work is :func:`pipeline.manifest.install_surrogate`)."""
-    from pipeline.manifest import install_surrogate, verify_district
+    (the work is :func:`pipeline.build.install.install_surrogate`)."""
+    from pipeline.build.install import install_surrogate
+    from pipeline.build.manifest import verify_district
 
     folder = install_surrogate(args.district, args.building, args.model)
     problems = verify_district(folder)

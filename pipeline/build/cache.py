@@ -89,15 +89,6 @@ def files_digest(paths: Iterable[Path], base: Path) -> str:
     return digest.hexdigest()
 
 
-def district_digest(folder: str | os.PathLike) -> str:
-    """sha256 over the artifact hashes a district's manifest records (:func:`pipeline.manifest.output_hashes`:
-    every file's relative path, sha256 and size, except ``manifest.json`` and ``timings.json``).
-
-    Two builds of the same configuration have the same digest whatever the runner or worker count."""
-    from pipeline.manifest import output_hashes
-
-    return hashlib.sha256(json.dumps(output_hashes(Path(folder)), sort_keys=True).encode()).hexdigest()
-
 
 def _safe_relative(name: str) -> bool:
     """A relative path inside the entry folder (no absolute path, no ``..``, no empty parts)."""

@@ -1,4 +1,4 @@
-"""The build report: ``report/summary.md`` (tables) and the PNG figures it shows (:mod:`pipeline.report_figures`).
+"""The build report: ``report/summary.md`` (tables) and the PNG figures it shows (:mod:`pipeline.build.report_figures`).
 
 ``summary.md`` holds the devices the sizing chose, the surrogates' held-out fit, the no-control vs cost-RBC
 objectives (absolute units, district and per building) and the district KPIs of ``kpis_<policy>.csv``
@@ -16,12 +16,23 @@ from typing import Any
 
 import numpy as np
 
-from pipeline import report_figures as figures
+from pipeline.build.report_figures import (
+    END_USES,
+    POLICY_LABELS,
+    heatmap_figure,
+    load_figure,
+    parse_calendar,
+    peak_week,
+    policies_figure,
+    safe_name,
+    temperature_figure,
+)
+from pipeline.select import format_validity
 
 #: episode series the report needs (env.series() names), (B, T)
 SERIES = ("net_electricity_consumption", "solar_generation", "electricity_pricing", "carbon_intensity",
           "indoor_dry_bulb_temperature", "indoor_dry_bulb_temperature_set_point", "outdoor_dry_bulb_temperature",
-          *(key for key, _, _ in figures.END_USES))
+          *(key for key, _, _ in END_USES))
 #: data columns the report needs for its calendar (env.data() names), (B, T)
 CALENDAR = ("hour", "month", "day_type")
 #: objective -> (unit, decimals) of :func:`citylearn_env.kpis.objectives`
@@ -141,11 +152,11 @@ def objectives_table(objectives: Mapping[str, Mapping[str, float]]) -> list[str]
         values = [objectives[p][key] for p in policies]
         rows.append([key.replace("_", " "), unit, *(f"{v:.{decimals}f}" for v in values),
                      *(_change(v, values[0]) for v in values[1:])])
-    header = ["objective", "unit", *(figures.POLICY_LABELS.get(p, p) for p in policies),
-              *(f"change {figures.POLICY_LABELS.get(p, p)}" for p in policies[1:])]
+    header = ["objective", "unit", *(POLICY_LABELS.get(p, p) for p in policies),
+              *(f"change {POLICY_LABELS.get(p, p)}" for p in policies[1:])]
     return ["## Objectives over the period (district)", "",
             f"Cost, emissions and consumption count grid imports only; discomfort is the sum of |indoor - set "
-            f"point| over the hours; change relative to {figures.POLICY_LABELS.get(first, first)}.", "",
+            f"point| over the hours; change relative to {POLICY_LABELS.get(first, first)}.", "",
             *_table(header, rows), ""]
 
 
@@ -153,7 +164,7 @@ def building_objectives_table(per: Mapping[str, Mapping[str, np.ndarray]], build
     """Cost [$], emissions [kg CO2], consumption [kWh] and discomfort [degC h] per building and policy, from
     ``per``: policy -> the ``per_building`` arrays of :func:`citylearn_env.kpis.objectives`."""
     policies = list(per)
-    names = " / ".join(figures.POLICY_LABELS.get(p, p) for p in policies)
+    names = " / ".join(POLICY_LABELS.get(p, p) for p in policies)
     keys = ("cost", "emissions", "consumption", "discomfort")
     rows = [[building, *(" / ".join(f"{per[p][k][b]:.{OBJECTIVES[k][1]}f}" for p in policies) for k in keys)]
             for b, building in enumerate(buildings)]
@@ -177,28 +188,28 @@ def kpi_table(kpis: Mapping[str, Any]) -> list[str]:
     return ["## KPIs (CityLearn evaluate, district level; kpis_<policy>.csv)", "",
             "Ratios compare each policy's run with its own run without storage (1 = no change, lower is "
             "better); n/a: not defined for the period (no outage).", "",
-            *_table(["KPI", "unit", *(figures.POLICY_LABELS.get(p, p) for p in policies)], rows), ""]
+            *_table(["KPI", "unit", *(POLICY_LABELS.get(p, p) for p in policies)], rows), ""]
 
 
 def write_figures(report_dir: Path, buildings: list[str], series: Mapping[str, Mapping[str, np.ndarray]]
                   ) -> list[tuple[str, str, str]]:
     """Draw every figure into ``report_dir``; return (section, caption, file name) in report order."""
     baseline = series["no_control"] if "no_control" in series else next(iter(series.values()))
-    calendar = figures.parse_calendar(baseline["hour"][0], baseline["month"][0], baseline["day_type"][0])
+    calendar = parse_calendar(baseline["hour"][0], baseline["month"][0], baseline["day_type"][0])
     nets = {p: s["net_electricity_consumption"].sum(axis=0) for p, s in series.items()}
-    window = figures.peak_week(nets.get("no_control", next(iter(nets.values()))), calendar)
+    window = peak_week(nets.get("no_control", next(iter(nets.values()))), calendar)
     out = [("District", "district net load, no control vs cost RBC (daily energy, daily peak, peak week)",
-            figures.policies_figure(report_dir / "district_net.png", nets, baseline["electricity_pricing"][0],
+            policies_figure(report_dir / "district_net.png", nets, baseline["electricity_pricing"][0],
                                     calendar, window).name),
            ("District", "district net load by day and hour of day (heat maps)",
-            figures.heatmap_figure(report_dir / "district_heatmap.png", nets, calendar).name)]
+            heatmap_figure(report_dir / "district_heatmap.png", nets, calendar).name)]
     for b, building in enumerate(buildings):
-        stem = figures.safe_name(building)
+        stem = safe_name(building)
         out.append((building, f"{building}: electricity by end use with tariff and carbon intensity",
-                    figures.load_figure(report_dir / f"load_{stem}.png", building, b, baseline, calendar,
+                    load_figure(report_dir / f"load_{stem}.png", building, b, baseline, calendar,
                                         window).name))
         out.append((building, f"{building}: indoor temperature vs set point",
-                    figures.temperature_figure(report_dir / f"temperature_{stem}.png", building, b, baseline,
+                    temperature_figure(report_dir / f"temperature_{stem}.png", building, b, baseline,
                                                calendar, window).name))
     return out
 
@@ -215,3 +226,30 @@ def figure_section(figures_written: list[tuple[str, str, str]]) -> list[str]:
             section = name
         lines += [f"![{caption}]({filename})", ""]
     return lines[:-1]
+
+
+def append_building_report(summary: Path, buildings: Mapping[str, dict], selection: Any) -> None:
+    """Append the buildings' heating devices, set-point repairs and the selection to ``report/summary.md``."""
+    lines = ["", "## Buildings", "",
+             "| building | bldg_id | stock heating | heating device | kW | heating / cooling demand kWh | "
+             "set points degC (heat / cool) | set-point hours repaired |", "|---|---|---|---|---|---|---|---|"]
+    for name, b in buildings.items():
+        fuel = b.get("heating_fuel", "")
+        stock = f"{b['heating_system']}{f' ({fuel})' if fuel else ''}"
+        device = {"heat_pump": "heat pump", "electric_heater": "electric heater", None: "none"}[b["heating_device"]]
+        heat, cool = b.get("heating_set_point_c"), b.get("cooling_set_point_c")
+        points = f"{heat[0]:.1f}-{heat[1]:.1f} / {cool[0]:.1f}-{cool[1]:.1f}" if heat and cool else "-"
+        power = f"{b['heating_power_kw']:.2f}" if b.get("heating_power_kw") is not None else "-"
+        lines.append(f"| {name} | {b['bldg_id']} | {stock} | {device}: {b['heating_note']} | {power} | "
+                     f"{b['heating_demand_kwh']:.0f} / {b['cooling_demand_kwh']:.0f} | {points} | "
+                     f"{b.get('set_point_hours_repaired', '-')} |")
+    if any(b.get("set_point_hours_repaired") for b in buildings.values()):
+        lines += ["", "Repaired set points: where the stock's heating set point is at or above its cooling set "
+                      "point (EnergyPlus refuses it), both move to their mean -/+ 0.5 K."]
+    if selection is not None:
+
+        k = int(selection.chosen["k"].iloc[0])
+        lines += ["", f"## Selection (k = {k}, one building per k-means cluster)", "", "```",
+                  format_validity(selection.validity, k), "```"]
+    with open(summary, "a") as handle:
+        handle.write("\n".join(lines) + "\n")

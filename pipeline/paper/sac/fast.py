@@ -1,10 +1,10 @@
-"""SB3's SAC update with hand-written gradients: the ``fast`` back end of :mod:`pipeline.paper_sac`.
+"""SB3's SAC update with hand-written gradients: the ``fast`` back end of :mod:`pipeline.paper.sac.train`.
 
-:class:`FastSAC` runs exactly the update of :class:`pipeline.paper_sac.LeanSAC` (the same parameters, random
+:class:`FastSAC` runs exactly the update of :class:`pipeline.paper.sac.train.LeanSAC` (the same parameters, random
 draws, losses and Adam steps; the module docstring there lists the stable-baselines3 defaults reproduced)
 without autograd: every gradient is written out below, so one update is ~25 matrix products and a few dozen
 element-wise operations instead of a recorded graph. With ``bf16=True`` (where
-:func:`pipeline.paper_sac.sac_precision` chooses bfloat16) the matrix products take bfloat16 operands, while
+:func:`pipeline.paper.sac.train.sac_precision` chooses bfloat16) the matrix products take bfloat16 operands, while
 parameters, Adam state, losses and every element-wise step stay float32; weights are rounded to bfloat16 once
 per update, not per product.
 
@@ -25,7 +25,9 @@ from __future__ import annotations
 
 import math
 
-from pipeline.paper_sac import (
+import numpy as np
+
+from pipeline.paper.sac.lean import (
     GAMMA,
     LEARNING_RATE,
     LOG_STD_MAX,
@@ -44,7 +46,7 @@ def relu_(x):
     """ReLU in place. A bfloat16 tensor is clamped through its int16 view: a set sign bit makes the int16
     negative, so clamping at 0 zeroes exactly the negative values (and -0.0) without the float conversion
     torch's bfloat16 element-wise kernels make (~4x faster here)."""
-    import torch
+    import torch  # torch: the CLI imports this module; torch loads on first use
 
     if x.dtype == torch.bfloat16:
         x.view(torch.int16).clamp_min_(0)
@@ -56,7 +58,7 @@ def relu_backward(grad, activation):
     """``grad`` where the ReLU output ``activation`` (>= 0) is positive, else 0. A bfloat16 ``grad`` is
     overwritten: an in-place integer product of its int16 view with ``min(bits, 1)`` of the activation's
     (1 exactly where the activation is positive)."""
-    import torch
+    import torch  # torch: the CLI imports this module; torch loads on first use
 
     if grad.dtype == torch.bfloat16:
         grad.view(torch.int16).mul_(activation.view(torch.int16).clamp_max(1))
@@ -70,7 +72,7 @@ class FusedAdam:
     (kept as ``last_grads`` for inspection)."""
 
     def __init__(self, params, lr: float = LEARNING_RATE):
-        import torch
+        import torch  # torch: the CLI imports this module; torch loads on first use
 
         self.torch, self.params, self.lr = torch, list(params), lr
         self.exp_avg = [torch.zeros_like(p) for p in self.params]
@@ -162,7 +164,6 @@ class FastSAC(LeanSAC):
     def explore(self, obs):
         """LeanSAC's rollout draw for one observation in NumPy on the float32 weights (shared memory, no copy):
         a batch of one costs more in torch's dispatch than in its arithmetic. Same noise draw, same stream."""
-        import numpy as np
 
         w1, b1, w2, b2, w3, b3 = self.numpy_actor
         h = np.maximum(np.asarray(obs, dtype=np.float32) @ w1 + b1[0], 0.0)
@@ -272,7 +273,7 @@ def _thin(product):
 
 def _with_ones(x):
     """``x`` (..., N, F) with a trailing column of ones: (..., N, F + 1)."""
-    import torch
+    import torch  # torch: the CLI imports this module; torch loads on first use
 
     return torch.cat([x, x.new_ones((*x.shape[:-1], 1))], dim=-1)
 
@@ -281,7 +282,7 @@ def _low_precision(params, dtype):
     """``dtype`` copies of an MLP's float32 parameters [w1 (.., in, H), b1 (.., 1, H), w2, b2, w3, b3]:
     ``first``, the first layer's weight with its bias as a last row (.., in + 1, H), and six tensors shaped
     like ``params`` (the first two are views into ``first``), to refresh with ``torch._foreach_copy_``."""
-    import torch
+    import torch  # torch: the CLI imports this module; torch loads on first use
 
     first = torch.cat(params[:2], dim=-2).to(dtype)
     return first, [first[..., :-1, :], first[..., -1:, :], *(p.to(dtype) for p in params[2:])]

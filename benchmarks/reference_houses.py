@@ -1,6 +1,7 @@
-"""Independent validation houses: EnergyPlus reference models shipped with ``pyenergyplus-lbnl``, turned
-into ideal-load-variation (ILV) tables the same way upstream CityLearn does, but without our parametric
-house generator (:mod:`surrogates.energyplus.house` is not used here).
+"""Independent validation houses of the surrogate validation suite (:mod:`surrogate_suite`): EnergyPlus
+reference models shipped with ``pyenergyplus-lbnl``, turned into ideal-load-variation (ILV) tables the same
+way upstream CityLearn does, but without our parametric house generator (:mod:`surrogates.energyplus.house`
+is not used here).
 
 Per model (an IDF of ``pyenergyplus/data/model``, converted to epJSON by the engine's ``--convert-only``):
 
@@ -135,7 +136,7 @@ SUITE_HOUSES: tuple[ReferenceHouse, ...] = (
 
 def package_data_dir(kind: str) -> Path:
     """``pyenergyplus/data/<kind>`` (``model`` or ``weather``) of the installed ``pyenergyplus-lbnl``."""
-    try:
+    try:  # imported here: pyenergyplus-lbnl is optional (extra energyplus), its absence is this one error
         import pyenergyplus
     except ImportError:
         raise InputError("the reference models ship with pyenergyplus-lbnl: pip install "

@@ -1,6 +1,6 @@
 """The build report's figures: one PNG each, readable for a week and for a year, byte-identical on a rebuild.
 
-Every figure is drawn from the episode series of :func:`pipeline.report.report_series` (name -> (B, T) arrays,
+Every figure is drawn from the episode series of :func:`pipeline.build.report.report_series` (name -> (B, T) arrays,
 kWh per 1-h step = kW, temperatures degC, price $/kWh, carbon intensity kg CO2/kWh, ``hour`` 1..24
 hour-ending, ``day_type`` 1..7 Monday..Sunday and 8 holiday). Days are the blocks that start at hour 1
 (00:00-01:00); a period that starts mid-day has a short first day. Two views of time are used everywhere:
@@ -125,10 +125,10 @@ def safe_name(name: str) -> str:
 
 # ---------------------------------------------------------------------------------------------- drawing
 def _pyplot():
-    import matplotlib
+    import matplotlib  # matplotlib loads only when a figure is drawn
 
     matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # matplotlib loads only when a figure is drawn
 
     return plt
 
@@ -206,7 +206,7 @@ def _stack(ax, parts: list[tuple[np.ndarray, str, str]], pv: np.ndarray, net: np
 
 def _tariff_bands(ax, price: np.ndarray) -> list:
     """Shade the tariff levels of the (T,) window ``price`` behind ``ax``; return legend handles."""
-    from matplotlib.patches import Patch
+    from matplotlib.patches import Patch  # matplotlib loads only when a figure is drawn
 
     levels, labels = price_bands(price)
     shades = _pyplot().get_cmap("Oranges")(np.linspace(0.05, 0.45, len(labels)))
@@ -223,7 +223,7 @@ CARBON_BAND = (0.66, 0.86)
 def _carbon_line(ax, carbon: np.ndarray, label: str):
     """Carbon intensity [kg CO2/kWh] on a twin y axis of ``ax``, scaled into :data:`CARBON_BAND` (ticks only
     over its range); return the twin."""
-    from matplotlib.ticker import MaxNLocator
+    from matplotlib.ticker import MaxNLocator  # matplotlib loads only when a figure is drawn
 
     twin = ax.twinx()
     twin.step(_stairs_x(carbon.size), _stairs(carbon), where="post", color=CARBON_COLOUR, lw=1.0, label=label)

@@ -1,0 +1,173 @@
+"""The district build: pure steps and ONE driver, :func:`run_build`.
+
+Steps (inputs -> in-memory tables -> outputs)::
+
+    resolve_selection [selection] -> the bldg_ids (pipeline.select: filters + one building per k-means cluster)
+    site_signals      weather file, tariff, fuel mix -> weather / pricing / carbon tables + PV yield per kW
+                      (the PV yield is computed once per site: every building shares the weather file)
+    ingest_building   EULP building + the site's PV yield -> the building table (per building), or
+    simulate_building a real stock row -> ONE full-year EnergyPlus pass on the district's weather: hourly
+                      loads + the ILV table (per building, cached); house_table -> the building table
+    size_buildings    building tables + outdoor temperature -> device attributes (cooling and heating)
+    surrogate_files   ILV table (or EnergyPlus inputs) -> trained LSTM files, through the surrogate cache
+                      (per building; see pipeline.build.cache)
+    schema_dict       -> schema.json;  validate_district -> report/;  write_manifest -> manifest.json
+
+Tables are ``pandas.DataFrame`` of internal (v2.2) column names, one row per hour from ``period.start``
+00:00 (local standard time; row 0 is CityLearn hour 1); they are written with
+:func:`citylearn_env.dataset.write_table` and never read back. :func:`run_build` sequences the steps and
+submits the per-building work through a :class:`pipeline.runners.Runner`: :class:`~pipeline.runners.InProcessRunner` (plain calls),
+or :class:`~pipeline.runners.PrefectRunner` (:mod:`pipeline.build.flows`) (tasks on a thread pool, or on Dask). A build is written into
+a temporary sibling folder and renamed into place only when complete and validated.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Mapping
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+from pipeline import progress
+from pipeline.build.houses import (
+    HouseSimulation,
+    building_notes,
+    eulp_heating_system,
+    heating_devices,
+    house_table,
+    house_work,
+)
+from pipeline.build.manifest import (
+    make_world_readable,
+    split_surrogate_timings,
+    write_manifest,
+    write_timings,
+)
+from pipeline.build.report import append_building_report
+from pipeline.build.staging import staging
+from pipeline.build.steps import (
+    Signals,
+    building_names,
+    ingest_building,
+    resolve_selection,
+    schema_dict,
+    site_signals,
+    size_buildings,
+    write_tables,
+)
+from pipeline.build.surrogates import SurrogateFiles, fmu_ilv, surrogate_files, write_surrogate_files
+from pipeline.build.validate import validate_district
+from pipeline.config import BuildConfig
+from pipeline.runners import InProcessRunner, Runner
+
+
+def run_build(config: BuildConfig, output_root: str | Path = "artifacts", runner: Runner | None = None) -> Path:
+    """THE build: every step in order, per-building work through ``runner`` (default: in-process).
+
+    Writes into a hidden sibling folder of ``output_root/<name>`` and renames it into place only when the
+    schema validated; returns ``output_root/<name>``. Hashes, versions and the surrogate cache keys go into
+    ``manifest.json`` (reproducible); timings [s], training seconds and cache hits into ``timings.json``
+    (:mod:`pipeline.build.manifest`); every file 0644, every folder 0755; the selection, each house's heating
+    system and device and its set-point repair go into ``selection.csv`` / ``buildings.json`` and the report.
+    """
+
+    runner = runner or InProcessRunner()
+    timings: dict[str, float] = {}
+    started = time.perf_counter()
+    config, selection = resolve_selection(config)
+    timings["selection"] = time.perf_counter() - started
+    names = building_names(config)
+    ids = dict(zip(names, config.inputs.buildings, strict=True))
+    with staging(config, output_root) as out:
+        started = time.perf_counter()
+        signals, houses, early = signals_and_houses(config, ids, runner, timings)
+        outdoor = signals.outdoor
+        if config.inputs.characteristics is not None:
+            frames = {n: house_table(config, houses[n], signals.solar) for n in names}
+            systems = {n: houses[n].summary["heating_system"] for n in names}
+        else:
+            progress.stage("ingest", len(names))
+            frames = runner.map("ingest", ingest_building,
+                                {n: (config, i, signals.solar, outdoor) for n, i in ids.items()})
+            systems = {n: eulp_heating_system(config, i) for n, i in ids.items()}
+            progress.end("ingest")
+        write_tables(out, config.layout, {
+            "weather.csv": ("weather", signals.weather), "pricing.csv": ("pricing", signals.pricing),
+            "carbon_intensity.csv": ("carbon", signals.carbon),
+            **{f"{n}.csv": ("building", frames[n]) for n in names}})
+        timings["ingest"] = time.perf_counter() - started
+        heating = heating_devices(config, frames, systems)
+        sizes = size_buildings(config, frames, signals.weather, heating)
+        started = time.perf_counter()
+        dynamics, cache_use, trained = None, {}, {}
+        if config.surrogate.source != "none":
+            tables = {n: None for n in names}
+            if config.surrogate.source == "energyplus" and houses:
+                tables = {n: houses[n].ilv for n in names}
+            elif config.surrogate.source == "fmu":
+                tables = {n: fmu_ilv(config, frames[n], signals.weather) for n in names}
+            todo = {n: (config, i, n, tables[n], outdoor) for n, i in ids.items() if n not in early}
+            if todo:
+                progress.stage("surrogate", len(todo))
+            trained = early | runner.map("surrogate", surrogate_files, todo)
+            trained = {n: trained[n] for n in names}
+            if todo:
+                progress.end("surrogate")
+            split = {n: split_surrogate_timings(trained[n].files) for n in names}  # seconds -> timings.json
+            dynamics = {n: write_surrogate_files(out, split[n][0]) for n in names}
+            cache_use = {n: {"hit": trained[n].hit, **split[n][1]} for n in names}
+        timings["surrogates"] = time.perf_counter() - started
+        schema = schema_dict(config, names, sizes, dynamics)
+        schema_path = out / "schema.json"
+        schema_path.write_text(json.dumps(schema, indent=2))
+        buildings = building_notes(ids, systems, heating, {n: h.summary for n, h in houses.items()}, frames,
+                                   sizes)
+        (out / "buildings.json").write_text(json.dumps(buildings, indent=2))
+        if selection is not None:
+            selection.chosen.assign(building=names).to_csv(out / "selection.csv", index=False)
+        started = time.perf_counter()
+        progress.stage("validate")
+        validate_district(schema_path, out / "report", config.name, schema)
+        progress.end("validate")
+        append_building_report(out / "report" / "summary.md", buildings, selection)
+        timings["validate"] = time.perf_counter() - started
+        write_manifest(out, config, {n: trained[n].key for n in cache_use})
+        write_timings(out, config, timings, cache_use)
+        make_world_readable(out)
+    return Path(output_root) / config.name
+
+
+def signals_and_houses(config: BuildConfig, ids: Mapping[str, int], runner: Runner, timings: dict[str, float],
+                       ) -> tuple[Signals, dict[str, HouseSimulation], dict[str, SurrogateFiles]]:
+    """The site's signals (read in a thread) while the runner does the per-house work (:func:`house_work`:
+    simulation and, for ``energyplus`` surrogates, training) of buildings from real characteristics.
+
+    Returns the signals, the simulations and the surrogates already trained, by building name; records the
+    wall seconds of both in ``timings`` (``site_signals``, ``houses``)."""
+
+    started = time.perf_counter()
+    houses: dict[str, HouseSimulation] = {}
+    early: dict[str, SurrogateFiles] = {}
+
+    def done(_) -> None:
+        timings["site_signals"] = time.perf_counter() - started
+        progress.end("site signals")
+
+    progress.stage("site signals")
+    with ThreadPoolExecutor(max_workers=1, thread_name_prefix="site_signals") as pool:
+        pending = pool.submit(site_signals, config)  # read while the houses simulate: serial time hidden
+        pending.add_done_callback(done)
+        if config.inputs.characteristics is not None:
+            progress.stage("house", len(ids))
+            work = runner.map("house", house_work, {n: (config, i, n) for n, i in ids.items()})
+            houses = {n: work[n].simulation for n in ids}
+            early = {n: work[n].surrogate for n in ids if work[n].surrogate is not None}
+            timings["houses"] = time.perf_counter() - started
+            progress.end("house")
+        return pending.result(), houses, early
+
+
+def build_district_local(config: BuildConfig, output_root: str | Path = "artifacts") -> Path:
+    """:func:`run_build` with plain in-process calls (no Prefect)."""
+    return run_build(config, output_root, InProcessRunner())

@@ -1,0 +1,177 @@
+"""Houses from real stock rows: the full-year EnergyPlus pass (cached), the building table, the heating device
+and the per-house notes of the report.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+from collections.abc import Mapping
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import pandas as pd
+
+import surrogates
+from pipeline.build.cache import FileCache, cache_key, cache_root, files_digest
+from pipeline.build.manifest import (
+    sha256_file,
+)
+from pipeline.build.steps import eulp_metadata_row, plain_value
+from pipeline.build.surrogates import ENERGYPLUS_SOURCES, SurrogateFiles, surrogate_files
+from pipeline.config import BuildConfig
+from pipeline.errors import InputError
+from pipeline.ingest.eulp import citylearn_building
+from pipeline.ingest.timeindex import period_index
+from pipeline.progress import report
+from pipeline.select import read_stock_table
+from surrogates.energyplus.ilv import ILVConfig
+from surrogates.energyplus.metadata import normalise_characteristics, parse_heating_system
+from surrogates.sources.energyplus import simulate_house
+
+#: heating system of the stock -> heating device of the schema (``fuel`` and ``none``: simulation.fuel_heating)
+HEATING_DEVICE_OF = {"heat_pump": "heat_pump", "electric_resistance": "electric_heater"}
+
+
+def read_characteristics_row(path: Path, bldg_id: int) -> dict[str, object]:
+    """One stock row (either metadata layout) as plain JSON values in the published layout (``bldg_id``,
+    ``in.*``); NaN -> None."""
+
+    path = Path(path)
+    raw = read_stock_table(path)
+    id_column = "bldg_id" if "bldg_id" in raw.columns else "building_id"
+    if id_column not in raw.columns:
+        raise InputError("no building id column (expected 'bldg_id' or 'building_id')", file=path, column="bldg_id")
+    rows = raw[pd.to_numeric(raw[id_column], errors="coerce") == int(bldg_id)]
+    if rows.empty:
+        raise InputError(f"building {bldg_id} not in the characteristics", file=path, column=id_column)
+    keep = {k: v for k, v in rows.iloc[0].to_dict().items()
+            if str(k).startswith(("bldg_id", "building_id", "in.", "build_existing_model.", "upgrade_costs.floor"))}
+    return {k: plain_value(v) for k, v in normalise_characteristics(keep).items()}
+
+
+@dataclass(frozen=True)
+class HouseSimulation:
+    """A simulated house: hourly loads (see :func:`surrogates.energyplus.ilv.hourly_loads`), its ILV table, the
+    report summary (heating system, set-point repair), the cache key and whether the cache had it."""
+
+    loads: pd.DataFrame
+    ilv: pd.DataFrame
+    summary: dict
+    key: str
+    hit: bool
+
+
+def simulation_cache_parts(config: BuildConfig, row: Mapping[str, object]) -> dict:
+    """What a house's simulation is a function of (the cache key parts): the stock row, the weather file's
+    sha256, the calendar year of the period (the pass covers that whole year), the simulation settings (not
+    ``fuel_heating``: it acts after the simulation) and the generator's sources. Not the period's days."""
+
+    package = Path(surrogates.__file__).parent
+    return {"row": dict(row), "epw_sha256": sha256_file(Path(config.inputs.weather)), "year": config.period.start.year,
+            "simulation": config.simulation.model_dump(exclude={"fuel_heating"}),
+            "generator_sha256": files_digest([package / f for f in ENERGYPLUS_SOURCES], package)}
+
+
+def simulate_building(config: BuildConfig, bldg_id: int) -> HouseSimulation:
+    """The full-year EnergyPlus pass of one real stock row on the district's weather (loads + ILV), from the
+    simulation cache (``<cache root>/simulations/<key>``; key: the row, the EPW's sha256, the simulation
+    settings and the generator's sources) or simulated and stored."""
+
+
+    row = read_characteristics_row(config.inputs.characteristics, bldg_id)
+    parts = simulation_cache_parts(config, row)
+    sim, year = config.simulation, config.period.start.year
+    key = cache_key(parts)
+    cache = FileCache(cache_root(config.cache_dir) / "simulations")
+    files = cache.get(key)
+    if files is not None:
+        return HouseSimulation(pd.read_parquet(io.BytesIO(files["loads.parquet"])),
+                               pd.read_parquet(io.BytesIO(files["ilv.parquet"])),
+                               json.loads(files["house.json"]), key, True)
+    ilv_config = ILVConfig(partial_runs=sim.partial_runs, seed=sim.seed, timesteps_per_hour=sim.timesteps_per_hour,
+                           year=year)
+    loads, table, summary = simulate_house(row, Path(config.inputs.weather), config=ilv_config,
+                                           source=config.inputs.characteristics)
+    files = {"loads.parquet": loads.to_parquet(), "ilv.parquet": table.to_parquet(index=False),
+             "house.json": json.dumps(summary).encode()}
+    cache.put(key, files, inputs=parts)
+    return HouseSimulation(loads, table, summary, key, False)
+
+
+@dataclass(frozen=True)
+class HouseWork:
+    """One house's per-building work: its simulation and, for ``surrogate.source = "energyplus"``, its
+    surrogate files (None otherwise: trained later, from tables that need the site's signals)."""
+
+    simulation: HouseSimulation
+    surrogate: SurrogateFiles | None
+
+
+def house_work(config: BuildConfig, bldg_id: int, name: str) -> HouseWork:
+    """Simulate a real stock row (:func:`simulate_building`) and train its surrogate on the simulated ILV table
+    (:func:`surrogate_files`) in ONE task: no barrier between the two stages across houses, so a worker that
+    finishes a simulation trains at once; each result is cached as soon as it exists (a rerun resumes)."""
+
+    report(name, "simulate (EnergyPlus, full year)")
+    simulation = simulate_building(config, bldg_id)
+    surrogate = None
+    if config.surrogate.source == "energyplus":
+        surrogate = surrogate_files(config, bldg_id, name, simulation.ilv)
+        simulation = replace(simulation, ilv=simulation.ilv.iloc[:0])  # used: not sent back to the build process
+    return HouseWork(simulation, surrogate)
+
+
+def house_table(config: BuildConfig, simulation: HouseSimulation, solar: pd.Series) -> pd.DataFrame:
+    """The CityLearn building table of a simulated house over the period: its ideal-pass loads
+    (:func:`surrogates.energyplus.ilv.hourly_loads`, with indoor humidity and both set points) through the one
+    table maker of every building, :func:`pipeline.ingest.eulp.citylearn_building`, with the site's PV yield."""
+    index = period_index(config.period.start, config.period.end)
+    return citylearn_building(simulation.loads, index, holidays=[d.isoformat() for d in config.inputs.holidays],
+                              solar_generation=solar, file=f"EnergyPlus house {simulation.summary['bldg_id']}")
+
+
+def heating_devices(config: BuildConfig, frames: Mapping[str, pd.DataFrame],
+                    systems: Mapping[str, str]) -> dict[str, str | None]:
+    """Heating device per building: None without heating demand in the period; else from the stock's heating
+    system (heat pump -> the heat pump heats too; electric resistance -> an electric heater; a fuel or no
+    system -> ``simulation.fuel_heating``)."""
+    out: dict[str, str | None] = {}
+    for name, frame in frames.items():
+        if float(frame["heating_demand"].sum()) <= 0.0:
+            out[name] = None
+        else:
+            out[name] = HEATING_DEVICE_OF.get(systems.get(name, "heat_pump"), config.simulation.fuel_heating)
+    return out
+
+
+def eulp_heating_system(config: BuildConfig, bldg_id: int) -> str:
+    """The heating system (:func:`surrogates.energyplus.metadata.parse_heating_system`) of an EULP building
+    from its metadata (``in.heating_fuel``, ``in.hvac_heating_type_and_fuel``); a heat pump when absent."""
+
+    row = eulp_metadata_row(config, bldg_id)
+    if row.get("in.heating_fuel") is None:
+        return "heat_pump"
+    return parse_heating_system(row["in.heating_fuel"], row.get("in.hvac_heating_type_and_fuel")
+                                or row.get("in.hvac_heating_efficiency") or "")
+
+
+def building_notes(ids: Mapping[str, int], systems: Mapping[str, str], heating: Mapping[str, str | None],
+                   summaries: Mapping[str, dict], frames: Mapping[str, pd.DataFrame],
+                   sizes: Mapping[str, dict] | None = None) -> dict[str, dict]:
+    """Per building: bldg_id, the stock's heating system, the schema's heating device (and why) and its nominal
+    electric power [kW], the period's heating and cooling demand [kWh] and, for simulated houses, the house
+    summary (set points, repairs)."""
+    why = {"heat_pump": "heats with a heat pump", "electric_resistance": "heats with electric resistance",
+           "fuel": "heats with a fuel: electrified", "none": "has no heating system: electrified"}
+    notes = {}
+    for name, bldg_id in ids.items():
+        frame = frames[name]
+        device = heating[name]
+        note = "no heating demand in the period" if device is None else why.get(systems[name], "")
+        power = ((sizes or {}).get(name, {}).get("heating_device") or {}).get("nominal_power")
+        notes[name] = {"bldg_id": int(bldg_id), "heating_system": systems[name], "heating_device": device,
+                       "heating_note": note, "heating_power_kw": power, "heating_demand_kwh": round(float(frame["heating_demand"].sum()), 3),
+                       "cooling_demand_kwh": round(float(frame["cooling_demand"].sum()), 3),
+                       **{k: v for k, v in summaries.get(name, {}).items() if k != "bldg_id"}}
+    return notes

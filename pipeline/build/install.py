@@ -1,0 +1,176 @@
+"""``districtgen surrogate install``: put a retrained surrogate into a built district. The model's LSTM inputs
+are checked against the building's, the files copied, the schema updated, the district re-validated and its
+records rewritten, all in a copy that replaces the district only when everything succeeded.
+"""
+
+from __future__ import annotations
+
+import copy
+import datetime as dt
+import json
+import os
+import shutil
+import tempfile
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from pipeline.build.manifest import (
+    MANIFEST,
+    TIMINGS,
+    make_world_readable,
+    output_hashes,
+    read_manifest,
+    sha256_file,
+    split_metrics_timings,
+    write_json_file,
+)
+from pipeline.build.staging import swap_in
+from pipeline.build.validate import validate_district
+from pipeline.errors import InputError
+from surrogates.export import load_surrogate
+
+
+@dataclass(frozen=True)
+class ModelFiles:
+    """A trained surrogate as ``surrogate train`` writes it: ``<stem>.pth`` and ``<stem>.dynamics.json``,
+    optionally ``<stem>.metrics.json`` and ``<stem>.png``, all in one folder."""
+
+    pth: Path
+    dynamics: Path
+    metrics: Path | None
+    plot: Path | None
+
+
+def find_model_files(model: str | os.PathLike, building: str) -> ModelFiles:
+    """The files of a trained model from its ``.pth`` or its folder (one ``.pth``, or ``<building>.pth``)."""
+    model = Path(model)
+    if model.is_dir():
+        candidates = sorted(model.glob("*.pth"))
+        named = [p for p in candidates if p.stem == building]
+        if len(named) == 1 or len(candidates) == 1:
+            model = (named or candidates)[0]
+        else:
+            raise InputError(f"expected one .pth (or {building}.pth) in the folder, found "
+                             f"{len(candidates)}", file=model)
+    if model.suffix != ".pth" or not model.is_file():
+        raise InputError("not a model file (the .pth written by 'surrogate train') or its folder", file=model)
+    sibling = {s: model.with_name(f"{model.stem}{s}") for s in (".dynamics.json", ".metrics.json", ".png")}
+    if not sibling[".dynamics.json"].is_file():
+        raise InputError("no dynamics block beside the model (written by 'surrogate train')",
+                         file=sibling[".dynamics.json"])
+    return ModelFiles(model, sibling[".dynamics.json"],
+                      sibling[".metrics.json"] if sibling[".metrics.json"].is_file() else None,
+                      sibling[".png"] if sibling[".png"].is_file() else None)
+
+
+def check_model_fits(block: Mapping[str, Any], current: Mapping[str, Any] | None, *, building: str,
+                     model: Path) -> None:
+    """Refuse (one line) a model whose LSTM inputs (names, order, count) are not the building's: ``block`` is
+    the new model's dynamics block, ``current`` the schema's dynamics entry of the building (None: none)."""
+    if not current:
+        raise InputError(f"{building} has no LSTM dynamics entry in the schema: nothing to replace (build the "
+                         "district with a surrogate source)", file=model, column="dynamics")
+    new, old = block.get("attributes", {}), current.get("attributes", {})
+    if list(new.get("input_observation_names", [])) != list(old.get("input_observation_names", [])):
+        raise InputError(f"the model's LSTM inputs {new.get('input_observation_names')} are not {building}'s "
+                         f"{old.get('input_observation_names')}", file=model, column="input_observation_names")
+    if new.get("input_size") != old.get("input_size"):
+        raise InputError(f"the model's input size {new.get('input_size')} is not {building}'s "
+                         f"{old.get('input_size')}", file=model, column="input_size")
+
+
+def place_model(folder: Path, building: str, files: ModelFiles, schema: dict, block: dict) -> dict[str, Any]:
+    """Copy a checked model (its parsed dynamics ``block``) into a district folder as ``<building>.pth`` and
+    ``surrogates/<building>.*`` (metrics without their seconds), point the schema's dynamics entry at it and
+    rewrite ``schema.json``; returns the seconds taken out of the metrics (for ``timings.json``)."""
+    block = copy.deepcopy(block)
+    block["attributes"]["filename"] = f"{building}.pth"
+    (folder / "surrogates").mkdir(exist_ok=True)
+    shutil.copyfile(files.pth, folder / f"{building}.pth")
+    write_json_file(folder / "surrogates" / f"{building}.dynamics.json", block)
+    seconds: dict[str, Any] = {}
+    if files.metrics is not None:
+        metrics, seconds = split_metrics_timings(json.loads(files.metrics.read_text()))
+        source = Path(str(metrics.get("source", ""))).name  # the training table's name, not where it was
+        write_json_file(folder / "surrogates" / f"{building}.metrics.json",
+                        {**metrics, "building": building, "source": source})
+    if files.plot is not None:
+        shutil.copyfile(files.plot, folder / "surrogates" / f"{building}.png")
+    schema["buildings"][building]["dynamics"] = block
+    write_json_file(folder / "schema.json", schema)
+    return seconds
+
+
+def revalidate(folder: Path, name: str, schema: dict) -> None:
+    """Run the district validation (no control + the cost RBC) and replace ``report/`` with its report,
+    keeping the old summary's sections from ``## Buildings`` on (the build appends them)."""
+
+
+    summary = folder / "report" / "summary.md"
+    old = summary.read_text() if summary.is_file() else ""
+    tail = old[old.index("\n## Buildings"):] if "\n## Buildings" in old else ""
+    with tempfile.TemporaryDirectory(prefix="districtgen_install_") as scratch:
+        report = Path(scratch) / "report"
+        validate_district(folder / "schema.json", report, name, schema)
+        shutil.rmtree(folder / "report", ignore_errors=True)
+        shutil.copytree(report, folder / "report")
+    if tail:
+        with open(summary, "a") as handle:
+            handle.write(tail if tail.endswith("\n") else tail + "\n")
+
+
+def install_surrogate(district: str | os.PathLike, building: str, model: str | os.PathLike) -> Path:
+    """Put a retrained surrogate (``surrogate train`` output) into a built district for ``building``.
+
+    Checks the model's LSTM inputs against the schema's dynamics entry, copies the files, updates
+    ``schema.json``, re-runs the validation (report included) and rewrites ``manifest.json`` (inputs and
+    configuration as built; surrogate_cache of the building: the installed model's sha256) and ``timings.json``
+    (the training seconds), all in a copy of the district that replaces it only when everything succeeded.
+    Errors are one :class:`InputError` naming the district, the building or the model file. Returns the
+    district folder.
+    """
+
+    folder = Path(district)
+    manifest = read_manifest(folder)
+    try:
+        schema = json.loads((folder / "schema.json").read_text())
+    except (OSError, ValueError) as error:
+        raise InputError(f"cannot read the schema: {error}", file=folder / "schema.json") from None
+    if building not in schema.get("buildings", {}):
+        raise InputError(f"no building {building!r} in the district (it has "
+                         f"{', '.join(schema.get('buildings', {}))})", file=folder / "schema.json",
+                         column="buildings")
+    files = find_model_files(model, building)
+    block = json.loads(files.dynamics.read_text())
+    load_surrogate(files.pth, block)  # the weights match their block (else one InputError)
+    check_model_fits(block, schema["buildings"][building].get("dynamics"), building=building, model=files.pth)
+    work = folder.with_name(f".{folder.name}.install-{os.getpid()}")
+    shutil.rmtree(work, ignore_errors=True)
+    shutil.copytree(folder, work, symlinks=True)
+    try:
+        seconds = place_model(work, building, files, schema, block)
+        revalidate(work, manifest.get("district") or folder.name, schema)
+        manifest["outputs"] = output_hashes(work)
+        manifest.setdefault("surrogate_cache", {})[building] = {"key": None, "installed": files.pth.name,
+                                                              "sha256": sha256_file(files.pth)}
+        write_json_file(work / MANIFEST, manifest)
+        write_install_timings(work, building, files.pth, seconds)
+        make_world_readable(work)
+        swap_in(work, folder)
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+    return folder
+
+
+def write_install_timings(folder: Path, building: str, pth: Path, seconds: Mapping[str, Any]) -> Path:
+    """Record an installed model in ``timings.json``: its training seconds, where it came from, when."""
+    try:
+        record = json.loads((folder / TIMINGS).read_text())
+    except (OSError, ValueError):
+        record = {}
+    record.setdefault("surrogates", {})[building] = {**seconds, "installed_from": str(pth.resolve()),
+                                                     "installed_utc": dt.datetime.now(dt.UTC)
+                                                     .isoformat(timespec="seconds")}
+    return write_json_file(folder / TIMINGS, record)

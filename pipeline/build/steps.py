@@ -1,0 +1,193 @@
+"""The build's site and table steps: selection, the site's signals (weather, PV yield, prices, carbon), EULP
+building tables, sizing and the schema. Pure functions of the typed configuration returning frames/dicts.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from citylearn_env.dataset import DynamicsBlock, write_table
+from citylearn_env.emit import BuildingEntry, schema_document
+from citylearn_env.sizing import size_devices
+from pipeline.config import BuildConfig
+from pipeline.errors import InputError
+from pipeline.ingest.commands import carbon_table, read_weather_file
+from pipeline.ingest.eulp import citylearn_building, locate_building, read_eulp_building, read_eulp_metadata
+from pipeline.ingest.tariff import citylearn_pricing, read_tariff
+from pipeline.ingest.timeindex import period_index
+from pipeline.ingest.weather import ForecastSpec, citylearn_weather
+from pipeline.pv import site_pv_yield
+from pipeline.select import select_from_file
+
+OBSERVATIONS_SHARED = ("month", "day_type", "hour", "outdoor_dry_bulb_temperature",
+                       "outdoor_dry_bulb_temperature_predicted_6h", "diffuse_solar_irradiance",
+                       "direct_solar_irradiance", "carbon_intensity", "electricity_pricing",
+                       "electricity_pricing_predicted_6h")
+
+
+OBSERVATIONS_BUILDING = ("indoor_dry_bulb_temperature", "non_shiftable_load", "solar_generation",
+                         "dhw_storage_soc", "electrical_storage_soc", "net_electricity_consumption",
+                         "cooling_demand", "dhw_demand", "occupant_count", "indoor_dry_bulb_temperature_set_point",
+                         "indoor_dry_bulb_temperature_delta", "power_outage")
+
+
+#: largest mean |T_out difference| [degC] between a table's own outdoor temperature and the district's weather
+#: over their common hours before the build refuses the table as simulated on other weather
+WEATHER_TOLERANCE_C = 1.5
+
+
+def building_names(config: BuildConfig) -> list[str]:
+    return [f"Building_{i}" for i in range(1, len(config.inputs.buildings) + 1)]
+
+
+def resolve_selection(config: BuildConfig) -> tuple[BuildConfig, Any]:
+    """The configuration with ``inputs.buildings`` set from ``[selection]`` (when given; the listed buildings
+    otherwise) and the :class:`pipeline.select.Selection` (or None)."""
+    if config.selection is None:
+        return config, None
+
+    sel = config.selection
+    selection = select_from_file(sel.metadata or config.inputs.characteristics, sel.filters, clusters=sel.clusters,
+                                 seed=sel.seed, method=sel.method, max_clusters=sel.max_clusters)
+    ids = [int(i) for i in selection.chosen["bldg_id"]]
+    return config.model_copy(update={"inputs": config.inputs.model_copy(update={"buildings": ids})}), selection
+
+
+def check_weather(own_outdoor_c: pd.Series, weather_outdoor_c: pd.Series, *, what: str, file: object) -> float:
+    """Refuse (one line) a table whose own outdoor temperature [degC] differs from the district's weather by more
+    than :data:`WEATHER_TOLERANCE_C` on average over their common hours; returns that mean difference.
+
+    Both series are indexed by interval-beginning local standard time; no common hour is also a refusal.
+    """
+    common = own_outdoor_c.index.intersection(weather_outdoor_c.index)
+    if len(common) == 0:
+        raise InputError(f"{what} has no hour in common with the district's weather and period", file=file,
+                         column="outdoor_dry_bulb_temperature")
+    diff = float(np.mean(np.abs(own_outdoor_c.loc[common].to_numpy(dtype=float)
+                                - weather_outdoor_c.loc[common].to_numpy(dtype=float))))
+    if not diff <= WEATHER_TOLERANCE_C:
+        raise InputError(f"{what} was simulated on other weather than the district's (mean |dT_out| = {diff:.2f} "
+                         f"degC over {len(common)} h, limit {WEATHER_TOLERANCE_C}): re-simulate it with the "
+                         "district's weather file", file=file, column="outdoor_dry_bulb_temperature")
+    return diff
+
+
+def plain_value(value: object) -> object:
+    """A numpy scalar as a plain Python value; NaN -> None (JSON-safe cache-key parts)."""
+    value = value.item() if isinstance(value, np.generic) else value
+    return None if isinstance(value, float) and np.isnan(value) else value
+
+
+@dataclass(frozen=True)
+class Signals:
+    """The district's shared tables over the period (hourly, row 0 = period start 00:00 standard time).
+
+    ``weather``: CityLearn weather columns; ``pricing``: $/kWh columns; ``carbon``: ``carbon_intensity``
+    [kg CO2e/kWh]; ``solar``: PV AC yield [W per kW DC] of the site, indexed by local standard time over the
+    weather file's whole range (buildings select their period); ``outdoor``: the weather file's outdoor
+    dry-bulb temperature [degC] over its whole range (interval-beginning; for the weather-consistency check).
+    """
+
+    weather: pd.DataFrame
+    pricing: pd.DataFrame
+    carbon: pd.DataFrame
+    solar: pd.Series
+    outdoor: pd.Series | None = None
+
+
+def site_signals(config: BuildConfig) -> Signals:
+    """Read the weather file once: the weather table and the site's PV yield; then prices and carbon."""
+
+    p, i = config.period, config.inputs
+    index = period_index(p.start, p.end)
+    frame, meta = read_weather_file(i.weather, tmy_year=index[0].year)
+    weather = citylearn_weather(frame, index, ForecastSpec(mode=config.forecast, seed=config.seed), file=i.weather)
+    solar = site_pv_yield(frame, meta, tilt=config.pv.tilt, azimuth=config.pv.azimuth, file=i.weather)
+    pricing = citylearn_pricing(read_tariff(i.tariff), index)
+    carbon = carbon_table(i.fuel_mix, index, timezone=config.timezone)
+    return Signals(weather, pricing, carbon, solar, frame["outdoor_dry_bulb_temperature_c"].astype(float))
+
+
+def ingest_building(config: BuildConfig, bldg_id: int, solar: pd.Series,
+                    weather: pd.Series | None = None) -> pd.DataFrame:
+    """One building's CityLearn table from its EULP metadata and timeseries, with the site's PV yield; with
+    ``weather`` (the district's outdoor temperature [degC]) the timeseries' own outdoor temperature, when it
+    has one, must match it (:func:`check_weather`)."""
+    i = config.inputs
+    eulp = read_eulp_building(i.eulp, int(bldg_id), upgrade=i.upgrade, state=i.state)
+    own = "out.outdoor_air_dryblub_temp.c"
+    if weather is not None and own in eulp.series.columns:
+        check_weather(eulp.series[own].groupby(eulp.series.index.floor("h")).mean(), weather,
+                      what=f"EULP timeseries of building {bldg_id}", file=eulp.series_path)
+    return citylearn_building(eulp.loads, period_index(config.period.start, config.period.end),
+                              holidays=[d.isoformat() for d in i.holidays], solar_generation=solar,
+                              file=eulp.series_path)
+
+
+def write_tables(out: Path, layout: str, tables: Mapping[str, tuple[str, pd.DataFrame]]) -> None:
+    """Write ``{file name: (kind, table)}`` into ``out`` with :func:`citylearn_env.dataset.write_table`."""
+
+    for filename, (kind, table) in tables.items():
+        write_table(out / filename, kind, {c: table[c].to_numpy(dtype=float) for c in table.columns}, layout)
+
+
+def size_buildings(config: BuildConfig, frames: Mapping[str, pd.DataFrame], weather: pd.DataFrame,
+                   heating: Mapping[str, str | None] | None = None) -> dict[str, dict]:
+    """Device attributes per building (the paper's rules, :func:`citylearn_env.sizing.size_devices`) from the
+    in-memory tables; ``heating`` names each building's heating device (None: heating not served)."""
+
+    rules = config.sizing.rules()
+    outdoor = weather["outdoor_dry_bulb_temperature"].to_numpy(dtype=float)
+    columns = ("cooling_demand", "heating_demand", "dhw_demand", "non_shiftable_load", "solar_generation")
+    return {name: size_devices({c: frame[c].to_numpy(dtype=float) for c in columns}, outdoor, rules,
+                               heating_device=(heating or {}).get(name))
+            for name, frame in frames.items()}
+
+
+def eulp_metadata_row(config: BuildConfig, bldg_id: int) -> dict[str, object]:
+    """The building's EULP metadata row as plain JSON values (``bldg_id`` included; NaN -> None)."""
+
+    i = config.inputs
+    metadata_path, _ = locate_building(i.eulp, int(bldg_id), upgrade=i.upgrade, state=i.state)
+    row = read_eulp_metadata(metadata_path).loc[int(bldg_id)].to_dict()
+    return {"bldg_id": int(bldg_id), **{str(k): plain_value(v) for k, v in row.items()}}
+
+
+def schema_dict(config: BuildConfig, names: list[str], sizes: dict[str, dict],
+                dynamics: dict[str, dict] | None) -> dict:
+    """The CityLearn schema of the district (file names relative to the schema's folder), written through
+    the one schema writer :func:`citylearn_env.emit.schema_document`.
+
+    A building's ``heating_device`` (when sized) is the heat pump itself or an ``ElectricHeater``; with
+    surrogates the ``heating_device`` action is active, and inactive in the buildings without one."""
+
+    slots = ("cooling_device", "heating_device", "dhw_device", "dhw_storage", "electrical_storage", "pv")
+    heated = {n for n in names if "heating_device" in sizes[n]}
+    entries = [BuildingEntry(
+        name, {slot: sizes[name][slot] for slot in slots if slot in sizes[name]},
+        dynamics=DynamicsBlock.from_schema(dynamics[name]) if dynamics else None,
+        device_types={"heating_device": "citylearn.energy_model.ElectricHeater"} if _resistance(sizes[name]) else {},
+        inactive_actions=("heating_device",) if dynamics and heated and name not in heated else ())
+        for name in names]
+    actions = {"dhw_storage", "electrical_storage"}
+    if dynamics:
+        actions |= {"cooling_device"} | ({"heating_device"} if heated else set())
+    return schema_document(
+        entries, hours=period_hours(config), observations=(*OBSERVATIONS_SHARED, *OBSERVATIONS_BUILDING),
+        shared_observations=OBSERVATIONS_SHARED, layout=config.layout, random_seed=config.seed,
+        active_actions=actions)
+
+
+def _resistance(size: Mapping[str, Mapping]) -> bool:
+    """A sized heating device without a heating target temperature is an electric (resistance) heater."""
+    return "heating_device" in size and "target_heating_temperature" not in size["heating_device"]
+
+
+def period_hours(config: BuildConfig) -> int:
+    return ((config.period.end - config.period.start).days + 1) * 24

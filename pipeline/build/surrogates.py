@@ -1,0 +1,190 @@
+"""A building's LSTM surrogate in the build: its ILV table (csv, FMU or EnergyPlus), the cache key, training
+through :mod:`surrogates` and the files written into the district.
+"""
+
+from __future__ import annotations
+
+import json
+import tempfile
+from collections.abc import Mapping
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import pandas as pd
+
+import surrogates
+from pipeline.build.cache import FileCache, cache_key, cache_root, files_digest, table_digest
+from pipeline.build.manifest import (
+    package_version,
+    sha256_file,
+)
+from pipeline.build.steps import check_weather, eulp_metadata_row
+from pipeline.config import BuildConfig
+from pipeline.errors import InputError
+from pipeline.progress import epochs, report
+from surrogates.export import train_and_export
+from surrogates.ilv import read_ilv, validate_ilv
+from surrogates.sources.energyplus import energyplus_ilv_table
+from surrogates.sources.fmu import simulate_ilv_fmu
+from surrogates.train import TrainConfig, update_precision
+
+#: the trainer's source files (relative to the ``surrogates`` package): part of every surrogate cache key
+TRAINER_SOURCES = ("train.py", "model.py", "export.py", "evaluate.py", "ilv.py")
+
+
+#: what turns EULP metadata + EPW into an ILV table: part of the key for ``surrogate.source = "energyplus"``
+ENERGYPLUS_SOURCES = ("sources/energyplus.py", "energyplus/ilv.py", "energyplus/house.py",
+                      "energyplus/metadata.py", "energyplus/runner.py", "energyplus/sqlite.py", "energyplus/epw.py")
+
+
+@dataclass(frozen=True)
+class SurrogateFiles:
+    """A building's surrogate files (relative path -> bytes), the cache key, and whether the cache had them."""
+
+    files: dict[str, bytes]
+    key: str
+    hit: bool
+
+
+def train_config(config: BuildConfig):
+    """The :class:`surrogates.train.TrainConfig` of the build (single-threaded, no progress bar)."""
+
+    s = config.surrogate
+    return TrainConfig(hidden_size=s.hidden_size, num_layers=s.num_layers, lookback=s.lookback, epochs=s.epochs,
+                       seed=s.seed, max_seconds=s.max_seconds, precision=s.precision, progress=False, threads=1)
+
+
+def csv_ilv_path(config: BuildConfig, bldg_id: int) -> Path:
+    """``inputs.ilv/<bldg_id>.parquet`` (or ``.csv``) of a building (surrogate source ``csv``)."""
+    if config.inputs.ilv is None:
+        raise InputError("surrogate.source = 'csv' needs inputs.ilv (a folder of <bldg_id>.parquet/.csv)",
+                         file=config.source, column="inputs.ilv")
+    for suffix in (".parquet", ".csv"):
+        path = config.inputs.ilv / f"{bldg_id}{suffix}"
+        if path.exists():
+            return path
+    raise InputError(f"no ILV table for building {bldg_id}", file=config.inputs.ilv, column="inputs.ilv")
+
+
+def surrogate_cache_parts(config: BuildConfig, bldg_id: int, name: str, table: pd.DataFrame | None = None,
+                          weather: pd.Series | None = None) -> tuple[dict, pd.DataFrame | None]:
+    """What a building's surrogate is a function of (the cache key parts), and its ILV table when at hand.
+
+    Parts: the ILV table's content sha256 (a ``table`` given by the caller: a simulated house or an FMU run;
+    else source ``csv``) or, for ``energyplus`` on EULP inputs, the EPW's sha256, the metadata row and the
+    generator's sources; the full training configuration and the precision it resolves to on this CPU
+    (:func:`surrogates.train.update_precision`); the trainer's sources (:data:`TRAINER_SOURCES`) and
+    the torch version; the building's name and id (they are written into the files). Nothing else of the build
+    configuration (battery, PV, period, ...) enters. With ``weather`` (the district's outdoor temperature
+    [degC]) a csv table simulated on other weather is refused (:func:`check_weather`).
+    """
+
+    package = Path(surrogates.__file__).parent
+
+    train = train_config(config)
+    settings = {k: v for k, v in asdict(train).items() if k != "progress"}
+    parts: dict[str, object] = {
+        "building": name, "bldg_id": int(bldg_id), "train": settings,
+        "precision": update_precision(train).precision,  # what runs here: auto resolves per CPU
+        "trainer_sha256": files_digest([package / f for f in TRAINER_SOURCES], package),
+        "torch": package_version("torch"),
+    }
+    if table is not None:
+        parts["ilv"] = {"source": config.surrogate.source, "table_sha256": table_digest(table)}
+        return parts, table
+    if config.surrogate.source == "energyplus":
+        parts["ilv"] = {"source": "energyplus", "epw_sha256": sha256_file(Path(config.inputs.weather)),
+                        "metadata_row": eulp_metadata_row(config, bldg_id),
+                        "generator_sha256": files_digest([package / f for f in ENERGYPLUS_SOURCES], package)}
+        return parts, None
+
+    path = csv_ilv_path(config, bldg_id)
+    table = read_ilv(path)
+    if weather is not None:
+        ideal = table[table["reference"] == table["reference"].min()]
+        check_weather(pd.Series(ideal["outdoor_dry_bulb_temperature"].to_numpy(dtype=float),
+                                index=pd.DatetimeIndex(ideal["timestamp"])), weather,
+                      what=f"ILV table of building {bldg_id}", file=path)
+    parts["ilv"] = {"source": "csv", "table_sha256": table_digest(table)}
+    return parts, table
+
+
+def fmu_ilv(config: BuildConfig, frame: pd.DataFrame, weather: pd.DataFrame) -> pd.DataFrame:
+    """The ILV table of a building from the configured FMU, driven by the building's ideal loads and the
+    district's weather over the period (:func:`surrogates.sources.fmu.simulate_ilv_fmu`)."""
+
+    s = config.surrogate
+    loads = pd.DataFrame({
+        "direct_solar_irradiance": weather["direct_solar_irradiance"].to_numpy(dtype=float),
+        "diffuse_solar_irradiance": weather["diffuse_solar_irradiance"].to_numpy(dtype=float),
+        "outdoor_dry_bulb_temperature": weather["outdoor_dry_bulb_temperature"].to_numpy(dtype=float),
+        "occupant_count": frame["occupant_count"].to_numpy(dtype=float),
+        "cooling_demand": frame["cooling_demand"].to_numpy(dtype=float),
+        "heating_demand": frame["heating_demand"].to_numpy(dtype=float),
+        "indoor_dry_bulb_temperature_set_point": frame["indoor_dry_bulb_temperature_set_point"].to_numpy(float),
+    }, index=frame.index)
+    return simulate_ilv_fmu(s.fmu, loads, s.fmu_variables, start_values=s.fmu_start_values, seed=s.seed,
+                            holidays={d for d in config.inputs.holidays} or None)
+
+
+def energyplus_ilv(config: BuildConfig, bldg_id: int) -> pd.DataFrame:
+    """The building's ILV table simulated with the project's EnergyPlus house model (validated)."""
+
+    result = energyplus_ilv_table(eulp_metadata_row(config, bldg_id), Path(config.inputs.weather))
+    return validate_ilv(result.table, source=f"EnergyPlus ILV of building {bldg_id}")
+
+
+def train_files(table: pd.DataFrame, bldg_id: int, name: str, settings) -> dict[str, bytes]:
+    """Train, evaluate and export in a scratch folder; return the files (relative path -> bytes).
+
+    ``<name>.pth`` goes next to the schema, ``surrogates/<name>.{dynamics,metrics}.json`` and ``.png`` into
+    ``surrogates/``.
+    """
+
+
+    with tempfile.TemporaryDirectory(prefix="districtgen_surrogate_") as scratch:
+        folder = Path(scratch) / "surrogates"
+        train_and_export(table, folder, name, settings, source=f"ILV table of building {bldg_id}",
+                         progress=epochs(name))
+        files = {f"surrogates/{p.name}": p.read_bytes() for p in sorted(folder.glob(f"{name}.*"))}
+    files[f"{name}.pth"] = files.pop(f"surrogates/{name}.pth")
+    return files
+
+
+def surrogate_files(config: BuildConfig, bldg_id: int, name: str, table: pd.DataFrame | None = None,
+                    weather: pd.Series | None = None) -> SurrogateFiles:
+    """A building's surrogate files: from the cache (:mod:`pipeline.build.cache`) when an intact entry of the same
+    key exists, else trained (and stored). The cache folder: ``config.cache_dir``, else
+    ``$DISTRICTGEN_CACHE_DIR``, else ``~/.cache/districtgen``; entries under ``surrogates/<key>/``.
+    ``table``: the ILV table when the caller has it (a simulated house, an FMU run)."""
+
+    parts, table = surrogate_cache_parts(config, bldg_id, name, table, weather)
+    key = cache_key(parts)
+    cache = FileCache(cache_root(config.cache_dir) / "surrogates")
+    files = cache.get(key)
+    if files is not None:
+        report(name, "surrogate from the cache")
+        return SurrogateFiles(files, key, True)
+    if table is None:
+        report(name, "simulate ILV runs (EnergyPlus)")
+        table = energyplus_ilv(config, bldg_id)
+    report(name, "train", 0, config.surrogate.epochs)
+    files = train_files(table, bldg_id, name, train_config(config))
+    cache.put(key, files, inputs=parts)
+    return SurrogateFiles(files, key, False)
+
+
+def write_surrogate_files(out: Path, files: Mapping[str, bytes]) -> dict:
+    """Write a building's surrogate files into the district folder; return its ``dynamics`` block."""
+    dynamics_name = next(r for r in files if r.endswith(".dynamics.json"))
+    pth = next(r for r in files if r.endswith(".pth"))
+    block = json.loads(files[dynamics_name])
+    block["attributes"]["filename"] = pth
+    for relative, data in files.items():
+        path = out / relative
+        path.parent.mkdir(parents=True, exist_ok=True)
+        if relative == dynamics_name:
+            path.write_text(json.dumps(block, indent=2))
+        else:
+            path.write_bytes(data)
+    return block

@@ -1,0 +1,98 @@
+"""Runners: how per-building (build) or per-task (paper) work runs. One protocol, :class:`Runner`, and its
+four implementations:
+
+* :class:`InProcessRunner` -- plain calls, one after the other, in this process (tests, quick runs);
+* :class:`ProcessRunner` -- a pool of spawned worker processes on this machine;
+* :class:`PrefectRunner` -- each call a Prefect task of the running flow, on the flow's task runner (threads,
+  or Dask through prefect-dask: :mod:`pipeline.build.flows`);
+* :class:`DaskRunner` -- a Dask cluster (an existing scheduler, or a local cluster per ``map``).
+
+Every ``map`` returns ``{label: fn(*args)}`` in the order of ``calls``; the first failure ends it.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+from collections.abc import Callable, Mapping
+from concurrent.futures import ProcessPoolExecutor
+from contextlib import ExitStack
+from typing import Any, Protocol
+
+from pipeline import progress
+
+
+class Runner(Protocol):
+    """Runs one step for several buildings or tasks, possibly in parallel; results come back by label, in order."""
+
+    def map(self, step: str, fn: Callable[..., Any], calls: Mapping[str, tuple]) -> dict[str, Any]:
+        """``{label: fn(*args) for label, args in calls.items()}``; ``step`` names the work (task names)."""
+        ...
+
+
+class InProcessRunner:
+    """Plain calls, one after the other, in this process (tests, quick runs, no Prefect needed)."""
+
+    def map(self, step: str, fn: Callable[..., Any], calls: Mapping[str, tuple]) -> dict[str, Any]:
+        results = {}
+        for label, args in calls.items():
+            results[label] = fn(*args)
+            progress.advance(step, label)
+        return results
+
+
+def gather(submit: Callable[..., Any], fn: Callable[..., Any], calls: Mapping[str, tuple]) -> dict[str, Any]:
+    """Submit every call (``submit(label, fn, *args)`` returns a future), then wait for each: {label: result}."""
+    futures = {label: submit(label, fn, *args) for label, args in calls.items()}
+    return {label: future.result() for label, future in futures.items()}
+
+
+class ProcessRunner:
+    """A pool of ``workers`` processes (spawned: no state shared)."""
+
+    def __init__(self, workers: int):
+        self.workers = workers
+
+    def map(self, step: str, fn: Callable[..., Any], calls: Mapping[str, tuple]) -> dict[str, Any]:
+        with ProcessPoolExecutor(self.workers, mp_context=multiprocessing.get_context("spawn")) as pool:
+            return gather(lambda _, f, *args: pool.submit(f, *args), fn, calls)
+
+
+class PrefectRunner:
+    """Each call a Prefect task (named ``<step>-<label>``) of the running flow; waits for all, in order."""
+
+    def map(self, step: str, fn: Callable[..., Any], calls: Mapping[str, tuple]) -> dict[str, Any]:
+        # Prefect is the optional extra `pipeline`: imported only when a flow runs
+        from prefect import task
+        from prefect.cache_policies import (
+            NO_CACHE,  # optional: Prefect (pipeline extra) loads only when a flow runs
+        )
+        from prefect.futures import as_completed
+
+        work = task(fn, name=step, cache_policy=NO_CACHE, persist_result=False)
+        futures = {label: work.with_options(task_run_name=f"{step}-{label}").submit(*args)
+                   for label, args in calls.items()}
+        labels = {id(future): label for label, future in futures.items()}
+        for future in as_completed(list(futures.values())):
+            future.result()  # the first failure ends the build (its own error, one line in the CLI)
+            progress.advance(step, labels[id(future)])
+        return {label: future.result() for label, future in futures.items()}
+
+
+class DaskRunner:
+    """Dask: the scheduler at ``address``, else a local cluster of ``workers`` single-threaded worker processes
+    (started and stopped by each ``map``). Files a task writes are written by the workers, so a remote cluster
+    needs the output folder on a shared file system."""
+
+    def __init__(self, address: str | None = None, workers: int = 2):
+        self.address, self.workers = address, workers
+
+    def map(self, step: str, fn: Callable[..., Any], calls: Mapping[str, tuple]) -> dict[str, Any]:
+        # Dask is the optional extra `dask`
+        from dask.distributed import Client, LocalCluster
+
+        with ExitStack() as stack:
+            target = self.address or stack.enter_context(LocalCluster(
+                n_workers=self.workers, threads_per_worker=1, processes=True, dashboard_address=None))
+            client = stack.enter_context(Client(target))
+            return gather(lambda label, f, *args: client.submit(f, *args, key=f"{step}-{label}", pure=False),
+                          fn, calls)
