@@ -58,8 +58,8 @@ from citylearn_env import CityLearnEnv
 schema, repeats = json.loads(sys.argv[1]), int(sys.argv[2])
 t0 = time.perf_counter(); env = CityLearnEnv(schema, compat=True); build = time.perf_counter() - t0
 rng = np.random.default_rng(0)
-table = rng.uniform(env.action_space.low, env.action_space.high, size=(env.district.series["month"].shape[1] - 1,
-                                                                        env.action_space.shape[0]))
+env.reset(seed=0)
+table = rng.uniform(env.action_space.low, env.action_space.high, size=(env.episode_length - 1, env.action_space.shape[0]))
 rates = []
 for _ in range(repeats):
     env.reset(seed=0)

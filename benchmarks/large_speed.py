@@ -26,14 +26,18 @@ from __future__ import annotations
 
 import argparse
 import copy
+import dataclasses
 import json
 import os
+import resource
 import statistics
 import subprocess
 import sys
 import tempfile
 import time
 from pathlib import Path
+
+import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT.parent / "shared" / "data" / "citylearn" / "upstream" / "v2.1.2"
@@ -49,48 +53,56 @@ def repeated_names(names: list[str], n: int) -> list[tuple[str, str]]:
 
 
 # --------------------------------------------------------------------------- child side
+def _ours(case: str, schema: Path):
+    """(env, action space, buildings, step(a) -> terminated) of citylearn_env with the CityLearn 2.1 preset."""
+    # lazy: only the "ours" child loads citylearn_env (the upstream child's peak memory must not include it)
+    from citylearn_env import CityLearnEnv, load_schema
+
+    config = load_schema(schema, settings="citylearn-2.1")
+    if case == "synthetic_100":
+        by_name = {b.name: b for b in config.buildings}
+        copies = repeated_names(list(by_name), SYNTHETIC_BUILDINGS)
+        config = config.replace(buildings=tuple(dataclasses.replace(by_name[src], name=new) for src, new in copies))
+    env = CityLearnEnv(config, compat=True)
+    env.reset(seed=0)
+    return env, env.action_space, len(config.buildings), lambda a: env.step(a)[2]
+
+
+def _upstream(case: str, schema: Path):
+    """(env, action space, buildings, step(a) -> terminated) of upstream CityLearn 2.1.2, one torch thread."""
+    import torch  # lazy: upstream's packages exist only in the upstream interpreter
+    from citylearn.citylearn import CityLearnEnv
+
+    torch.set_num_threads(1)
+    source: object = str(schema)
+    if case == "synthetic_100":
+        raw = json.loads(schema.read_text())
+        raw["root_directory"] = str(schema.parent)
+        copies = repeated_names(list(raw["buildings"]), SYNTHETIC_BUILDINGS)
+        raw["buildings"] = {new: copy.deepcopy(raw["buildings"][src]) for src, new in copies}
+        source = raw
+    env = CityLearnEnv(source, central_agent=True)
+    env.reset()
+    return env, env.action_space[0], len(env.buildings), lambda a: env.step([a.tolist()])[2]
+
+
+def _whole_episode(env, space, step) -> dict:
+    """Ours only: the rest of the first episode, then one whole episode of zero actions, timed."""
+    done = False
+    while not done:
+        done = step(np.zeros(space.shape))
+    env.reset(seed=0)
+    zeros, n, t0 = np.zeros(space.shape), 0, time.perf_counter()
+    done = False
+    while not done:
+        done, n = step(zeros), n + 1
+    return {"episode_steps": n, "episode_s": time.perf_counter() - t0}
+
+
 def _child(side: str, case: str, steps: int, out: str) -> None:
-    import resource
-
-    import numpy as np
-
     schema = DATA / CASES[case] / "schema.json"
     t0 = time.perf_counter()
-    if side == "ours":
-        import dataclasses
-
-        from citylearn_env import CityLearnEnv, load_schema
-
-        config = load_schema(schema, settings="citylearn-2.1")
-        if case == "synthetic_100":
-            by_name = {b.name: b for b in config.buildings}
-            copies = repeated_names(list(by_name), SYNTHETIC_BUILDINGS)
-            config = config.replace(buildings=tuple(dataclasses.replace(by_name[src], name=new)
-                                                    for src, new in copies))
-        env = CityLearnEnv(config, compat=True)
-        env.reset(seed=0)
-        space, n_buildings = env.action_space, len(config.buildings)
-
-        def step(a):
-            return env.step(a)[2]
-    else:
-        import torch
-        from citylearn.citylearn import CityLearnEnv
-
-        torch.set_num_threads(1)
-        source: object = str(schema)
-        if case == "synthetic_100":
-            raw = json.loads(schema.read_text())
-            raw["root_directory"] = str(schema.parent)
-            copies = repeated_names(list(raw["buildings"]), SYNTHETIC_BUILDINGS)
-            raw["buildings"] = {new: copy.deepcopy(raw["buildings"][src]) for src, new in copies}
-            source = raw
-        env = CityLearnEnv(source, central_agent=True)
-        env.reset()
-        space, n_buildings = env.action_space[0], len(env.buildings)
-
-        def step(a):
-            return env.step([a.tolist()])[2]
+    env, space, n_buildings, step = (_ours if side == "ours" else _upstream)(case, schema)
     build_s = time.perf_counter() - t0
     table = np.random.default_rng(0).uniform(space.low, space.high, size=(steps, space.shape[0]))
     t0, c0 = time.perf_counter(), time.process_time()
@@ -100,16 +112,8 @@ def _child(side: str, case: str, steps: int, out: str) -> None:
     wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     result = {"side": side, "case": case, "buildings": n_buildings, "actions": int(space.shape[0]),
               "build_s": build_s, "steps": steps, "steps_per_s": steps / wall, "steps_per_cpu_s": steps / cpu}
-    if side == "ours":  # the rest of the first episode, then one whole episode
-        done = False
-        while not done:
-            done = step(np.zeros(space.shape))
-        env.reset(seed=0)
-        zeros, n, t0 = np.zeros(space.shape), 0, time.perf_counter()
-        done = False
-        while not done:
-            done, n = step(zeros), n + 1
-        result["episode_steps"], result["episode_s"] = n, time.perf_counter() - t0
+    if side == "ours":
+        result.update(_whole_episode(env, space, step))
     result["peak_rss_mb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     Path(out).write_text(json.dumps(result))
 

@@ -8,10 +8,11 @@ temperatures degC, ``solar_generation`` W of AC output per kW of PV.
 
 Rules of CityLearn 2.1.2 (``Building.autosize_*`` and the devices' ``autosize``), one function each:
 
-* heat pump (:func:`heat_pump_power`): ``nominal_power = max_t(Q_c[t] / COP_c[t] + Q_h[t] / COP_h[t]) * SF``
-  [kW electric] with the Carnot COPs of :mod:`citylearn_env.devices` at the outdoor dry-bulb temperature.
-  As ``cooling_device`` it sees only ``cooling_demand`` (Q_h = 0); as ``heating_device`` only
-  ``heating_demand``; as ``dhw_device`` only ``dhw_demand`` (with the heating COP).
+* heat pump (:func:`citylearn_env.sizing.heat_pump_power`, the pipeline's rule, with :func:`heat_pump_rules`
+  of the device): ``nominal_power = max_t(Q_c[t] / COP_c[t] + Q_h[t] / COP_h[t]) * SF`` [kW electric] with
+  the Carnot COPs of :mod:`citylearn_env.devices` at the outdoor dry-bulb temperature. As ``cooling_device``
+  it sees only ``cooling_demand`` (Q_h = 0); as ``heating_device`` only ``heating_demand``; as ``dhw_device``
+  only ``dhw_demand`` (Q_c = 0, the heating COP).
 * electric heater (:func:`heater_power`): ``nominal_power = max_t(Q[t] / efficiency) * SF`` [kW] with Q the
   demand of its slot (``heating_demand`` or ``dhw_demand``; a heater as ``cooling_device`` sees
   ``cooling_demand``) -- :func:`citylearn_env.sizing.dhw_heater_power`, the pipeline's DHW heater rule.
@@ -23,7 +24,7 @@ Rules of CityLearn 2.1.2 (``Building.autosize_*`` and the devices' ``autosize``)
   is always the zero-size placeholder (the schema's PV is attached after the battery), so an autosized
   battery gets capacity 0. :func:`autosize_device` reproduces that (``pv_kw`` = 0); no shared data set
   autosizes a battery.
-* PV (:func:`pv_power`): ``nominal_power = max_t(P0 * solar_generation[t] / 1000 / efficiency) * SF`` [kW]
+* PV (:func:`pv_peak_power`): ``nominal_power = max_t(P0 * solar_generation[t] / 1000 / efficiency) * SF`` [kW]
   with P0 the schema's own ``nominal_power`` (0 when absent, giving 0) and the PV's ``efficiency``
   (default 1.0): upstream sizes the PV to its own peak generation.
 
@@ -44,10 +45,8 @@ from typing import Any
 import numpy as np
 
 from citylearn_env.config import Battery, ConversionDevice, Tank
-from citylearn_env.devices import carnot_cop_cooling, carnot_cop_heating
 from citylearn_env.errors import SchemaError
-from citylearn_env.sizing import SizingRules, dhw_heater_power
-from citylearn_env.sizing import heat_pump_power as cooling_heat_pump_power
+from citylearn_env.sizing import SizingRules, dhw_heater_power, heat_pump_power
 
 #: the demand column each thermal slot is sized on
 SLOT_DEMAND = {
@@ -58,27 +57,13 @@ SLOT_DEMAND = {
 AUTOSIZE_KEYS = ("safety_factor",)
 
 
-def heat_pump_power(outdoor_c: np.ndarray, *, cooling_kwh: np.ndarray | None = None,
-                    heating_kwh: np.ndarray | None = None, efficiency: float, target_cooling_temperature: float,
-                    target_heating_temperature: float, safety_factor: float = 1.0) -> float:
-    """Heat-pump nominal electric power [kW] = max_t(Q_c / COP_c + Q_h / COP_h) x SF over hourly series.
-
-    ``outdoor_c`` [degC]; ``cooling_kwh`` / ``heating_kwh`` [kWh per hour] (None = no such load);
-    ``efficiency`` is the Carnot fraction; COPs as :func:`citylearn_env.devices.carnot_cop_cooling` /
-    ``_heating`` (replaced by 20 outside (0, 20]). The cooling-only case is
-    :func:`citylearn_env.sizing.heat_pump_power`.
-    """
-    outdoor = np.asarray(outdoor_c, dtype=np.float64)
-    if heating_kwh is None:  # cooling only: the pipeline's rule
-        rules = SizingRules(heat_pump_efficiency=efficiency, target_cooling_temperature=target_cooling_temperature,
-                            heat_pump_safety_factor=safety_factor)
-        return cooling_heat_pump_power(np.zeros_like(outdoor) if cooling_kwh is None else cooling_kwh, outdoor, rules)
-    electric = np.asarray(heating_kwh, dtype=np.float64) / carnot_cop_heating(
-        outdoor, target_heating_temperature, efficiency)
-    if cooling_kwh is not None:
-        electric = electric + np.asarray(cooling_kwh, dtype=np.float64) / carnot_cop_cooling(
-            outdoor, target_cooling_temperature, efficiency)
-    return float(np.max(electric) * safety_factor)
+def heat_pump_rules(device: ConversionDevice, safety_factor: float = 1.0) -> SizingRules:
+    """The sizing rules of heat pump ``device``: its Carnot fraction ``efficiency`` [-] and target supply
+    temperatures [degC], the safety factor [-] on its peak electric input."""
+    return SizingRules(heat_pump_efficiency=device.efficiency,
+                       target_cooling_temperature=device.target_cooling_temperature,
+                       target_heating_temperature=device.target_heating_temperature,
+                       heat_pump_safety_factor=safety_factor)
 
 
 def heater_power(demand_kwh: np.ndarray, *, efficiency: float, safety_factor: float = 1.0) -> float:
@@ -97,10 +82,11 @@ def battery_capacity(pv_kw: float, solar_w_per_kw: np.ndarray, *, safety_factor:
     return float(np.max(pv_kw * np.asarray(solar_w_per_kw, dtype=np.float64) / 1000.0) * safety_factor)
 
 
-def pv_power(pv_kw: float, solar_w_per_kw: np.ndarray, *, efficiency: float = 1.0,
-             safety_factor: float = 1.0) -> float:
+def pv_peak_power(pv_kw: float, solar_w_per_kw: np.ndarray, *, efficiency: float = 1.0,
+                  safety_factor: float = 1.0) -> float:
     """PV nominal power [kW] = max_t(pv_kw x solar_generation / 1000 / efficiency) x SF (upstream 2.1's rule:
-    the peak generation of the PV as given, so a PV given as 0 kW stays 0 kW)."""
+    the peak generation of the PV as given, so a PV given as 0 kW stays 0 kW). Not the pipeline's PV rule,
+    :func:`citylearn_env.sizing.pv_power`, which covers a share of the building's consumption."""
     generation = pv_kw * np.asarray(solar_w_per_kw, dtype=np.float64) / 1000.0
     return float(np.max(generation / efficiency) * safety_factor)
 
@@ -128,7 +114,7 @@ def autosize_device(slot: str, device: ConversionDevice | Tank | Battery, series
 
     ``series`` are the building's data columns over the simulation range (``cooling_demand``,
     ``heating_demand``, ``dhw_demand`` [kWh], ``outdoor_dry_bulb_temperature`` [degC], ``solar_generation``
-    [W/kW]); ``sf`` is the safety factor. PV is sized by :func:`pv_power` directly (its config is a number).
+    [W/kW]); ``sf`` is the safety factor. PV is sized by :func:`pv_peak_power` directly (its config is a number).
     """
     if isinstance(device, Battery):
         # upstream sizes the battery from the zero-size PV placeholder (see the module docstring)
@@ -139,9 +125,9 @@ def autosize_device(slot: str, device: ConversionDevice | Tank | Battery, series
         return dataclasses.replace(device, capacity=tank_capacity(demand, safety_factor=sf))
     if device.kind == "ElectricHeater":
         power = heater_power(demand, efficiency=device.efficiency, safety_factor=sf)
-    else:
-        loads = {"cooling_kwh": demand} if slot == "cooling_device" else {"heating_kwh": demand}
-        power = heat_pump_power(series["outdoor_dry_bulb_temperature"], **loads, efficiency=device.efficiency,
-                                target_cooling_temperature=device.target_cooling_temperature,
-                                target_heating_temperature=device.target_heating_temperature, safety_factor=sf)
+    elif slot == "cooling_device":
+        power = heat_pump_power(demand, series["outdoor_dry_bulb_temperature"], heat_pump_rules(device, sf))
+    else:  # heating or DHW: the heating COP only (0 kWh of cooling adds exactly 0)
+        power = heat_pump_power(np.zeros(len(demand)), series["outdoor_dry_bulb_temperature"],
+                                heat_pump_rules(device, sf), demand)
     return dataclasses.replace(device, nominal_power=power)

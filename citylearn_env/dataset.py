@@ -33,12 +33,16 @@ import tempfile
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, TextIO
+from typing import TYPE_CHECKING, Any, TextIO
 
 import numpy as np
 
 from citylearn_env import ranges
 from citylearn_env.errors import SchemaError
+from citylearn_env.registry import resolve_type
+
+if TYPE_CHECKING:  # pandas is imported where a table is built (importing citylearn_env stays light)
+    import pandas as pd
 
 LAYOUTS = ("v2.1", "v2.2")
 KINDS = ("building", "weather", "pricing", "carbon")
@@ -203,13 +207,13 @@ def read_table(path: str | Path, kind: str, n_rows: int | None = None, *,
     return parse_table(_read_csv(path), kind, path, n_rows, missing_hvac_mode_is_off=missing_hvac_mode_is_off)
 
 
-def read_frame(path: str | Path):
+def read_frame(path: str | Path) -> pd.DataFrame:
     """The CSV at ``path`` as a pandas DataFrame of strings (no NA conversion); SchemaError if unreadable."""
     return _read_csv(Path(path))
 
 
-def _read_csv(path: Path):
-    import pandas as pd
+def _read_csv(path: Path) -> pd.DataFrame:
+    import pandas as pd  # lazy: importing citylearn_env does not import pandas (package docstring)
 
     try:
         return pd.read_csv(path, dtype=str, keep_default_na=False)
@@ -228,65 +232,83 @@ def columns_of(headers: Iterable[str], kind: str, path: object) -> dict[str, str
     """
     table = _check_kind(kind)
     headers = list(headers)
-    names: list[str | None] = []
-    layouts: list[str | None] = []
-    for h in headers:
-        if h in V21_HEADERS and V21_HEADERS[h] in table:
-            names.append(V21_HEADERS[h])
-            layouts.append("v2.1")
-        elif NAME_ALIASES.get(h, h) in table:
-            names.append(NAME_ALIASES.get(h, h))
-            layouts.append("v2.2")
-        elif kind == "building" and h in IGNORED_NAMED_COLUMNS:
-            names.append(None)
-            layouts.append("v2.2")
-        else:
-            names.append(None)
-            layouts.append(None)
-    known = [lay for lay in layouts if lay is not None]
-    layout = "v2.1" if known and known.count("v2.1") * 2 >= len(known) else "v2.2"
-    if kind == "carbon":
-        layout = "v2.2"  # one column: position and spelling cannot disagree
-    expected = list(table)
-    for i, (h, name, lay) in enumerate(zip(headers, names, layouts, strict=True)):
-        if lay is None:
-            if layout == "v2.2":
-                hint = f"; expected names from: {', '.join(table)}"
-            elif i < len(expected) and expected[i] not in names:
-                hint = f" (renamed? CityLearn 2.1 expects {table[expected[i]]!r} in column {i + 1})"
-            else:
-                hint = f"; the v2.1 {kind} layout has {len(table)} columns: {', '.join(table.values())}"
-            raise SchemaError(f"unexpected column {i + 1} of {len(headers)}{hint}", file=path, column=h)
-        if kind != "carbon" and lay != layout:
-            raise SchemaError(f"mixes the v2.1 header texts and v2.2 names; this file is {layout}",
-                              file=path, column=h)
-        if name is not None and name in names[:i]:
-            raise SchemaError(f"duplicate column: {headers[names.index(name)]!r} is {name!r} as well",
-                              file=path, column=h)
+    pairs = [_header_name(h, kind, table) for h in headers]
+    names, layouts = [name for name, _ in pairs], [lay for _, lay in pairs]
+    layout = _detected_layout(layouts, kind)
+    for i in range(len(headers)):
+        _check_header(i, headers, names, layouts, layout, kind, path)
     mapping = {name: h for h, name in zip(headers, names, strict=True) if name is not None}
     if layout == "v2.1":
-        present = [n for n in names if n is not None]
-        for i, name in enumerate(present):
-            if name != expected[i]:
-                want = expected[i]
-                if want in mapping:
-                    raise SchemaError(f"stands in column {i + 1}, where CityLearn 2.1 (which reads by "
-                                      f"position) expects {table[want]!r}: columns swapped or out of order",
-                                      file=path, column=headers[i])
-                raise SchemaError(f"missing column ({want!r}); CityLearn 2.1 reads by position, so every "
-                                  "later column would shift", file=path, column=table[want])
+        _check_positions(names, headers, mapping, kind, path)
         for want in _required(kind):
             if want not in mapping:
                 raise SchemaError(f"missing column ({want!r})", file=path, column=table[want])
         return mapping
-    required = [c for c in _required(kind) if not (kind == "building" and c in NAMED_OPTIONAL)]
-    for want in required:
-        if want not in mapping:
+    for want in _required(kind):
+        if want not in mapping and not (kind == "building" and want in NAMED_OPTIONAL):
             raise SchemaError("missing column", file=path, column=want)
     return mapping
 
 
-def parse_table(frame, kind: str, path: object, n_rows: int | None, *,
+def _header_name(h: str, kind: str, table: Mapping[str, str]) -> tuple[str | None, str | None]:
+    """(internal name, layout) of header text ``h``: a v2.1 text, a v2.2 name (or alias), an ignored v2.2
+    building column (name None) or unknown (both None)."""
+    if h in V21_HEADERS and V21_HEADERS[h] in table:
+        return V21_HEADERS[h], "v2.1"
+    if NAME_ALIASES.get(h, h) in table:
+        return NAME_ALIASES.get(h, h), "v2.2"
+    if kind == "building" and h in IGNORED_NAMED_COLUMNS:
+        return None, "v2.2"
+    return None, None
+
+
+def _detected_layout(layouts: list[str | None], kind: str) -> str:
+    """The file's layout: v2.1 when at least half of the known headers are v2.1 texts (carbon: always v2.2,
+    one column cannot disagree in position and spelling)."""
+    known = [lay for lay in layouts if lay is not None]
+    if kind == "carbon":
+        return "v2.2"
+    return "v2.1" if known and known.count("v2.1") * 2 >= len(known) else "v2.2"
+
+
+def _check_header(i: int, headers: list[str], names: list[str | None], layouts: list[str | None], layout: str,
+                  kind: str, path: object) -> None:
+    """Header ``i``: known, of the file's layout, not a second spelling of an earlier column."""
+    table, h, name, lay = TABLES[kind], headers[i], names[i], layouts[i]
+    if lay is None:
+        expected = list(table)
+        if layout == "v2.2":
+            hint = f"; expected names from: {', '.join(table)}"
+        elif i < len(expected) and expected[i] not in names:
+            hint = f" (renamed? CityLearn 2.1 expects {table[expected[i]]!r} in column {i + 1})"
+        else:
+            hint = f"; the v2.1 {kind} layout has {len(table)} columns: {', '.join(table.values())}"
+        raise SchemaError(f"unexpected column {i + 1} of {len(headers)}{hint}", file=path, column=h)
+    if kind != "carbon" and lay != layout:
+        raise SchemaError(f"mixes the v2.1 header texts and v2.2 names; this file is {layout}", file=path, column=h)
+    if name is not None and name in names[:i]:
+        raise SchemaError(f"duplicate column: {headers[names.index(name)]!r} is {name!r} as well",
+                          file=path, column=h)
+
+
+def _check_positions(names: list[str | None], headers: list[str], mapping: Mapping[str, str], kind: str,
+                     path: object) -> None:
+    """A v2.1 file's columns stand where CityLearn 2.1 (which reads by position) expects them."""
+    table = TABLES[kind]
+    expected = list(table)
+    for i, name in enumerate(n for n in names if n is not None):
+        if name == expected[i]:
+            continue
+        want = expected[i]
+        if want in mapping:
+            raise SchemaError(f"stands in column {i + 1}, where CityLearn 2.1 (which reads by "
+                              f"position) expects {table[want]!r}: columns swapped or out of order",
+                              file=path, column=headers[i])
+        raise SchemaError(f"missing column ({want!r}); CityLearn 2.1 reads by position, so every "
+                          "later column would shift", file=path, column=table[want])
+
+
+def parse_table(frame: pd.DataFrame, kind: str, path: object, n_rows: int | None, *,
                 missing_hvac_mode_is_off: bool = False) -> dict[str, np.ndarray]:
     """Validate one already-read data frame (all cells as strings) of ``kind``; float arrays by internal name.
 
@@ -304,51 +326,62 @@ def parse_table(frame, kind: str, path: object, n_rows: int | None, *,
     if len(frame) < n:
         raise SchemaError(f"has {len(frame)} data rows; the schema's simulation range (simulation_end_time_step)"
                           f" needs {n}", file=path, row=len(frame))
-    out: dict[str, np.ndarray] = {}
-    for name, col in mapping.items():
-        text = frame[col].to_numpy()[:n]
-        if name in MAY_BE_EMPTY and kind == "building":
-            text = np.where(np.char.strip(text.astype(str)) == "", "nan", text)
-        try:
-            values = np.asarray(text, dtype=np.float64)
-        except ValueError:
-            bad = _first_bad_number(text)
-            raise SchemaError(f"not a number: {text[bad]!r}", file=path, column=col, row=_row(bad)) from None
-        if np.isnan(values).any() and not (name in MAY_BE_EMPTY and kind == "building"):
-            raise SchemaError("missing value (NaN)", file=path, column=col, row=_row(int(np.isnan(values).argmax())))
-        if name in NON_NEGATIVE and (values < 0).any():
-            i = int((values < 0).argmax())
-            raise SchemaError(f"negative value {values[i]:g}", file=path, column=col, row=_row(i))
-        outside = ranges.first_outside(name, values)  # finite and in range: citylearn_env.ranges
-        if outside is not None:
-            raise SchemaError(outside[1], file=path, column=col, row=_row(outside[0]))
-        out[name] = values.astype(np.float32).astype(np.float64)
+    out = {name: _column_values(frame[col].to_numpy()[:n], name, kind == "building" and name in MAY_BE_EMPTY,
+                                path, col) for name, col in mapping.items()}
     if kind == "building":
-        both = (out["cooling_demand"] > 0) & (out["heating_demand"] > 0)
-        if both.any():
-            i = int(both.argmax())
-            raise SchemaError("cooling_demand and heating_demand are both > 0", file=path,
-                              column=f"{mapping['cooling_demand']} / {mapping['heating_demand']}", row=_row(i))
-        for name in ("daylight_savings_status", "average_unmet_cooling_setpoint_difference",
-                     "indoor_relative_humidity", "occupant_count", "indoor_dry_bulb_temperature_set_point",
-                     "power_outage"):
-            out.setdefault(name, np.zeros(n))
-        # CityLearn 2.1 treats a missing hvac_mode column as 0 (off); its docs and later versions mean cooling.
-        out.setdefault("hvac_mode", np.full(n, 0.0 if missing_hvac_mode_is_off else 1.0))
-        _set_points(out, n, given="indoor_dry_bulb_temperature_set_point" in mapping)
-        for name in ("hvac_mode", "power_outage"):
-            bad = ~np.isin(out[name], (0, 1, 2) if name == "hvac_mode" else (0, 1))
-            if bad.any():
-                i = int(bad.argmax())
-                raise SchemaError(f"invalid value {out[name][i]:g}", file=path, column=mapping.get(name, name),
-                                  row=_row(i))
+        _building_defaults(out, mapping, n, path, missing_hvac_mode_is_off)
     if kind == "weather" and "outdoor_relative_humidity" in out:
         rh = out["outdoor_relative_humidity"]
         if ((rh < 0) | (rh > 100)).any():
             i = int(((rh < 0) | (rh > 100)).argmax())
             raise SchemaError(f"relative humidity {rh[i]:g} outside 0..100 %", file=path,
-                              column=mapping["outdoor_relative_humidity"], row=_row(i))
+                              column=mapping["outdoor_relative_humidity"], row=row_label(i))
     return out
+
+
+def _column_values(text: np.ndarray, name: str, may_be_empty: bool, path: object, col: str) -> np.ndarray:
+    """The cells of column ``name`` (header text ``col``) as float64 rounded through float32: every cell a
+    number (an empty one NaN where ``may_be_empty``), no NaN otherwise, not negative where it must not be,
+    within the range of :mod:`citylearn_env.ranges`."""
+    if may_be_empty:
+        text = np.where(np.char.strip(text.astype(str)) == "", "nan", text)
+    try:
+        values = np.asarray(text, dtype=np.float64)
+    except ValueError:
+        bad = first_non_number(text)
+        raise SchemaError(f"not a number: {text[bad]!r}", file=path, column=col, row=row_label(bad)) from None
+    if np.isnan(values).any() and not may_be_empty:
+        raise SchemaError("missing value (NaN)", file=path, column=col, row=row_label(int(np.isnan(values).argmax())))
+    if name in NON_NEGATIVE and (values < 0).any():
+        i = int((values < 0).argmax())
+        raise SchemaError(f"negative value {values[i]:g}", file=path, column=col, row=row_label(i))
+    outside = ranges.first_outside(name, values)  # finite and in range: citylearn_env.ranges
+    if outside is not None:
+        raise SchemaError(outside[1], file=path, column=col, row=row_label(outside[0]))
+    return values.astype(np.float32).astype(np.float64)
+
+
+def _building_defaults(out: dict[str, np.ndarray], mapping: Mapping[str, str], n: int, path: object,
+                       missing_hvac_mode_is_off: bool) -> None:
+    """A building table's checks across columns and its defaulted columns (see :func:`parse_table`)."""
+    both = (out["cooling_demand"] > 0) & (out["heating_demand"] > 0)
+    if both.any():
+        i = int(both.argmax())
+        raise SchemaError("cooling_demand and heating_demand are both > 0", file=path,
+                          column=f"{mapping['cooling_demand']} / {mapping['heating_demand']}", row=row_label(i))
+    for name in ("daylight_savings_status", "average_unmet_cooling_setpoint_difference",
+                 "indoor_relative_humidity", "occupant_count", "indoor_dry_bulb_temperature_set_point",
+                 "power_outage"):
+        out.setdefault(name, np.zeros(n))
+    # CityLearn 2.1 treats a missing hvac_mode column as 0 (off); its docs and later versions mean cooling.
+    out.setdefault("hvac_mode", np.full(n, 0.0 if missing_hvac_mode_is_off else 1.0))
+    _set_points(out, n, given="indoor_dry_bulb_temperature_set_point" in mapping)
+    for name in ("hvac_mode", "power_outage"):
+        bad = ~np.isin(out[name], (0, 1, 2) if name == "hvac_mode" else (0, 1))
+        if bad.any():
+            i = int(bad.argmax())
+            raise SchemaError(f"invalid value {out[name][i]:g}", file=path, column=mapping.get(name, name),
+                              row=row_label(i))
 
 
 def _set_points(out: dict[str, np.ndarray], n: int, *, given: bool) -> None:
@@ -371,8 +404,9 @@ def _set_points(out: dict[str, np.ndarray], n: int, *, given: bool) -> None:
     out.setdefault("comfort_band", np.full(n, 2.0))
 
 
-def _first_bad_number(text) -> int:
-    for i, cell in enumerate(text):
+def first_non_number(cells: Iterable[Any]) -> int:
+    """Index of the first of ``cells`` that ``float`` cannot read (0 when every cell is a number)."""
+    for i, cell in enumerate(cells):
         try:
             float(cell)
         except ValueError:
@@ -380,8 +414,8 @@ def _first_bad_number(text) -> int:
     return 0
 
 
-def _row(i: int) -> str:
-    """Describe data row ``i`` (0-based, after the header) for messages."""
+def row_label(i: int) -> str:
+    """Data row ``i`` (0-based, after the header) as error messages name it: ``"i (file line i + 2)"``."""
     return f"{i} (file line {i + 2})"
 
 
@@ -429,7 +463,7 @@ def write_table(path: str | Path, kind: str, data: Mapping[str, np.ndarray], lay
         finite = np.isfinite(values)
         if not finite.all():
             i = int(np.argmin(finite))
-            raise SchemaError(f"NaN or infinite value {values[i]}", file=path, column=name, row=_row(i))
+            raise SchemaError(f"NaN or infinite value {values[i]}", file=path, column=name, row=row_label(i))
     head = header({n: TABLES[kind][n] for n in names}, layout)
     matrix = np.column_stack(arrays) if rows else np.zeros((0, len(names)))
     return write_atomically(path, lambda stream: np.savetxt(stream, matrix, fmt="%.10g", delimiter=",",
@@ -566,8 +600,6 @@ class DynamicsBlock:
         if not isinstance(entry, Mapping):
             raise SchemaError(f"expected an object, got {type(entry).__name__}", column=where)
         if "type" in entry:
-            from citylearn_env.registry import resolve_type
-
             resolve_type("dynamics", entry.get("type"), where=f"{where}.type")
         a = entry.get("attributes", entry) or {}
         try:
@@ -628,6 +660,7 @@ def dynamics_entry(block: DynamicsBlock, layout: str = "v2.2", heating: Dynamics
 __all__ = [
     "BUILDING_COLUMNS", "BUILDING_REQUIRED", "CARBON_COLUMNS", "DYNAMICS_TYPE", "DynamicsBlock",
     "KINDS", "LAYOUTS", "NAME_ALIASES", "PERIODS", "PRICING_COLUMNS", "TABLES", "V21_HEADERS", "WEATHER_COLUMNS",
-    "calendar", "columns_of", "dynamics_entry", "header", "parse_dynamics", "parse_table", "periodic_encoding",
-    "read_frame", "read_table", "split_periodic_name", "table_columns", "write_table",
+    "calendar", "columns_of", "dynamics_entry", "first_non_number", "header", "parse_dynamics", "parse_table",
+    "periodic_encoding", "read_frame", "read_table", "row_label", "split_periodic_name", "table_columns",
+    "write_table",
 ]

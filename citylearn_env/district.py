@@ -14,28 +14,36 @@ per step.
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, fields
+from dataclasses import fields
 from types import MappingProxyType
 
 import numpy as np
 
 from citylearn_env import devices, ev, washing_machine
+from citylearn_env.actions import Actions
 from citylearn_env.config import DistrictConfig
+from citylearn_env.dataset import NAME_ALIASES
 from citylearn_env.settings import CORRECTED, Behaviour
 from citylearn_env.state import (
+    COP_OBSERVATIONS,
+    DELIVERED_OBSERVATIONS,
     END_USE_SLOTS,
     END_USES,
+    SET_POINT_DELTAS,
+    STATIC_ALIASES,
     BatteryRecord,
     BuildingRecord,
     ChargerRecord,
     ElectricVehicleRecord,
     EndUseParams,
     EndUseRecord,
+    EndUseState,
     Signals,
     TankParams,
     WashingMachineRecord,
     recorded_names,
 )
+from citylearn_env.thermal import ThermalModel
 
 #: draws k numbers of N(1, 0.2) for the SOC drift of away EVs (docs/ev.md section 3)
 DriftDraw = Callable[[int], Sequence[float]]
@@ -43,37 +51,6 @@ DriftDraw = Callable[[int], Sequence[float]]
 
 def _stack(values) -> np.ndarray:
     return np.asarray(list(values), dtype=np.float64)
-
-
-@dataclass(slots=True, eq=False)
-class Actions:
-    """One step's actions of every building, (B,): storage actions as fractions of capacity (0 where
-    inactive), device actions as fractions of nominal power (NaN where inactive)."""
-
-    cooling_storage: np.ndarray
-    heating_storage: np.ndarray
-    dhw_storage: np.ndarray
-    electrical_storage: np.ndarray
-    cooling_device: np.ndarray
-    heating_device: np.ndarray
-    #: (C,) charger actions in -1..1 (fraction of max charging / discharging power), 0 where inactive
-    electric_vehicle_storage: np.ndarray | None = None
-    #: (M,) washing-machine start requests (> 0 asks to start), 0 where inactive
-    washing_machine: np.ndarray | None = None
-
-    def storage(self, end_use: str) -> np.ndarray:
-        """The storage action of ``end_use`` (cooling, heating or dhw)."""
-        return getattr(self, END_USE_SLOTS[end_use][3])
-
-
-@dataclass(eq=False)
-class EndUseState:
-    """One end use during an episode: its parameters, the episode's COP and data demand (B, T) and record."""
-
-    params: EndUseParams
-    cop: np.ndarray
-    demand_data: np.ndarray
-    record: EndUseRecord
 
 
 class District:
@@ -101,11 +78,7 @@ class District:
         self._battery_scale = self.battery.nominal_power * self.step_hours \
             if settings.battery_action_fraction_of_nominal_power else self.battery.capacity
         self.dynamics = np.array([x.has_dynamics for x in b])
-        self.thermal = None
-        if self.dynamics.any():
-            from citylearn_env.thermal import ThermalModel
-
-            self.thermal = ThermalModel(self, settings)
+        self.thermal = ThermalModel(b, self.dynamics, settings) if self.dynamics.any() else None
         self.inf = np.full(self.n, np.inf)
         self.zeros = np.zeros(self.n)  # read-only stand-in: nothing booked on a battery before it runs
         self.zeros.flags.writeable = False
@@ -162,6 +135,35 @@ class District:
         """The episode state of end use ``name`` (cooling, heating or dhw)."""
         return self.end_uses[END_USES.index(name)]
 
+    def dynamic_value(self, name: str, t: int) -> np.ndarray:
+        """The (B,) value of dynamic observation ``name`` (:data:`citylearn_env.state.DYNAMIC`) at episode
+        step ``t``: delivered energy [kWh], |T - T_set| or T - T_set [degC], or a recorded quantity."""
+        end_use = DELIVERED_OBSERVATIONS.get(name)
+        if end_use is not None:
+            r = self.end_use(end_use).record
+            return r.energy_from_device[:, t] + r.energy_from_storage[:, t]
+        if name == "indoor_dry_bulb_temperature_delta":
+            setpoint = self.episode["indoor_dry_bulb_temperature_set_point"][:, t]
+            return np.abs(self.building_record.indoor_dry_bulb_temperature[:, t] - setpoint)
+        column = SET_POINT_DELTAS.get(name)
+        if column is not None:
+            return self.building_record.indoor_dry_bulb_temperature[:, t] - self.episode[column][:, t]
+        return self.recorded[name][:, t]
+
+    def static_series(self, name: str, *, full_range: bool = False) -> np.ndarray | None:
+        """The (B, T) episode series (or (B, N) over the simulation range) of a data observation (a data
+        column, an alias of one, a device COP, the PV generation [kWh]); None if unknown."""
+        if name == "solar_generation":
+            return self.signals.pv_generation if full_range else self.episode.pv_generation
+        end_use = COP_OBSERVATIONS.get(name)
+        if end_use is not None:
+            params = self.end_use_params[END_USES.index(end_use)]
+            return params.cop if full_range else self.end_use(end_use).cop
+        columns = (self.signals if full_range else self.episode).columns
+        if name in columns:
+            return columns[name]
+        return columns.get(STATIC_ALIASES.get(name) or NAME_ALIASES.get(name, name))
+
     # ------------------------------------------------------------------ episode
     def reset(self, start: int, length: int, outage: np.ndarray, drift: DriftDraw | None = None) -> None:
         """Start an episode over simulation rows ``start .. start+length-1``; ``outage`` is (B, length) 0/1;
@@ -202,7 +204,7 @@ class District:
         if with_ev:
             self._reset_ev(start, length, drift)
         if self.thermal is not None:
-            self.thermal.reset()
+            self.thermal.reset(e["hvac_mode"], self.static_series)
 
     def _reset_ev(self, start: int, length: int, drift: DriftDraw | None) -> None:
         """Episode state of chargers, EVs and washing machines. Their rows start at the episode's first
@@ -229,30 +231,16 @@ class District:
         self.t += 1
         t, e = self.t, self.episode
         in_outage = bool(self._outage_steps[t])
-        outage = e.outage[:, t] > 0 if in_outage else None
-        pv = e.pv_generation[:, t]
-        total = np.zeros(self.n)
-
-        def supply() -> np.ndarray:
-            """Electricity each building may still draw this step [kWh]: inf, or PV left during an outage."""
-            if not in_outage:
-                return self.inf
-            return np.where(outage, np.maximum(0.0, pv - total), np.inf)
-
-        overrides = self.thermal.demands(t, actions) if self.thermal is not None else None
+        total = np.zeros(self.n)  # electricity booked so far this step [kWh]; updated in place only
+        supply = self._supply(t, total)
+        overrides = self.thermal.demands(t, actions, self.end_use) if self.thermal is not None else None
         battery_action = actions.electrical_storage
         first = battery_action < 0
         if in_outage and first.any():
             total += self._battery(t, battery_action, supply(), first)
         for u in self.end_uses:
-            if not u.params.live:
-                continue
-            demand = u.demand_data[:, t]
-            override = overrides.get(u.params.name) if overrides is not None else None
-            if override is not None:
-                demand = np.where(np.isnan(override), demand, override)
-                u.record.demand[:, t] = demand
-            total += self._end_use(u, t, demand, actions.storage(u.params.name), supply)
+            if u.params.live:
+                total += self._end_use(u, t, self._demand(u, t, overrides), actions.storage(u.params.name), supply)
         served = np.minimum(e["non_shiftable_load"][:, t], supply())
         self.building_record.non_shiftable_load_served[:, t] = served
         total += served
@@ -260,16 +248,40 @@ class District:
             total += self._battery(t, battery_action, supply(), ~first)
         else:
             total += self._battery(t, battery_action, self.inf, None)
+        self._book_devices(t, actions, total)
+        net = total - e.pv_generation[:, t]
+        self.building_record.net_electricity_consumption[:, t] = \
+            np.where(e.outage[:, t] > 0, 0.0, net) if in_outage else net
+        if self.thermal is not None:
+            self.thermal.update(t, self.dynamic_value, self.building_record.indoor_dry_bulb_temperature)
+
+    def _supply(self, t: int, total: np.ndarray) -> Callable[[], np.ndarray]:
+        """Electricity each building may still draw at step ``t`` [kWh], evaluated when called: inf, or during
+        an outage the PV left after ``total`` (the electricity booked so far this step, updated in place)."""
+        if not self._outage_steps[t]:
+            return lambda: self.inf
+        outage, pv = self.episode.outage[:, t] > 0, self.episode.pv_generation[:, t]
+        return lambda: np.where(outage, np.maximum(0.0, pv - total), np.inf)
+
+    def _demand(self, u: EndUseState, t: int, overrides: dict[str, np.ndarray] | None) -> np.ndarray:
+        """The thermal demand end use ``u`` serves at ``t`` [kWh]: the data set's, or where the thermal model
+        overrides it (an LSTM building's device action) the override, which is recorded."""
+        demand = u.demand_data[:, t]
+        override = overrides.get(u.params.name) if overrides is not None else None
+        if override is not None:
+            demand = np.where(np.isnan(override), demand, override)
+            u.record.demand[:, t] = demand
+        return demand
+
+    def _book_devices(self, t: int, actions: Actions, total: np.ndarray) -> None:
+        """Add the EV chargers' and then the washing machines' consumption at ``t`` [kWh] to ``total``."""
         if self.ev is not None:
             total += self._chargers(t, actions.electric_vehicle_storage)
         if self.machines is not None:
             total += self._washing_machines(t, actions.washing_machine)
-        net = total - pv
-        self.building_record.net_electricity_consumption[:, t] = np.where(outage, 0.0, net) if in_outage else net
-        if self.thermal is not None:
-            self.thermal.update(t)
 
-    def _end_use(self, u: EndUseState, t: int, demand: np.ndarray, action: np.ndarray, supply) -> np.ndarray:
+    def _end_use(self, u: EndUseState, t: int, demand: np.ndarray, action: np.ndarray,
+                 supply: Callable[[], np.ndarray]) -> np.ndarray:
         """Serve one end use with its device and storage; return the electricity booked (B,).
 
         Where the storage action is negative the storage discharges first and the device serves the rest;

@@ -10,6 +10,7 @@ docs/environment_dynamics.md for the window/state rules and the ``lstm_*`` quirk
 from __future__ import annotations
 
 import collections
+import io
 import pickle
 import zipfile
 from collections.abc import Mapping, Sequence
@@ -17,8 +18,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from numpy.typing import ArrayLike
 
-from citylearn_env import _lstm_kernels, dataset
+from citylearn_env import dataset, lstm_kernels
 from citylearn_env.dataset import DynamicsBlock, split_periodic_name
 from citylearn_env.errors import SchemaError
 from citylearn_env.settings import CORRECTED, Behaviour
@@ -81,8 +83,6 @@ class _WeightsUnpickler(pickle.Unpickler):
     """Resolves only tensor-rebuild helpers, storage types and OrderedDict; storages come from the zip."""
 
     def __init__(self, data: bytes, archive: zipfile.ZipFile, folder: str, byteorder: str):
-        import io
-
         super().__init__(io.BytesIO(data))
         self._archive, self._folder, self._byteorder = archive, folder, byteorder
         self._storages: dict[str, np.ndarray] = {}
@@ -275,51 +275,56 @@ class LSTMSpec:
 
     def arrays(self) -> dict[str, np.ndarray]:
         """Validated float64 weights: wih (list), whh (list), bias (L, 4H: b_ih + b_hh), wlin (H,), blin."""
-        names, n_in, hid, n_layers = self.input_observation_names, len(self.input_observation_names), \
-            int(self.hidden_size), int(self.num_layers)
-        where = self.source
-        if not (len(self.input_normalization_minimum) == len(self.input_normalization_maximum) == n_in):
-            raise SchemaError(f"{n_in} input names but {len(self.input_normalization_minimum)} minima and "
-                              f"{len(self.input_normalization_maximum)} maxima", file=where)
-        if TEMPERATURE not in names:
-            raise SchemaError(f"input_observation_names must include {TEMPERATURE!r}", file=where)
-        if hid < 1 or n_layers < 1 or int(self.lookback) < 1:
-            raise SchemaError("hidden_size, num_layers and lookback must be >= 1", file=where)
-        span = np.asarray(self.input_normalization_maximum, float) - np.asarray(self.input_normalization_minimum,
-                                                                                  float)
-        if not np.all(np.isfinite(span)) or np.any(span == 0):
-            i = int(np.flatnonzero(~np.isfinite(span) | (span == 0))[0])
-            raise SchemaError("normalization maximum equals minimum", file=where, column=names[i])
+        self._check_contract()
+        n_in, hid, n_layers, where = len(self.input_observation_names), self.hidden_size, self.num_layers, self.source
         sd = self.state_dict
         lstm = [k[: -len("weight_ih_l0")] for k in sd if k.endswith("weight_ih_l0")]
         if len(lstm) != 1:
             raise SchemaError("expected one LSTM (a single '*weight_ih_l0' key) in the state dict", file=where)
         prefix = lstm[0]
-
-        def get(key: str, shape: tuple[int, ...]) -> np.ndarray:
-            if key not in sd:
-                raise SchemaError("missing weight", file=where, column=key)
-            value = np.asarray(sd[key], dtype=np.float64)
-            if value.shape != shape:
-                raise SchemaError(f"shape {value.shape}, expected {shape}", file=where, column=key)
-            if not np.isfinite(value).all():  # NaN/inf weights would silently poison the temperatures
-                raise SchemaError("weights must be finite (found NaN or inf)", file=where, column=key)
-            return value
-
         out: dict = {"wih": [], "whh": [], "bias": []}
         for k in range(n_layers):
-            out["wih"].append(get(f"{prefix}weight_ih_l{k}", (4 * hid, n_in if k == 0 else hid)))
-            out["whh"].append(get(f"{prefix}weight_hh_l{k}", (4 * hid, hid)))
-            out["bias"].append(get(f"{prefix}bias_ih_l{k}", (4 * hid,)) + get(f"{prefix}bias_hh_l{k}", (4 * hid,)))
+            out["wih"].append(_weight(sd, f"{prefix}weight_ih_l{k}", (4 * hid, n_in if k == 0 else hid), where))
+            out["whh"].append(_weight(sd, f"{prefix}weight_hh_l{k}", (4 * hid, hid), where))
+            out["bias"].append(_weight(sd, f"{prefix}bias_ih_l{k}", (4 * hid,), where)
+                               + _weight(sd, f"{prefix}bias_hh_l{k}", (4 * hid,), where))
         if f"{prefix}weight_ih_l{n_layers}" in sd:
             raise SchemaError(f"state dict has more than num_layers={n_layers} layers", file=where)
         heads = [k[: -len("weight")] for k in sd if k.endswith("weight") and not k.startswith(prefix)]
         if len(heads) != 1:
             raise SchemaError("expected one linear head ('*.weight', '*.bias') besides the LSTM", file=where)
-        out["wlin"] = get(f"{heads[0]}weight", (1, hid))[0]
-        out["blin"] = float(get(f"{heads[0]}bias", (1,))[0])
+        out["wlin"] = _weight(sd, f"{heads[0]}weight", (1, hid), where)[0]
+        out["blin"] = float(_weight(sd, f"{heads[0]}bias", (1,), where)[0])
         out["bias"] = np.array(out["bias"])
         return out
+
+    def _check_contract(self) -> None:
+        """The input contract: as many bounds as names, the indoor temperature among them, sizes >= 1 and every
+        normalization span finite and non-zero."""
+        names, where = self.input_observation_names, self.source
+        lo, hi = self.input_normalization_minimum, self.input_normalization_maximum
+        if not (len(lo) == len(hi) == len(names)):
+            raise SchemaError(f"{len(names)} input names but {len(lo)} minima and {len(hi)} maxima", file=where)
+        if TEMPERATURE not in names:
+            raise SchemaError(f"input_observation_names must include {TEMPERATURE!r}", file=where)
+        if self.hidden_size < 1 or self.num_layers < 1 or self.lookback < 1:
+            raise SchemaError("hidden_size, num_layers and lookback must be >= 1", file=where)
+        span = np.asarray(hi, float) - np.asarray(lo, float)
+        if not np.all(np.isfinite(span)) or np.any(span == 0):
+            i = int(np.flatnonzero(~np.isfinite(span) | (span == 0))[0])
+            raise SchemaError("normalization maximum equals minimum", file=where, column=names[i])
+
+
+def _weight(state_dict: Mapping[str, np.ndarray], key: str, shape: tuple[int, ...], where: str) -> np.ndarray:
+    """Weight ``key`` of ``state_dict`` as float64, checked present, of ``shape`` and finite."""
+    if key not in state_dict:
+        raise SchemaError("missing weight", file=where, column=key)
+    value = np.asarray(state_dict[key], dtype=np.float64)
+    if value.shape != shape:
+        raise SchemaError(f"shape {value.shape}, expected {shape}", file=where, column=key)
+    if not np.isfinite(value).all():  # NaN/inf weights would silently poison the temperatures
+        raise SchemaError("weights must be finite (found NaN or inf)", file=where, column=key)
+    return value
 
 
 def spec_from_model(model: DynamicsBlock, *, state_cache: dict | None = None) -> LSTMSpec:
@@ -402,14 +407,7 @@ class LSTMBank:
         if len(heating) != n or n == 0:
             raise SchemaError(f"LSTMBank needs one cooling model per building ({n}) and as many heating entries "
                               f"({len(heating)})", column="dynamics")
-        instances: list[LSTMSpec] = []
-        self._table = np.zeros((n, 2), dtype=np.int64)
-        for b in range(n):
-            instances.append(cooling[b])
-            self._table[b] = len(instances) - 1
-            if heating[b] is not None:
-                instances.append(heating[b])
-                self._table[b, 1] = len(instances) - 1
+        instances = self._model_instances(cooling, heating)
         periods = input_periods(settings)
         names: dict[str, int] = {}
         for spec in instances:
@@ -429,15 +427,32 @@ class LSTMBank:
             self._inst_slot[members] = np.arange(len(members))
         self.settings, self.n_buildings = settings, n
         self._f32 = bool(settings.lstm_float32)
+        self._set_backend(backend)
+        self._raw = np.zeros((len(names), n))
+        self.reset()
+
+    def _model_instances(self, cooling: Sequence[LSTMSpec], heating: Sequence[LSTMSpec | None]) -> list[LSTMSpec]:
+        """Every model instance, building by building (cooling, then heating if any); fills ``_table``:
+        (B, 2) instance index of each building's cooling and heating model (the cooling one twice without)."""
+        instances: list[LSTMSpec] = []
+        self._table = np.zeros((len(cooling), 2), dtype=np.int64)
+        for b, (cool, heat) in enumerate(zip(cooling, heating, strict=True)):
+            instances.append(cool)
+            self._table[b] = len(instances) - 1
+            if heat is not None:
+                instances.append(heat)
+                self._table[b, 1] = len(instances) - 1
+        return instances
+
+    def _set_backend(self, backend: str) -> None:
+        """The group-step kernel: numba's when ``backend`` is "numba", or "auto" and numba is installed."""
         if backend not in ("auto", "numba", "numpy"):
             raise ValueError(f"backend must be 'auto', 'numba' or 'numpy', not {backend!r}")
-        kernel = _lstm_kernels.get_numba_kernel() if backend != "numpy" else None
+        kernel = lstm_kernels.get_numba_kernel() if backend != "numpy" else None
         if backend == "numba" and kernel is None:
             raise ImportError("backend='numba' needs the numba package")
         self.backend = "numba" if kernel is not None else "numpy"
-        self._kernel = kernel or _lstm_kernels.numpy_group_step
-        self._raw = np.zeros((len(names), n))
-        self.reset()
+        self._kernel = kernel or lstm_kernels.numpy_group_step
 
     def reset(self) -> None:
         """Empty every buffer and zero every hidden/cell state (episode start)."""
@@ -448,7 +463,7 @@ class LSTMBank:
         self._modes_key = b""
         self._warm_flags = np.zeros(self.n_buildings, dtype=bool)
 
-    def _instances(self, hvac_mode) -> np.ndarray:
+    def _instances(self, hvac_mode: ArrayLike) -> np.ndarray:
         heating = np.asarray(hvac_mode).reshape(self.n_buildings) > 1
         return np.where(heating, self._table[:, 1], self._table[:, 0])
 
@@ -457,7 +472,7 @@ class LSTMBank:
         """(B,) bool: the model used at the last step has a full buffer (it predicted at that step)."""
         return self._warm_flags.copy()
 
-    def warm(self, hvac_mode) -> np.ndarray:
+    def warm(self, hvac_mode: ArrayLike) -> np.ndarray:
         """(B,) bool: the model that ``hvac_mode`` (values at the coming step) selects has a full buffer.
 
         False where the coming step switches model (its buffer is cleared). CityLearn applies a device action
@@ -468,7 +483,7 @@ class LSTMBank:
             return self._warm_flags.copy()
         return self._warm_flags & (self._instances(modes) == self._current)
 
-    def step(self, obs: Mapping[str, np.ndarray], hvac_mode) -> np.ndarray:
+    def step(self, obs: Mapping[str, np.ndarray], hvac_mode: ArrayLike) -> np.ndarray:
         """Append the inputs of the current time step and predict its indoor temperature.
 
         ``obs`` maps every name of :attr:`input_names` to a (B,) array of raw values at t (W/m2, degC, kWh
@@ -485,7 +500,7 @@ class LSTMBank:
                               column=exc.args[0]) from None
         return self.step_raw(raw, hvac_mode)
 
-    def step_raw(self, raw: np.ndarray, hvac_mode) -> np.ndarray:
+    def step_raw(self, raw: np.ndarray, hvac_mode: ArrayLike) -> np.ndarray:
         """:meth:`step` with the inputs already stacked: ``raw`` (len(input_names), B), rows in
         :attr:`input_names` order (the array is read, not kept)."""
         modes = np.asarray(hvac_mode, dtype=np.float64).reshape(self.n_buildings)

@@ -9,25 +9,27 @@ observation. An episode of T time steps has T - 1 step calls; ``terminated`` is 
 from __future__ import annotations
 
 import functools
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import gymnasium as gym
 import numpy as np
 
+from citylearn_env import kpis, rewards
 from citylearn_env import observations as obs_mod
-from citylearn_env.config import DistrictConfig, device_actions
-from citylearn_env.district import Actions, District
+from citylearn_env.actions import DEVICE_ACTIONS, STORAGE_ACTIONS, ActionLayout
+from citylearn_env.config import DistrictConfig
+from citylearn_env.district import District
 from citylearn_env.errors import SchemaError
+from citylearn_env.history import device_history_frame, episode_series, history_frame
+from citylearn_env.outages import reliability_outage_signal
 from citylearn_env.schema import load_schema
 from citylearn_env.settings import Behaviour, resolve
 from citylearn_env.state import END_USE_SLOTS
 
-STORAGE_ACTIONS = ("cooling_storage", "heating_storage", "dhw_storage", "electrical_storage")
-DEVICE_ACTIONS = ("cooling_device", "heating_device")
-#: the v2.2+ combined heat-pump action in [-1, 1]: a < 0 is a cooling action of -a, a > 0 a heating action of a
-COMBINED_DEVICE_ACTION = "cooling_or_heating_device"
+if TYPE_CHECKING:  # pandas is imported only where a table is built (importing the package stays light)
+    import pandas as pd
 
 
 class CityLearnEnv(gym.Env):
@@ -76,68 +78,20 @@ class CityLearnEnv(gym.Env):
         ci = self.layout.central_index
         self.observation_space = gym.spaces.Box(lo[ci].astype(np.float32), hi[ci].astype(np.float32),
                                                 dtype=np.float32)
-        self.action_space = gym.spaces.Box(self._act_low.astype(np.float32), self._act_high.astype(np.float32),
+        low, high = self.action_layout.low, self.action_layout.high
+        self.action_space = gym.spaces.Box(low.astype(np.float32), high.astype(np.float32),
                                            dtype=np.float32)
         self.episode = -1
         self.t = 0
 
     # ------------------------------------------------------------------ setup
     def _setup_actions(self) -> None:
+        """The action vector's layout and bounds (:class:`citylearn_env.actions.ActionLayout`)."""
         d = self.district
-        self.action_pairs: list[tuple[str, int]] = []
-        for b, building in enumerate(self.config.buildings):
-            self.action_pairs.extend((name, b) for name in building.active_actions)
-        lo, hi = [], []
-        ev_names = device_actions(d.ev, d.machines)
-        for name, b in self.action_pairs:
-            kind = ev_names.get(name)
-            if kind is not None:  # a charger: -1 only if it can discharge; a washing machine: 0..1
-                owner = kind[2]
-                if owner != b:  # e.g. copies of a district (vector env): devices index the original buildings
-                    raise SchemaError(f"{self.config.building_names[b]} has no device {name!r} (it belongs to "
-                                      f"{self.config.building_names[owner]})", column=f"actions.{name}")
-                lo.append(-1.0 if kind[0] == "ev" and d.ev.chargers.max_discharging_power[kind[1]] > 0 else 0.0)
-                hi.append(1.0)
-                continue
-            if name in DEVICE_ACTIONS:
-                lo.append(0.0), hi.append(1.0)
-                continue
-            if name == COMBINED_DEVICE_ACTION:
-                lo.append(-1.0), hi.append(1.0)
-                continue
-            if name == "electrical_storage":
-                cap, power = d.battery.capacity[b], d.battery.nominal_power[b]
-                bound = 1.0 if self.settings.battery_action_fraction_of_nominal_power or cap <= 0 else power / cap
-            else:
-                params = next(p for p in d.end_use_params if END_USE_SLOTS[p.name][3] == name)
-                cap = params.tank.capacity[b]
-                bound = min(float(params.demand[b].max()) / cap, 1.0) if cap > 0 else 1.0
-            lo.append(-bound), hi.append(bound)
-        self._act_low, self._act_high = np.array(lo), np.array(hi)
-        names = (*STORAGE_ACTIONS, *DEVICE_ACTIONS)
-        self._action_template = np.zeros((len(names), d.n))
-        self._action_template[len(STORAGE_ACTIONS):] = np.nan
-        self._device_actions = None
-        if ev_names:  # (action index, device index) of the charger and washing-machine actions
-            self._device_actions = {kind: (np.array([i for i, (n, _) in enumerate(self.action_pairs)
-                                                     if ev_names.get(n, ("",))[0] == kind], dtype=np.intp),
-                                           np.array([ev_names[n][1] for n, _ in self.action_pairs
-                                                     if ev_names.get(n, ("",))[0] == kind], dtype=np.intp))
-                                    for kind in ("ev", "wm")}
-        plain = [i for i, (n, _) in enumerate(self.action_pairs)
-                 if n != COMBINED_DEVICE_ACTION and n not in ev_names]
-        self._plain_actions = np.array(plain, dtype=np.intp)
-        self._action_rows = np.array([names.index(self.action_pairs[i][0]) for i in plain], dtype=np.intp)
-        self._action_cols = np.array([self.action_pairs[i][1] for i in plain], dtype=np.intp)
-        combined = [i for i, (n, _) in enumerate(self.action_pairs) if n == COMBINED_DEVICE_ACTION]
-        self._combined_actions = np.array(combined, dtype=np.intp) if combined else None
-        self._combined_cols = np.array([self.action_pairs[i][1] for i in combined], dtype=np.intp)
-        self._device_rows = (names.index("cooling_device"), names.index("heating_device"))
-        self._action_index = {
-            name: (np.array([i for i, (n, _) in enumerate(self.action_pairs) if n == name], dtype=np.intp),
-                   np.array([b for n, b in self.action_pairs if n == name], dtype=np.intp))
-            for name in (*STORAGE_ACTIONS, *DEVICE_ACTIONS, COMBINED_DEVICE_ACTION)
-        }
+        self.action_layout = ActionLayout([b.active_actions for b in self.config.buildings], self.building_names,
+                                          battery=d.battery, end_uses=d.end_use_params, ev=d.ev,
+                                          machines=d.machines, settings=self.settings)
+        self.action_pairs = self.action_layout.pairs
 
     def _setup_episodes(self, override: int | None) -> None:
         cfg = self.config
@@ -157,9 +111,8 @@ class CityLearnEnv(gym.Env):
                 if a < 0 or a + length > n or length < 2:
                     raise SchemaError("split outside the simulation range", column="episode_time_steps")
 
-    def _make_reward(self, spec: Any):
-        from citylearn_env import rewards
-
+    def _make_reward(self, spec: Any) -> Any:
+        """The reward object of ``spec`` (None: the schema's), reset with this env's :class:`RewardContext`."""
         d = self.district
         context = rewards.RewardContext(
             central_agent=self.central_agent,
@@ -168,8 +121,7 @@ class CityLearnEnv(gym.Env):
             | {"electrical_storage": d.battery.capacity},
             initial_soc={END_USE_SLOTS[p.name][1]: p.tank.initial_soc for p in d.end_use_params}
             | {"electrical_storage": d.battery.initial_soc},
-            active_actions={name: np.isin(np.arange(d.n), self._action_index[name][1])
-                            for name in (*STORAGE_ACTIONS, *DEVICE_ACTIONS)},
+            active_actions={name: self.action_layout.active(name) for name in (*STORAGE_ACTIONS, *DEVICE_ACTIONS)},
             chargers=functools.partial(rewards.charger_step, d) if d.ev is not None else None,
         )
         self._reward_context = context
@@ -182,7 +134,9 @@ class CityLearnEnv(gym.Env):
         return reward
 
     # ------------------------------------------------------------------ gymnasium API
-    def reset(self, *, seed: int | None = None, options: dict | None = None):
+    def reset(self, *, seed: int | None = None, options: dict | None = None) -> tuple[np.ndarray, dict[str, Any]]:
+        """Start the next episode (its split per the schema's episode settings) at t = 0; return the central
+        observation (float32) and ``{"time_step": 0}``."""
         super().reset(seed=seed)
         self.episode += 1
         if self.config.random_episode_split and self.settings.legacy_random_episode_split:
@@ -204,7 +158,7 @@ class CityLearnEnv(gym.Env):
         self._refresh(0)
         return self._observation(), {"time_step": 0}
 
-    def step(self, action):
+    def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         """Apply ``action`` (the Box action vector) at the next time step; ``info`` holds the reward's
         named terms (``reward_terms``: name -> (B,) per building) and per-building rewards when not central."""
         t = self.advance(action)
@@ -218,11 +172,11 @@ class CityLearnEnv(gym.Env):
         return self._observation(), reward, terminated, False, info
 
     # ------------------------------------------------------------------ public accessors
-    def advance(self, action) -> int:
+    def advance(self, action: Any) -> int:
         """Validate ``action`` and advance the district one step (no reward); return the new time step."""
         a = np.asarray(action, dtype=np.float64).reshape(-1)
-        if a.shape != self._act_low.shape:
-            raise SchemaError(f"action has {a.size} values, the action space has {self._act_low.size} "
+        if a.shape != self.action_layout.low.shape:
+            raise SchemaError(f"action has {a.size} values, the action space has {self.action_layout.low.size} "
                               f"({', '.join(f'{self.building_names[b]}.{n}' for n, b in self.action_pairs)})",
                               column="action")
         if not np.isfinite(a).all():
@@ -232,7 +186,7 @@ class CityLearnEnv(gym.Env):
                               row=i)
         if self.t >= self.district.length - 1:
             raise RuntimeError("episode is over: call reset()")
-        self.district.step(self._actions(a))
+        self.district.step(self.action_layout.actions(a))
         self.t = t = self.district.t
         self._refresh(t)
         return t
@@ -266,7 +220,7 @@ class CityLearnEnv(gym.Env):
         return self._obs_low, self._obs_high
 
     @property
-    def reward_context(self):
+    def reward_context(self) -> rewards.RewardContext:
         """The static facts rewards are reset with (:class:`citylearn_env.rewards.RewardContext`)."""
         return self._reward_context
 
@@ -278,36 +232,7 @@ class CityLearnEnv(gym.Env):
     def _observation(self) -> np.ndarray:
         return self._flat[self.layout.central_index].astype(np.float32)
 
-    def _actions(self, a: np.ndarray) -> Actions:
-        """Action vector -> typed per-building actions: inactive storage actions 0, inactive device actions NaN;
-        a combined ``cooling_or_heating_device`` action becomes a cooling and a heating action (one of them 0)."""
-        table = self._action_template.copy()
-        if self._combined_actions is None and self._device_actions is None:
-            table[self._action_rows, self._action_cols] = a
-        else:
-            table[self._action_rows, self._action_cols] = a[self._plain_actions]
-            if self._combined_actions is not None:
-                both = a[self._combined_actions]
-                cooling, heating = self._device_rows
-                table[cooling, self._combined_cols] = np.maximum(-both, 0.0)
-                table[heating, self._combined_cols] = np.maximum(both, 0.0)
-        if self._device_actions is None:
-            return Actions(*table)
-        return Actions(*table, *(self._device_action_vector(kind, a) for kind in ("ev", "wm")))
-
-    def _device_action_vector(self, kind: str, a: np.ndarray) -> np.ndarray | None:
-        """The (C,) charger or (M,) washing-machine actions of action vector ``a`` (0 where inactive)."""
-        d = self.district
-        devices_ = d.ev.chargers.names if kind == "ev" and d.ev is not None else \
-            d.machines.names if kind == "wm" and d.machines is not None else None
-        if devices_ is None:
-            return None
-        out = np.zeros(len(devices_))
-        index, device = self._device_actions[kind]
-        out[device] = a[index]
-        return out
-
-    def _drift_draw(self, seed: int | None):
+    def _drift_draw(self, seed: int | None) -> Callable[[int], np.ndarray] | None:
         """The draw of away EVs' SOC drift, N(1, 0.2) (None without EVs): the env's generator, or with
         ``settings.legacy_ev_drift_draws`` a ``RandomState`` seeded by ``reset(seed=...)`` (CityLearn 2.5's
         global ``numpy.random`` seeded with that number), kept across resets without a seed."""
@@ -330,8 +255,6 @@ class CityLearnEnv(gym.Env):
             if not o.stochastic:
                 signal[b] = d.signals["power_outage"][b, start : start + length]
                 continue
-            from citylearn_env.outages import reliability_outage_signal
-
             seed = o.random_seed
             if seed is None:
                 seed = int(self.np_random.integers(2**31 - 1))
@@ -359,32 +282,22 @@ class CityLearnEnv(gym.Env):
 
     def series(self, window: slice | None = None) -> dict[str, np.ndarray]:
         """Recorded and derived episode series, name -> (B, t + 1) arrays (see :mod:`citylearn_env.history`)."""
-        from citylearn_env.history import episode_series
-
         return episode_series(self.district, self.t, window)
 
-    def history(self, include_district: bool = True):
+    def history(self, include_district: bool = True) -> pd.DataFrame:
         """One row per (building, time_step) so far, columns named as CityLearn's building properties."""
-        from citylearn_env.history import history_frame
-
         return history_frame(self.district, self.t, include_district=include_district)
 
-    def device_history(self):
+    def device_history(self) -> pd.DataFrame:
         """One row per (charger, EV or washing machine, time_step) so far: consumption, SOC, efficiency,
         degraded capacity (:func:`citylearn_env.history.device_history_frame`)."""
-        from citylearn_env.history import device_history_frame
-
         return device_history_frame(self.district, self.t)
 
-    def evaluate(self, *, comfort_band: float = 2.0, window: slice | None = None):
+    def evaluate(self, *, comfort_band: float = 2.0, window: slice | None = None) -> pd.DataFrame:
         """The CityLearn KPI table (long form: cost_function, value, name, level) over the episode so far."""
-        from citylearn_env import kpis
-
         return kpis.evaluate(self.series(), self.building_names, dynamics=list(self.district.dynamics),
                              comfort_band=comfort_band, window=window, settings=self.settings)
 
     def objectives(self, window: slice | None = None) -> dict[str, Any]:
         """The SimBuild paper's five objectives in absolute units over ``window`` of the episode so far."""
-        from citylearn_env import kpis
-
         return kpis.objectives(self.series(), window=window)

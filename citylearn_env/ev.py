@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from citylearn_env.dataset import _first_bad_number, _row, read_frame
+from citylearn_env.dataset import first_non_number, read_frame, row_label
 from citylearn_env.devices import BatteryParams, Curve, battery_charge
 from citylearn_env.errors import SchemaError
 
@@ -132,13 +132,13 @@ def read_charger_table(path: str | Path, n_rows: int) -> ChargerTable:
     if bad.any():
         i = int(bad.argmax())
         raise SchemaError(f"charger state {state[i]:g} is not 1, 2 or 3", file=path,
-                          column="electric_vehicle_charger_state", row=_row(i))
+                          column="electric_vehicle_charger_state", row=row_label(i))
     ev_id = np.where(np.isin(text["electric_vehicle_id"], ("", "nan")), "", text["electric_vehicle_id"])
     no_id = (state != AWAY) & (ev_id == "")
     if no_id.any():
         i = int(no_id.argmax())
         raise SchemaError(f"state {int(state[i])} needs an EV id", file=path, column="electric_vehicle_id",
-                          row=_row(i))
+                          row=row_label(i))
     times = {c: parse_number_column(text[c], path, c, allow_empty=True)
              for c in ("electric_vehicle_departure_time", "electric_vehicle_estimated_arrival_time")}
     socs = {c: parse_number_column(text[c], path, c, allow_empty=True)
@@ -147,7 +147,7 @@ def read_charger_table(path: str | Path, n_rows: int) -> ChargerTable:
         outside = (values < 0) | (values > 100)
         if outside.any():
             i = int(outside.argmax())
-            raise SchemaError(f"SOC {values[i]:g} % outside 0..100", file=path, column=column, row=_row(i))
+            raise SchemaError(f"SOC {values[i]:g} % outside 0..100", file=path, column=column, row=row_label(i))
     return ChargerTable(
         state=state.astype(np.int8), ev_id=ev_id.astype(object),
         departure_time=time_steps(times["electric_vehicle_departure_time"]),
@@ -163,10 +163,10 @@ def parse_number_column(text: np.ndarray, path: object, column: str, *, allow_em
     try:
         values = np.asarray(cells, dtype=np.float64)
     except ValueError:
-        i = _first_bad_number(cells)
-        raise SchemaError(f"not a number: {str(text[i])!r}", file=path, column=column, row=_row(i)) from None
+        i = first_non_number(cells)
+        raise SchemaError(f"not a number: {str(text[i])!r}", file=path, column=column, row=row_label(i)) from None
     if not allow_empty and np.isnan(values).any():
-        raise SchemaError("missing value", file=path, column=column, row=_row(int(np.isnan(values).argmax())))
+        raise SchemaError("missing value", file=path, column=column, row=row_label(int(np.isnan(values).argmax())))
     return values
 
 
@@ -265,7 +265,7 @@ def parse_ev_section(raw_schema: Mapping[str, Any], root: str | Path, *,
         unknown = [i for i, v in enumerate(table.ev_id) if v and v not in index]
         if unknown:
             raise SchemaError(f"EV {table.ev_id[unknown[0]]!r} is not in electric_vehicles_def", file=path,
-                              column="electric_vehicle_id", row=_row(unknown[0]))
+                              column="electric_vehicle_id", row=row_label(unknown[0]))
         tables.append(table)
     data = stack_charger_tables(tables, index, start)
     return EVSection(vehicles=vehicles, chargers=params, data=data)

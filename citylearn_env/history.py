@@ -9,9 +9,15 @@ serving less than its ideal load: (ideal - served demand) / COP.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from citylearn_env.district import District
+
+if TYPE_CHECKING:  # pandas is imported where a table is built (importing citylearn_env stays light)
+    import pandas as pd
 
 #: data columns copied into the history (name in history -> data-set column of the episode)
 DATA_COLUMNS = {
@@ -85,9 +91,9 @@ def episode_series(district: District, t_end: int, window: slice | None = None) 
     return out
 
 
-def history_frame(district: District, t_end: int, *, include_district: bool = True):
+def history_frame(district: District, t_end: int, *, include_district: bool = True) -> pd.DataFrame:
     """A long DataFrame: one row per (building, time_step); district sums as building ``"District"``."""
-    import pandas as pd
+    import pandas as pd  # lazy: importing citylearn_env does not import pandas (package docstring)
 
     series = episode_series(district, t_end)
     names = list(district.names)
@@ -104,17 +110,17 @@ def history_frame(district: District, t_end: int, *, include_district: bool = Tr
     return frame
 
 
-def device_history_frame(district: District, t_end: int):
+def device_history_frame(district: District, t_end: int) -> pd.DataFrame:
     """A long DataFrame of the EV chargers, EVs and washing machines over time steps 0..t_end: one row per
     (device, time_step) with ``kind`` ("charger", "electric_vehicle", "washing_machine"), ``building`` (the
     owner; empty for an EV), ``electricity_consumption`` [kWh] (chargers, machines), ``soc`` [-],
     ``efficiency`` [-] and ``capacity`` [kWh] (EVs; NaN for the others). Empty without such devices."""
-    import pandas as pd
+    import pandas as pd  # lazy: importing citylearn_env does not import pandas (package docstring)
 
     n = t_end + 1
     frames = []
 
-    def frame(kind: str, names, buildings, **columns: np.ndarray):
+    def frame(kind: str, names: Sequence[str], buildings: Sequence[str], **columns: np.ndarray) -> None:
         rows = {"kind": kind, "device": np.repeat(list(names), n), "building": np.repeat(list(buildings), n),
                 "time_step": np.tile(np.arange(n), len(names))}
         frames.append(pd.DataFrame(rows | {k: v[:, :n].reshape(-1) for k, v in columns.items()}))

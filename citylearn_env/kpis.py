@@ -20,11 +20,15 @@ pandas is imported only inside the functions that build DataFrames.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from citylearn_env.errors import SchemaError
 from citylearn_env.settings import CORRECTED, Behaviour
+
+if TYPE_CHECKING:  # pandas is imported where a table is built (importing citylearn_env stays light)
+    import pandas as pd
 
 NET = "net_electricity_consumption"
 DAY_STEPS, MONTH_STEPS, YEAR_STEPS = 24, 730, 8760
@@ -161,7 +165,8 @@ def _nanmean(values: Sequence[float]) -> float:
 
 
 def evaluate(series: Mapping[str, np.ndarray], building_names: Sequence[str], *, dynamics: Sequence[bool],
-             comfort_band: float = 2.0, window: slice | None = None, settings: Behaviour = CORRECTED):
+             comfort_band: float = 2.0, window: slice | None = None,
+             settings: Behaviour = CORRECTED) -> pd.DataFrame:
     """CityLearn's KPI table: a long DataFrame (cost_function, value, name, level).
 
     Building rows compare each building's control series (with storage, partial load and PV) to its baseline
@@ -169,7 +174,7 @@ def evaluate(series: Mapping[str, np.ndarray], building_names: Sequence[str], *,
     ``District`` rows hold the district KPIs (on district sums) and the mean over buildings (NaN ignored) of
     the building KPIs. Ratios are dimensionless; discomfort deltas in degC. ``settings``: the ``kpi_*`` quirks.
     """
-    import pandas as pd
+    import pandas as pd  # lazy: importing citylearn_env does not import pandas (package docstring)
 
     rows = building_kpis(series, building_names, dynamics=dynamics, comfort_band=comfort_band,
                          window=window, settings=settings)
@@ -260,12 +265,13 @@ def district_kpis(series: Mapping[str, np.ndarray], *, dynamics: Sequence[bool],
 
 
 def evaluate_challenge(series: Mapping[str, np.ndarray], building_names: Sequence[str], *,
-                       dynamics: Sequence[bool], window: slice | None = None, settings: Behaviour = CORRECTED):
+                       dynamics: Sequence[bool], window: slice | None = None,
+                       settings: Behaviour = CORRECTED) -> pd.DataFrame:
     """The CityLearn Challenge 2023 table (kpi, display_name, weight, value) with an ``average_score`` row:
     sum of weight x district value over the KPIs that are not NaN, divided by the sum of all weights
     (lower is better). ``settings.kpi_float32_score``: both sums in float32, as CityLearn 2.1; the other
     ``kpi_*`` fields act in :func:`evaluate`."""
-    import pandas as pd
+    import pandas as pd  # lazy: importing citylearn_env does not import pandas (package docstring)
 
     table = evaluate(series, building_names, dynamics=dynamics, comfort_band=1.0, window=window,
                      settings=settings)

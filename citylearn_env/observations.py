@@ -1,8 +1,11 @@
-"""Observation names, their values at a time step, and their bounds (CityLearn 2.1 conventions).
+"""The observations of a district: the flat vector's layout, the values at a time step and their bounds
+(CityLearn 2.1 conventions).
 
 Values are raw (un-normalised). A *static* observation depends only on data (calendar, weather, prices,
-carbon intensity, loads, PV yield, COPs, outage signal); a *dynamic* one on the simulation state. Static
-columns of the observation vector are laid out once per episode; each step only fills the dynamic ones.
+carbon intensity, loads, PV yield, COPs, outage signal); a *dynamic* one on the simulation state. The names
+of both kinds are in :mod:`citylearn_env.state`; the district reads their values
+(:meth:`~citylearn_env.district.District.static_series`, :meth:`~citylearn_env.district.District.dynamic_value`).
+Static columns of the observation vector are laid out once per episode; each step only fills the dynamic ones.
 """
 
 from __future__ import annotations
@@ -11,44 +14,15 @@ from collections.abc import Iterator, Mapping, Sequence
 
 import numpy as np
 
-from citylearn_env.dataset import NAME_ALIASES
 from citylearn_env.district import District
 from citylearn_env.errors import SchemaError
-from citylearn_env.state import END_USES
-
-#: observation name -> data column, for observations that are plain data
-STATIC_ALIASES = {
-    "indoor_dry_bulb_temperature_without_control": "indoor_dry_bulb_temperature",
-    "cooling_demand_without_control": "cooling_demand",
-    "heating_demand_without_control": "heating_demand",
-    "dhw_demand_without_control": "dhw_demand",
-    "non_shiftable_load_without_control": "non_shiftable_load",
-    "indoor_relative_humidity_without_control": "indoor_relative_humidity",
-    "indoor_dry_bulb_temperature_set_point_without_control": "indoor_dry_bulb_temperature_set_point",
-}
-#: observation name -> end use, for the device COP observations (derived from weather and the device); the
-#: v2.2+ names ``*_device_efficiency`` mean the same (a heater's efficiency is its "COP")
-COP_OBSERVATIONS = {"cooling_device_cop": "cooling", "heating_device_cop": "heating", "dhw_device_cop": "dhw",
-                    "cooling_device_efficiency": "cooling", "heating_device_efficiency": "heating",
-                    "dhw_device_efficiency": "dhw"}
-#: signed set-point deviations (v2.2+): observation -> the set-point column; value T_indoor - T_set [degC]
-SET_POINT_DELTAS = {"indoor_dry_bulb_temperature_cooling_delta": "indoor_dry_bulb_temperature_cooling_set_point",
-                    "indoor_dry_bulb_temperature_heating_delta": "indoor_dry_bulb_temperature_heating_set_point"}
-#: thermal energy delivered (device + storage) observed as a demand
-DELIVERED_OBSERVATIONS = {"cooling_demand": "cooling", "heating_demand": "heating", "dhw_demand": "dhw"}
-
-DYNAMIC = (
-    "indoor_dry_bulb_temperature",
-    "indoor_dry_bulb_temperature_delta",
-    *SET_POINT_DELTAS,
-    "net_electricity_consumption",
-    *DELIVERED_OBSERVATIONS,
-    "cooling_storage_soc", "heating_storage_soc", "dhw_storage_soc", "electrical_storage_soc",
-    "cooling_electricity_consumption", "heating_electricity_consumption", "dhw_electricity_consumption",
-    "cooling_storage_electricity_consumption", "heating_storage_electricity_consumption",
-    "dhw_storage_electricity_consumption", "electrical_storage_electricity_consumption",
+from citylearn_env.state import (
+    COP_OBSERVATIONS,
+    DELIVERED_OBSERVATIONS,
+    DYNAMIC,
+    SET_POINT_DELTAS,
+    STATIC_ALIASES,
 )
-
 
 #: per-charger observations (docs/ev.md section 5): generic schema key -> (name pattern with the charger id,
 #: bounds); in this order after a building's other observations, charger by charger
@@ -131,40 +105,12 @@ def device_observation_pairs(district: District, building: int, active: Sequence
     return out
 
 
-def dynamic_value(district: District, name: str, t: int) -> np.ndarray:
-    """The (B,) value of dynamic observation ``name`` at episode step ``t``."""
-    end_use = DELIVERED_OBSERVATIONS.get(name)
-    if end_use is not None:
-        r = district.end_use(end_use).record
-        return r.energy_from_device[:, t] + r.energy_from_storage[:, t]
-    if name == "indoor_dry_bulb_temperature_delta":
-        setpoint = district.episode["indoor_dry_bulb_temperature_set_point"][:, t]
-        return np.abs(district.building_record.indoor_dry_bulb_temperature[:, t] - setpoint)
-    column = SET_POINT_DELTAS.get(name)
-    if column is not None:
-        return district.building_record.indoor_dry_bulb_temperature[:, t] - district.episode[column][:, t]
-    return district.recorded[name][:, t]
-
-
-def static_series(district: District, name: str, *, full_range: bool = False) -> np.ndarray | None:
-    """The (B, T) episode series (or (B, N) over the simulation range) of a data observation; None if unknown."""
-    if name == "solar_generation":
-        return district.signals.pv_generation if full_range else district.episode.pv_generation
-    end_use = COP_OBSERVATIONS.get(name)
-    if end_use is not None:
-        params = district.end_use_params[END_USES.index(end_use)]
-        return params.cop if full_range else district.end_use(end_use).cop
-    columns = (district.signals if full_range else district.episode).columns
-    if name in columns:
-        return columns[name]
-    return columns.get(STATIC_ALIASES.get(name) or NAME_ALIASES.get(name, name))
-
-
 DEVICE_KEYS = (*CHARGER_OBSERVATIONS, *MACHINE_OBSERVATIONS, *SILENT_OBSERVATIONS)
 
 
 def is_known(district: District, name: str) -> bool:
-    return name in DYNAMIC or name in DEVICE_KEYS or static_series(district, name, full_range=True) is not None
+    """Observation ``name`` can be produced: a dynamic one, a device key or a data series of the district."""
+    return name in DYNAMIC or name in DEVICE_KEYS or district.static_series(name, full_range=True) is not None
 
 
 class StepObservations(Mapping):
@@ -183,9 +129,9 @@ class StepObservations(Mapping):
             return value
         d = self._d
         if name in DYNAMIC:
-            value = dynamic_value(d, name, self._t)
+            value = d.dynamic_value(name, self._t)
         else:
-            series = static_series(d, name)
+            series = d.static_series(name)
             if series is None:
                 raise KeyError(name)
             value = series[:, self._t]
@@ -209,38 +155,17 @@ class ObservationLayout:
     """
 
     def __init__(self, district: District):
-        config = district.config
+        self.district = district
         self.pairs: list[tuple[str, int]] = []
         self.building_slices: list[slice] = []
-        order = [name for name, _ in config.observations]
         #: (position, generic key, "ev"/"wm", device index) of each charger and washing-machine observation
         self.device_pairs: list[tuple[int, str, str, int]] = []
         self.device_bounds: list[tuple[float, float]] = []
-        for b, building in enumerate(config.buildings):
-            names = [n for n in order if n in building.active_observations]
-            for name in names:
-                if not is_known(district, name):
-                    raise SchemaError(f"observation {name!r} is active but cannot be produced",
-                                      column=f"observations.{name}")
-            start = len(self.pairs)
-            self.pairs.extend((n, b) for n in names if n not in DEVICE_KEYS)
-            for name, key, kind, index in device_observation_pairs(district, b, names):
-                self.device_pairs.append((len(self.pairs), key, kind, index))
-                self.device_bounds.append(_device_bound(district, key, kind, index))
-                self.pairs.append((name, b))
-            self.building_slices.append(slice(start, len(self.pairs)))
+        order = [name for name, _ in district.config.observations]
+        for b, building in enumerate(district.config.buildings):
+            self._add_building(b, [n for n in order if n in building.active_observations])
+        self.central_index = self._central(set(district.config.shared_observations))
         device_positions = {pos for pos, *_ in self.device_pairs}
-        shared = set(config.shared_observations)
-        seen: set[str] = set()
-        central = []
-        for i, (name, _) in enumerate(self.pairs):
-            if name in shared:
-                if name in seen:
-                    continue
-                seen.add(name)
-            central.append(i)
-        self.central_index = np.array(central, dtype=np.intp)
-        self.district = district
         groups: dict[str, list[int]] = {}
         for i, (name, _) in enumerate(self.pairs):
             if i not in device_positions:
@@ -254,6 +179,32 @@ class ObservationLayout:
         self.device_groups = {k: (np.array([p for p, _ in v], dtype=np.intp), np.array([i for _, i in v], dtype=np.intp))
                               for k, v in by_key.items()}
 
+    def _add_building(self, b: int, names: list[str]) -> None:
+        """Lay out building ``b``'s active observations ``names``: its plain ones, then its devices' ones."""
+        for name in names:
+            if not is_known(self.district, name):
+                raise SchemaError(f"observation {name!r} is active but cannot be produced",
+                                  column=f"observations.{name}")
+        start = len(self.pairs)
+        self.pairs.extend((n, b) for n in names if n not in DEVICE_KEYS)
+        for name, key, kind, index in device_observation_pairs(self.district, b, names):
+            self.device_pairs.append((len(self.pairs), key, kind, index))
+            self.device_bounds.append(_device_bound(self.district, key, kind, index))
+            self.pairs.append((name, b))
+        self.building_slices.append(slice(start, len(self.pairs)))
+
+    def _central(self, shared: set[str]) -> np.ndarray:
+        """Positions of the central-agent vector: every pair, a ``shared`` name only at its first position."""
+        seen: set[str] = set()
+        central = []
+        for i, (name, _) in enumerate(self.pairs):
+            if name in shared:
+                if name in seen:
+                    continue
+                seen.add(name)
+            central.append(i)
+        return np.array(central, dtype=np.intp)
+
     def names(self, central: bool = True) -> list[str]:
         index = self.central_index if central else range(len(self.pairs))
         return [self.pairs[i][0] for i in index]
@@ -264,14 +215,14 @@ class ObservationLayout:
         matrix = np.zeros((d.length, len(self.pairs)))
         for name, (pos, bidx) in self.groups.items():
             if name not in DYNAMIC:
-                matrix[:, pos] = static_series(d, name)[bidx].T
+                matrix[:, pos] = d.static_series(name)[bidx].T
         return matrix
 
     def vector(self, static_row: np.ndarray, t: int) -> np.ndarray:
         """The flat vector of all active observations at ``t`` (static row plus dynamic values)."""
         out = static_row.copy()
         for name, pos, bidx in self.dynamic:
-            out[pos] = dynamic_value(self.district, name, t)[bidx]
+            out[pos] = self.district.dynamic_value(name, t)[bidx]
         if self.device_groups:
             values = {**(charger_observations(self.district, t) if self.district.ev is not None else {}),
                       **(machine_observations(self.district, t) if self.district.machines is not None else {})}
@@ -293,26 +244,42 @@ class ObservationLayout:
 
 
 def _bound(d: District, name: str, b: int) -> tuple[float, float]:
-    s = d.signals
-    uses = {p.name: p for p in d.end_use_params}
-    pv = s.pv_generation[b]
-    p_batt = d.battery.nominal_power[b]
+    """(low, high) of observation ``name`` of building ``b`` over the simulation range, in its own units."""
     if name == "net_electricity_consumption":
-        nsl = s["non_shiftable_load"][b]
-        charge, discharge = _charger_power(d, b)
-        low = min(float(np.min(nsl - p_batt - discharge - pv)), 0.0)
-        devices_power = sum(p.nominal_power[b] for p in d.end_use_params) + charge + _machine_peak(d, b)
-        return low, float(np.max(nsl + devices_power + p_batt - pv))
+        return _net_bound(d, b)
     if name.endswith("_soc") or name == "power_outage":
         return 0.0, 1.0
     if name == "indoor_dry_bulb_temperature":
-        low, high = _finite_range(s["indoor_dry_bulb_temperature"][b])
+        low, high = _finite_range(d.signals["indoor_dry_bulb_temperature"][b])
         return low - 10.0, high + 10.0
     if name == "indoor_dry_bulb_temperature_delta":
         return 0.0, 10.0
     if name in SET_POINT_DELTAS:
         return -10.0, 10.0
+    bound = _energy_bound(d, name, b)
+    if bound is not None:
+        return bound
+    return _finite_range(d.static_series(name, full_range=True)[b])
+
+
+def _net_bound(d: District, b: int) -> tuple[float, float]:
+    """Net consumption [kWh]: from everything discharging into the building and full PV (at most 0) to every
+    device at nominal power, the battery charging and no PV."""
+    s = d.signals
+    pv = s.pv_generation[b]
+    p_batt = d.battery.nominal_power[b]
+    nsl = s["non_shiftable_load"][b]
+    charge, discharge = _charger_power(d, b)
+    low = min(float(np.min(nsl - p_batt - discharge - pv)), 0.0)
+    devices_power = sum(p.nominal_power[b] for p in d.end_use_params) + charge + _machine_peak(d, b)
+    return low, float(np.max(nsl + devices_power + p_batt - pv))
+
+
+def _energy_bound(d: District, name: str, b: int) -> tuple[float, float] | None:
+    """Bounds [kWh] of a delivered-energy or an electricity-consumption observation (None for any other)."""
+    p_batt = d.battery.nominal_power[b]
     if name in DELIVERED_OBSERVATIONS:
+        uses = {p.name: p for p in d.end_use_params}
         return 0.0, 1.15 * float(uses[DELIVERED_OBSERVATIONS[name]].demand[b].max())
     if name == "electrical_storage_electricity_consumption":
         return -float(p_batt), float(p_batt)
@@ -321,7 +288,7 @@ def _bound(d: District, name: str, b: int) -> tuple[float, float]:
             return 0.0, float(p.nominal_power[b])
         if name == STORAGE_ELECTRICITY_NAMES[p.name]:
             return -float(np.max(p.demand[b] / p.cop[b])), float(p.nominal_power[b])
-    return _finite_range(static_series(d, name, full_range=True)[b])
+    return None
 
 
 def _charger_power(d: District, b: int) -> tuple[float, float]:

@@ -12,6 +12,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from citylearn_env.errors import SchemaError
 
@@ -101,7 +102,7 @@ def reliability_outage_signal(n_steps: int, *, saifi: float = 1.436, caidi: floa
     return signal
 
 
-def csv_outage_signal(values, *, file: object = None, column: str = "power_outage") -> np.ndarray:
+def csv_outage_signal(values: ArrayLike, *, file: object = None, column: str = "power_outage") -> np.ndarray:
     """Validate a data-set outage column: every value must be 0 or 1 (1 = outage); returns int8 (N,)."""
     array = np.asarray(values, dtype=np.float64).reshape(-1)
     bad = ~np.isin(array, (0.0, 1.0))

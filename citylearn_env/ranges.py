@@ -266,20 +266,25 @@ def check_schema_shape(raw: Any) -> None:
             _types(entry, (_DICT,), f"{group}.{name}")
             _check_keys(entry, _ENTRY_KEYS, f"{group}.{name}.")
     for name, spec in raw.get("buildings", {}).items():
-        where = f"buildings.{name}"
-        _types(spec, (_DICT,), where)
-        _check_keys(spec, BUILDING_KEYS, f"{where}.")
-        for key in ("inactive_observations", "inactive_actions"):
-            for i, item in enumerate(spec.get(key) or []):
-                _types(item, (_STR,), f"{where}.{key}[{i}]")
-        for slot, kinds in BUILDING_KEYS.items():
-            if kinds == (_DICT, _NONE) and isinstance(spec.get(slot), Mapping) and slot not in (
-                    "dynamics", "power_outage"):
-                _check_keys(spec[slot], _DEVICE_KEYS, f"{where}.{slot}.")
-        outage = spec.get("power_outage") or {}
-        _check_keys(outage, _OUTAGE_KEYS, f"{where}.power_outage.")
-        _check_keys(outage.get("stochastic_power_outage_model") or {}, _OUTAGE_MODEL_KEYS,
-                    f"{where}.power_outage.stochastic_power_outage_model.")
+        _check_building_shape(spec, f"buildings.{name}")
+
+
+def _check_building_shape(spec: Any, where: str) -> None:
+    """One building entry: an object with the types of :data:`BUILDING_KEYS`, string lists of inactive
+    names, each device an object with the types of its keys, the power outage and its model."""
+    _types(spec, (_DICT,), where)
+    _check_keys(spec, BUILDING_KEYS, f"{where}.")
+    for key in ("inactive_observations", "inactive_actions"):
+        for i, item in enumerate(spec.get(key) or []):
+            _types(item, (_STR,), f"{where}.{key}[{i}]")
+    for slot, kinds in BUILDING_KEYS.items():
+        if kinds == (_DICT, _NONE) and isinstance(spec.get(slot), Mapping) and slot not in (
+                "dynamics", "power_outage"):
+            _check_keys(spec[slot], _DEVICE_KEYS, f"{where}.{slot}.")
+    outage = spec.get("power_outage") or {}
+    _check_keys(outage, _OUTAGE_KEYS, f"{where}.power_outage.")
+    _check_keys(outage.get("stochastic_power_outage_model") or {}, _OUTAGE_MODEL_KEYS,
+                f"{where}.power_outage.stochastic_power_outage_model.")
 
 
 def check_dynamics_attributes(attributes: Any, *, where: str) -> None:

@@ -21,17 +21,20 @@ from __future__ import annotations
 import inspect
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import Any, ClassVar
 
 import numpy as np
 
+from citylearn_env.actions import STORAGE_ACTIONS
+from citylearn_env.district import District
 from citylearn_env.errors import SchemaError
+from citylearn_env.ev import NO_EV, plugged_ev
 from citylearn_env.settings import CORRECTED, Behaviour
 
-if TYPE_CHECKING:
-    from citylearn_env.district import District
-
-STORAGES = ("cooling_storage", "heating_storage", "dhw_storage", "electrical_storage")
+#: what a reward is called with: observation name -> (B,) raw values of every building at the step
+Observations = Mapping[str, np.ndarray]
+#: a reward's named components: term name -> (B,) per-building values
+Terms = dict[str, np.ndarray]
 #: storages whose capacity does not exceed this (kWh) count as absent (CityLearn's zero-division placeholder)
 ZERO_CAPACITY = 1e-6
 
@@ -64,8 +67,6 @@ class ChargerStep:
 def charger_step(district: District) -> ChargerStep:
     """The chargers of ``district`` at its current step ``district.t`` (after that step's actions), read from
     its typed state (``ev_data``, ``ev_record``, ``charger_record``)."""
-    from citylearn_env.ev import NO_EV, plugged_ev
-
     t, section, data = district.t, district.ev, district.ev_data
     battery = section.vehicles.battery
     ev = plugged_ev(data, t)
@@ -132,8 +133,14 @@ class Reward:
     ``settings`` selects which upstream quirks a subclass reproduces (each reads its own field)."""
 
     central_aggregate = "sum"
+    #: the reward of N copies of a district may be computed in one call over all copies' buildings
+    #: (:class:`citylearn_env.vector.CityLearnVectorEnv`): its central value is the sum (or mean, per
+    #: ``central_aggregate``) of per-building values, each of which depends only on that building's
+    #: observations, its own state and data every copy shares. A subclass whose value mixes buildings (a
+    #: district total, a central peak) or that overrides ``__call__`` sets False: one reward object per copy.
+    batchable: ClassVar[bool] = True
 
-    def __init__(self, *, settings: Behaviour = CORRECTED):
+    def __init__(self, *, settings: Behaviour = CORRECTED) -> None:
         if not isinstance(settings, Behaviour):
             raise TypeError(f"settings must be a Behaviour, not {type(settings).__name__}")
         self.settings = settings
@@ -142,14 +149,14 @@ class Reward:
     def reset(self, context: RewardContext) -> None:
         self.context = context
 
-    def building_values(self, obs: Mapping[str, np.ndarray]) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    def building_values(self, obs: Observations) -> tuple[np.ndarray, Terms]:
         raise NotImplementedError
 
     def _check(self) -> None:
         if self.context is None:
             raise RuntimeError(f"{type(self).__name__}: call reset(context) before the first step")
 
-    def __call__(self, obs: Mapping[str, np.ndarray]) -> tuple[float | np.ndarray, dict[str, np.ndarray]]:
+    def __call__(self, obs: Observations) -> tuple[float | np.ndarray, Terms]:
         self._check()
         values, terms = self.building_values(obs)
         return self.aggregate(values), terms
@@ -164,11 +171,13 @@ class Reward:
 class RewardFunction(Reward):
     """Default: -max(e_b, 0) per building; central: -max(sum_b e_b, 0) on the district net (kWh)."""
 
-    def building_values(self, obs):
+    batchable = False  # central: the district net, not a sum of building values
+
+    def building_values(self, obs: Observations) -> tuple[np.ndarray, Terms]:
         values = -np.clip(_get(obs, "net_electricity_consumption"), 0.0, None)
         return values, {"grid_import": values}
 
-    def __call__(self, obs):
+    def __call__(self, obs: Observations) -> tuple[float | np.ndarray, Terms]:
         value, terms = super().__call__(obs)
         if self.context.central_agent:
             value = float(min(-_get(obs, "net_electricity_consumption").sum(), 0.0))
@@ -178,7 +187,9 @@ class RewardFunction(Reward):
 class MARL(Reward):
     """sign(-e_b) * 0.01 * e_b^2 * max(0, sum_b e_b); central: sum."""
 
-    def building_values(self, obs):
+    batchable = False  # every building's value scales with the district total
+
+    def building_values(self, obs: Observations) -> tuple[np.ndarray, Terms]:
         e = -_get(obs, "net_electricity_consumption")
         district = -e.sum()
         values = np.sign(e) * 0.01 * e ** 2 * max(0.0, district)
@@ -189,7 +200,7 @@ class IndependentSACReward(Reward):
     """-max(e_b, 0)^3 (intended, e_b kWh); with ``settings.independent_sac_reward_precedence_bug``:
     -max(e_b, 0), CityLearn's operator-precedence bug. Central: sum."""
 
-    def building_values(self, obs):
+    def building_values(self, obs: Observations) -> tuple[np.ndarray, Terms]:
         e = np.clip(_get(obs, "net_electricity_consumption"), 0.0, None)
         values = -e if self.settings.independent_sac_reward_precedence_bug else -(e ** 3)
         return values, {"grid_import": values}
@@ -198,10 +209,10 @@ class IndependentSACReward(Reward):
 class SolarPenaltyReward(Reward):
     """Sum over storages with capacity > 1e-6 kWh of -(1 + sign(e_b) * soc) * |e_b|; central: sum."""
 
-    def building_values(self, obs):
+    def building_values(self, obs: Observations) -> tuple[np.ndarray, Terms]:
         e = _get(obs, "net_electricity_consumption")
         terms = {}
-        for kind in STORAGES:
+        for kind in STORAGE_ACTIONS:
             present = self.context.storage_capacity(kind) > ZERO_CAPACITY
             soc = _get(obs, f"{kind}_soc", 0.0)
             terms[kind] = np.where(present, -(1.0 + np.sign(e) * soc) * np.abs(e), 0.0)
@@ -215,13 +226,13 @@ class ComfortReward(Reward):
     Central: sum."""
 
     def __init__(self, band: float | None = None, lower_exponent: float | None = None,
-                 higher_exponent: float | None = None, *, settings: Behaviour = CORRECTED):
+                 higher_exponent: float | None = None, *, settings: Behaviour = CORRECTED) -> None:
         super().__init__(settings=settings)
         self.band = 2.0 if band is None else float(band)
         self.lower_exponent = 2.0 if lower_exponent is None else float(lower_exponent)
         self.higher_exponent = 3.0 if higher_exponent is None else float(higher_exponent)
 
-    def building_values(self, obs):
+    def building_values(self, obs: Observations) -> tuple[np.ndarray, Terms]:
         heating = _get(obs, "heating_demand", 0.0) > _get(obs, "cooling_demand", 0.0)
         t = _get(obs, "indoor_dry_bulb_temperature")
         s = _get(obs, "indoor_dry_bulb_temperature_set_point")
@@ -244,7 +255,7 @@ class SolarPenaltyAndComfortReward(Reward):
 
     def __init__(self, band: float | None = None, lower_exponent: float | None = None,
                  higher_exponent: float | None = None, coefficients: Sequence[float] | None = None, *,
-                 settings: Behaviour = CORRECTED):
+                 settings: Behaviour = CORRECTED) -> None:
         super().__init__(settings=settings)
         self.parts = (SolarPenaltyReward(settings=settings),
                       ComfortReward(band, lower_exponent, higher_exponent, settings=settings))
@@ -253,20 +264,22 @@ class SolarPenaltyAndComfortReward(Reward):
             raise SchemaError(f"needs 2 coefficients, got {len(self.coefficients)}",
                               column="reward_function.attributes.coefficients")
 
-    def reset(self, context):
+    batchable = False  # central: each part summed (and rounded) before they are added
+
+    def reset(self, context: RewardContext) -> None:
         super().reset(context)
         for part in self.parts:
             part.reset(context)
 
-    def _parts(self, obs) -> list[np.ndarray]:
+    def _parts(self, obs: Observations) -> list[np.ndarray]:
         return [part.building_values(obs)[0] for part in self.parts]
 
-    def building_values(self, obs):
+    def building_values(self, obs: Observations) -> tuple[np.ndarray, Terms]:
         solar, comfort = self._parts(obs)
         terms = {"solar_penalty": self.coefficients[0] * solar, "comfort": self.coefficients[1] * comfort}
         return terms["solar_penalty"] + terms["comfort"], terms
 
-    def __call__(self, obs):
+    def __call__(self, obs: Observations) -> tuple[float | np.ndarray, Terms]:
         self._check()
         parts = self._parts(obs)
         terms = {"solar_penalty": self.coefficients[0] * parts[0], "comfort": self.coefficients[1] * parts[1]}
@@ -356,11 +369,11 @@ class ElectricVehiclesReward(MARL):
     refused at load. Upstream quirks per ``settings``: ``ev_reward_skips_unplugged_chargers``,
     ``ev_reward_squares_soc_under_weight``."""
 
-    def __init__(self, weights: Mapping[str, float] | None = None, *, settings: Behaviour = CORRECTED):
+    def __init__(self, weights: Mapping[str, float] | None = None, *, settings: Behaviour = CORRECTED) -> None:
         super().__init__(settings=settings)
         self.weights = parse_ev_reward_weights(weights)
 
-    def building_values(self, obs):
+    def building_values(self, obs: Observations) -> tuple[np.ndarray, Terms]:
         marl, _ = super().building_values(obs)
         base = np.full_like(marl, marl.sum()) if self.context.central_agent else marl
         if self.context.chargers is None:
@@ -384,16 +397,16 @@ class SignalReward(Reward):
     default_signal: str | None = None
 
     def __init__(self, signal: str | None = None, exponent: float | None = None, window: int | None = None, *,
-                 settings: Behaviour = CORRECTED):
+                 settings: Behaviour = CORRECTED) -> None:
         super().__init__(settings=settings)
         self.signal = self.default_signal if signal is None else signal
         self.exponent = 1.0 if exponent is None else float(exponent)
         self.window = window
 
-    def _signal(self, obs) -> np.ndarray:
+    def _signal(self, obs: Observations) -> np.ndarray:
         return _get(obs, self.signal) if self.signal else np.ones_like(_get(obs, "net_electricity_consumption"))
 
-    def building_values(self, obs):
+    def building_values(self, obs: Observations) -> tuple[np.ndarray, Terms]:
         grid = np.clip(_get(obs, "net_electricity_consumption"), 0.0, None)
         values = -((grid * self._signal(obs)) ** self.exponent)
         return values, {"signal": values}
@@ -406,16 +419,16 @@ class StorageSignalReward(SignalReward):
     (CityLearn 2.1 / SimBuild). Central: sum."""
 
     def __init__(self, signal: str | None = None, exponent: float | None = None, *,
-                 settings: Behaviour = CORRECTED):
+                 settings: Behaviour = CORRECTED) -> None:
         super().__init__(signal, exponent, settings=settings)
         self.kinds = ("dhw_storage", "cooling_storage", "heating_storage", "electrical_storage")
         self.previous_soc: dict[str, np.ndarray] = {}
 
-    def reset(self, context):
+    def reset(self, context: RewardContext) -> None:
         super().reset(context)
         self.previous_soc = {k: context.storage_initial_soc(k).copy() for k in self.kinds}
 
-    def building_values(self, obs):
+    def building_values(self, obs: Observations) -> tuple[np.ndarray, Terms]:
         e = _get(obs, "net_electricity_consumption")
         soc = {k: _get(obs, f"{k}_soc", 0.0) for k in self.kinds}
         stored = sum((soc[k] - self.previous_soc[k]) * self.context.storage_capacity(k) for k in self.kinds)
@@ -436,16 +449,18 @@ class StorageCostReductionReward(Reward):
     charges while its device consumes more than the storage; central: sum. The price list persists across
     episodes, as upstream."""
 
-    def __init__(self, *, settings: Behaviour = CORRECTED, **_unused: Any):
+    batchable = True  # the price ranked is building 0's, data that every copy of a district shares
+
+    def __init__(self, *, settings: Behaviour = CORRECTED, **_unused: Any) -> None:
         super().__init__(settings=settings)
         self.prices: list[float] = []
 
-    def building_values(self, obs):
+    def building_values(self, obs: Observations) -> tuple[np.ndarray, Terms]:
         price = float(_get(obs, "electricity_pricing")[0])
         self.prices = sorted(set(self.prices) | {price})
         i, n = self.prices.index(price), len(self.prices)
         terms = {}
-        for kind in STORAGES:
+        for kind in STORAGE_ACTIONS:
             active = self.context.action_active(kind)
             if not active.any():
                 continue
@@ -465,7 +480,7 @@ class SetPointDeviationReward(Reward):
 
     central_aggregate = "mean"
 
-    def building_values(self, obs):
+    def building_values(self, obs: Observations) -> tuple[np.ndarray, Terms]:
         values = -np.abs(_get(obs, "indoor_dry_bulb_temperature")
                          - _get(obs, "indoor_dry_bulb_temperature_set_point"))
         return values, {"set_point_deviation": values}
@@ -477,11 +492,11 @@ class ComfortAndConsumptionReductionReward(Reward):
 
     central_aggregate = "mean"
 
-    def __init__(self, multiplier: float | None = None, *, settings: Behaviour = CORRECTED):
+    def __init__(self, multiplier: float | None = None, *, settings: Behaviour = CORRECTED) -> None:
         super().__init__(settings=settings)
         self.multiplier = 3.0 if multiplier is None else float(multiplier)
 
-    def building_values(self, obs):
+    def building_values(self, obs: Observations) -> tuple[np.ndarray, Terms]:
         delta = _get(obs, "indoor_dry_bulb_temperature") - _get(obs, "indoor_dry_bulb_temperature_set_point")
         values = -np.abs(np.where(delta < 0.0, delta * self.multiplier, delta))
         return values, {"over_cooling": np.where(delta < 0.0, values, 0.0),
@@ -492,15 +507,17 @@ class PeakReductionReward(Reward):
     """Running peak p of max(e, 0) since reset (kWh; per building, or of the district sum for a central
     agent); reward = p - max(e, 0) >= 0."""
 
-    def reset(self, context):
+    batchable = False  # central: the peak of the district sum
+
+    def reset(self, context: RewardContext) -> None:
         super().reset(context)
         self.peak = np.zeros(1 if context.central_agent else context.n_buildings)
 
-    def building_values(self, obs):
+    def building_values(self, obs: Observations) -> tuple[np.ndarray, Terms]:
         grid = np.clip(_get(obs, "net_electricity_consumption"), 0.0, None)
         return grid, {"grid_import": grid}
 
-    def __call__(self, obs):
+    def __call__(self, obs: Observations) -> tuple[float | np.ndarray, Terms]:
         self._check()
         grid, terms = self.building_values(obs)
         load = np.array([grid.sum()]) if self.context.central_agent else grid
@@ -527,14 +544,14 @@ class AverageDailyPeakReward(RewardFunction):
     central agent (``aggregate="district"``), or -sum_b max(e_b, 0) (``aggregate="buildings"``: what the
     published SimBuild runs computed with SignalReward and no signal); decentralised: -max(e_b, 0)."""
 
-    def __init__(self, aggregate: str = "district", *, settings: Behaviour = CORRECTED):
+    def __init__(self, aggregate: str = "district", *, settings: Behaviour = CORRECTED) -> None:
         super().__init__(settings=settings)
         if aggregate not in ("district", "buildings"):
             raise SchemaError(f"aggregate must be 'district' or 'buildings', got {aggregate!r}",
                               column="reward_function.attributes.aggregate")
         self.aggregate_mode = aggregate
 
-    def __call__(self, obs):
+    def __call__(self, obs: Observations) -> tuple[float | np.ndarray, Terms]:
         return super().__call__(obs) if self.aggregate_mode == "district" else Reward.__call__(self, obs)
 
 

@@ -30,6 +30,7 @@ from citylearn_env.config import (
 )
 from citylearn_env.errors import SchemaError
 from citylearn_env.ev import (
+    EVSection,
     parse_ev_section,
     seeded_initial_soc_draws,
     upstream_battery_curves,
@@ -38,7 +39,8 @@ from citylearn_env.ev import (
 )
 from citylearn_env.registry import SLOT_CLASSES, resolve_type
 from citylearn_env.settings import Behaviour, resolve
-from citylearn_env.washing_machine import parse_washing_machines
+from citylearn_env.state import COP_OBSERVATIONS, DYNAMIC, STATIC_ALIASES
+from citylearn_env.washing_machine import WashingMachines, parse_washing_machines
 
 
 def load_schema(schema: str | Path | Mapping[str, Any], *,
@@ -84,19 +86,8 @@ def load_schema(schema: str | Path | Mapping[str, Any], *,
 
 def _parse(raw: dict[str, Any], root: paths.DatasetFolder, source: str,
            missing_hvac_mode_is_off: bool, battery_defaults_drawn: bool = False) -> DistrictConfig:
-    start = ranges.check_key(raw, "simulation_start_time_step", 0, where="simulation_start_time_step")
-    end = ranges.check_key(raw, "simulation_end_time_step", None, where="simulation_end_time_step")
-    if end is None or end < start:
-        raise SchemaError("must be an integer >= simulation_start_time_step", column="simulation_end_time_step")
-    observations = raw.get("observations")
-    if not isinstance(observations, Mapping) or not observations:
-        raise SchemaError("missing or empty", column="observations")
-    actions = raw.get("actions", {})
-    for name in actions:
-        if name not in ACTION_NAMES:
-            raise SchemaError(f"unknown action; known actions: {', '.join(ACTION_NAMES)}", column=f"actions.{name}")
-    active_obs = [n for n, v in observations.items() if v.get("active", False)]
-    active_actions = [n for n, v in actions.items() if v.get("active", False)]  # schema order
+    start, end = _simulation_range(raw)
+    observations, active_obs, active_actions = _active_names(raw)
     buildings_raw = raw.get("buildings")
     if not isinstance(buildings_raw, Mapping) or not buildings_raw:
         raise SchemaError("missing or empty", column="buildings")
@@ -104,29 +95,17 @@ def _parse(raw: dict[str, Any], root: paths.DatasetFolder, source: str,
     machines = parse_washing_machines(raw, root.root)
     if any(spec.get("charging_constraints") for spec in buildings_raw.values() if isinstance(spec, Mapping)):
         raise SchemaError("charging constraints (CityLearn 2.5) are not supported", column="charging_constraints")
+    drawn_seed = int(raw.get("random_seed") or 0) if battery_defaults_drawn else None
     cache: dict[tuple[str, str], dict[str, np.ndarray]] = {}
-    buildings = []
+    buildings: list[BuildingConfig] = []
     for name, spec in buildings_raw.items():
-        if not spec.get("include", True):
-            continue
-        building = _building(name, spec, root, start, end, cache, active_obs, active_actions,
-                             missing_hvac_mode_is_off)
-        inactive = set(spec.get("inactive_actions") or [])
-        expanded = expand_actions(building.active_actions, len(buildings), ev, machines)
-        building = replace(building, active_actions=tuple(a for a in expanded if a not in inactive))
-        if battery_defaults_drawn and spec.get("electrical_storage"):
-            building = replace(building, electrical_storage=drawn_battery_defaults(
-                building.electrical_storage, name, spec, int(raw.get("random_seed") or 0)))
-        buildings.append(building)
+        if spec.get("include", True):
+            building = _building(name, spec, root, start, end, cache, active_obs, active_actions,
+                                 missing_hvac_mode_is_off)
+            buildings.append(_with_devices(building, spec, len(buildings), ev, machines, drawn_seed))
     if not buildings:
         raise SchemaError("no building has include = true", column="buildings")
-    episode = raw.get("episode_time_steps")
-    if isinstance(episode, list):
-        if not all(isinstance(p, list) and len(p) == 2 and all(isinstance(v, int) and not isinstance(v, bool)
-                                                                for v in p) for p in episode):
-            raise SchemaError("must be null, an int or a list of [start, end] integer pairs",
-                              column="episode_time_steps")
-        episode = tuple((int(a), int(b)) for a, b in episode)
+    episode = _episode_splits(raw.get("episode_time_steps"))
     seconds = ranges.check_key(raw, "seconds_per_time_step", 3600.0, where="seconds_per_time_step")
     ranges.check_key(raw, "random_seed", None, where="random_seed")
     return DistrictConfig(
@@ -145,6 +124,55 @@ def _parse(raw: dict[str, Any], root: paths.DatasetFolder, source: str,
         electric_vehicles=ev,
         washing_machines=machines,
     )
+
+
+def _simulation_range(raw: Mapping[str, Any]) -> tuple[int, int]:
+    """``(simulation_start_time_step, simulation_end_time_step)`` [time steps], the end not before the start."""
+    start = ranges.check_key(raw, "simulation_start_time_step", 0, where="simulation_start_time_step")
+    end = ranges.check_key(raw, "simulation_end_time_step", None, where="simulation_end_time_step")
+    if end is None or end < start:
+        raise SchemaError("must be an integer >= simulation_start_time_step", column="simulation_end_time_step")
+    return start, end
+
+
+def _active_names(raw: Mapping[str, Any]) -> tuple[Mapping[str, Any], list[str], list[str]]:
+    """The schema's ``observations`` (non-empty) and its active observation and action names (schema order);
+    every action name must be a known one."""
+    observations = raw.get("observations")
+    if not isinstance(observations, Mapping) or not observations:
+        raise SchemaError("missing or empty", column="observations")
+    actions = raw.get("actions", {})
+    for name in actions:
+        if name not in ACTION_NAMES:
+            raise SchemaError(f"unknown action; known actions: {', '.join(ACTION_NAMES)}", column=f"actions.{name}")
+    active_obs = [n for n, v in observations.items() if v.get("active", False)]
+    active_actions = [n for n, v in actions.items() if v.get("active", False)]  # schema order
+    return observations, active_obs, active_actions
+
+
+def _with_devices(building: BuildingConfig, spec: Mapping[str, Any], index: int, ev: EVSection | None,
+                  machines: WashingMachines | None, drawn_seed: int | None) -> BuildingConfig:
+    """``building`` (the ``index``-th included one) with its per-device actions expanded, less its inactive
+    actions, and with CityLearn 2.5's drawn battery defaults from the schema's ``random_seed`` when
+    ``drawn_seed`` is given (``settings.battery_defaults_drawn``)."""
+    inactive = set(spec.get("inactive_actions") or [])
+    expanded = expand_actions(building.active_actions, index, ev, machines)
+    building = replace(building, active_actions=tuple(a for a in expanded if a not in inactive))
+    if drawn_seed is not None and spec.get("electrical_storage"):
+        building = replace(building, electrical_storage=drawn_battery_defaults(
+            building.electrical_storage, building.name, spec, drawn_seed))
+    return building
+
+
+def _episode_splits(episode: Any) -> Any:
+    """``episode_time_steps``: null, an int, or a list of [start, end] integer pairs (-> a tuple of pairs)."""
+    if not isinstance(episode, list):
+        return episode
+    if not all(isinstance(p, list) and len(p) == 2 and all(isinstance(v, int) and not isinstance(v, bool)
+                                                            for v in p) for p in episode):
+        raise SchemaError("must be null, an int or a list of [start, end] integer pairs",
+                          column="episode_time_steps")
+    return tuple((int(a), int(b)) for a, b in episode)
 
 
 def drawn_battery_defaults(battery: Battery, building: str, spec: Mapping[str, Any], random_seed: int) -> Battery:
@@ -184,7 +212,7 @@ def _device(slot: str, spec: Mapping[str, Any] | None, where: str, series: Mappi
     sf = autosize.safety_factor(spec.get("autosize_attributes"), where)
     if cls == "PV":
         efficiency = (spec.get("attributes") or {}).get("efficiency") or 1.0
-        return autosize.pv_power(device, series["solar_generation"], efficiency=efficiency, safety_factor=sf)
+        return autosize.pv_peak_power(device, series["solar_generation"], efficiency=efficiency, safety_factor=sf)
     return autosize.autosize_device(slot, device, series, sf)
 
 
@@ -291,8 +319,6 @@ def _dynamics(spec: Any, root: paths.DatasetFolder, series: Mapping[str, np.ndar
             continue
         if not root.check(block.filename, where=f"{at}.attributes.filename").is_file():
             raise SchemaError("LSTM weights file not found", file=block.filename, column=f"{at}.attributes.filename")
-        from citylearn_env.observations import COP_OBSERVATIONS, DYNAMIC, STATIC_ALIASES
-
         known = {*series, *DYNAMIC, *STATIC_ALIASES, *COP_OBSERVATIONS, *dataset.NAME_ALIASES}
         for i, name in enumerate(block.input_observation_names):
             if dataset.split_periodic_name(name)[0] not in known:

@@ -19,6 +19,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, fields
 
+from citylearn_env.errors import SchemaError
+
 
 @dataclass(frozen=True)
 class Behaviour:
@@ -118,43 +120,24 @@ class Behaviour:
 #: every quirk corrected (the default)
 CORRECTED = Behaviour()
 
-#: CityLearn 2.1.2 exactly, bugs included (fields that only older 2.1 releases had keep their default)
+#: fields that only older 2.1 releases had a quirk for (CITYLEARN_2_1 keeps their default)
 ONLY_BEFORE_2_1_2 = ("missing_hvac_mode_is_off",)
-CITYLEARN_2_1 = Behaviour(
-    battery_curve_extrapolates_first_segment=True,
-    lstm_day_type_period=8.0,
-    lstm_output_uses_last_input_bounds=True,
-    lstm_float32=True,
-    legacy_random_episode_split=True,
-    legacy_outage_draws=True,
-    independent_sac_reward_precedence_bug=True,
-    comfort_reward_float32=True,
-    storage_signal_reward_multiplies_by_delta=True,
-    kpi_plain_division=True,
-    kpi_discomfort_over_all_steps=True,
-    kpi_baseline_from_first_building=True,
-    kpi_float32_score=True,
-    wrapper_day_type_period=8.0,
-)
+#: the boolean quirks CityLearn 2.1.2 has
+QUIRKS_2_1 = ("battery_curve_extrapolates_first_segment", "lstm_output_uses_last_input_bounds", "lstm_float32",
+              "legacy_random_episode_split", "legacy_outage_draws", "independent_sac_reward_precedence_bug",
+              "comfort_reward_float32", "storage_signal_reward_multiplies_by_delta", "kpi_plain_division",
+              "kpi_discomfort_over_all_steps", "kpi_baseline_from_first_building", "kpi_float32_score")
+#: CityLearn 2.1.2 exactly, bugs included: its quirks, and day_type with period 8 [days] (holidays as day 8)
+CITYLEARN_2_1 = Behaviour(**dict.fromkeys(QUIRKS_2_1, True), lstm_day_type_period=8.0, wrapper_day_type_period=8.0)
 
 #: fields that only CityLearn 2.5 has a quirk for (CITYLEARN_2_1 keeps the corrected value)
 ONLY_IN_2_5 = ("battery_efficiency_from_request", "battery_action_fraction_of_nominal_power",
                "battery_defaults_drawn", "ev_unwritten_soc_is_zero", "ev_step_starts_from_previous_soc",
                "ev_data_from_range_start", "legacy_ev_drift_draws", "ev_reward_skips_unplugged_chargers",
                "ev_reward_squares_soc_under_weight")
-#: CityLearn 2.5.0's physics (the v2.4.2 data sets and their EVs); step timing stays the 2.1 one (docs/ev.md)
-CITYLEARN_2_5 = Behaviour(
-    legacy_outage_draws=True,
-    battery_efficiency_from_request=True,
-    battery_action_fraction_of_nominal_power=True,
-    battery_defaults_drawn=True,
-    ev_unwritten_soc_is_zero=True,
-    ev_step_starts_from_previous_soc=True,
-    ev_data_from_range_start=True,
-    legacy_ev_drift_draws=True,
-    ev_reward_skips_unplugged_chargers=True,
-    ev_reward_squares_soc_under_weight=True,
-)
+#: CityLearn 2.5.0's physics (the v2.4.2 data sets and their EVs): its own quirks and 2.1's legacy outage
+#: draws; step timing stays the 2.1 one (docs/ev.md)
+CITYLEARN_2_5 = Behaviour(**dict.fromkeys((*ONLY_IN_2_5, "legacy_outage_draws"), True))
 
 PRESETS: dict[str, Behaviour] = {"corrected": CORRECTED, "citylearn-2.1": CITYLEARN_2_1,
                                  "citylearn-2.5": CITYLEARN_2_5}
@@ -169,8 +152,6 @@ def resolve(settings: Behaviour | str | None = None, compat: bool = False) -> Be
         try:
             return PRESETS[settings]
         except KeyError:
-            from citylearn_env.errors import SchemaError
-
             raise SchemaError(f"unknown behaviour preset {settings!r}; known: {', '.join(PRESETS)}",
                               column="settings") from None
     if settings is not None:

@@ -3,8 +3,9 @@
 B buildings, N time steps of the simulation range, T time steps of the current episode. Parameters and data are
 read-only after construction; records are written by :class:`citylearn_env.district.District` one step at a time.
 The flat CityLearn names of recorded quantities (``cooling_storage_soc``, ``energy_from_dhw_device`` ...) are
-generated in one place, :func:`recorded_names`, from the field names here. Units: energies kWh per step, powers
-kW, temperatures degC, states of charge and efficiencies as fractions.
+generated in one place, :func:`recorded_names`, from the field names here; the observation names the state
+answers (:data:`DYNAMIC`, the static aliases and COP names) are listed at the end. Units: energies kWh per step,
+powers kW, temperatures degC, states of charge and efficiencies as fractions.
 """
 
 from __future__ import annotations
@@ -12,6 +13,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass, fields
 from types import MappingProxyType
+from typing import Self
 
 import numpy as np
 
@@ -28,7 +30,7 @@ class Record:
     """Base of the episode records: every field a (B, T) float array."""
 
     @classmethod
-    def zeros(cls, n: int, length: int):
+    def zeros(cls, n: int, length: int) -> Self:
         """A record of ``n`` buildings and ``length`` time steps, all zeros."""
         return cls(*(np.zeros((n, length)) for _ in fields(cls)))
 
@@ -76,6 +78,16 @@ class EndUseRecord(Record):
     energy_from_device_to_storage: np.ndarray
     storage_soc: np.ndarray
     storage_energy_balance: np.ndarray
+
+
+@dataclass(eq=False)
+class EndUseState:
+    """One end use during an episode: its parameters, the episode's COP and data demand (B, T) and record."""
+
+    params: EndUseParams
+    cop: np.ndarray
+    demand_data: np.ndarray
+    record: EndUseRecord
 
 
 @dataclass(eq=False)
@@ -207,3 +219,38 @@ def recorded_names(end_uses: Mapping[str, EndUseRecord], battery: BatteryRecord,
         if with_ev or name not in EV_BUILDING_NAMES:
             out[name] = getattr(building, attr)
     return out
+
+
+# ------------------------------------------------------------------------ observation names
+#: observation name -> data column, for observations that are plain data
+STATIC_ALIASES = {
+    "indoor_dry_bulb_temperature_without_control": "indoor_dry_bulb_temperature",
+    "cooling_demand_without_control": "cooling_demand",
+    "heating_demand_without_control": "heating_demand",
+    "dhw_demand_without_control": "dhw_demand",
+    "non_shiftable_load_without_control": "non_shiftable_load",
+    "indoor_relative_humidity_without_control": "indoor_relative_humidity",
+    "indoor_dry_bulb_temperature_set_point_without_control": "indoor_dry_bulb_temperature_set_point",
+}
+#: observation name -> end use, for the device COP observations (derived from weather and the device); the
+#: v2.2+ names ``*_device_efficiency`` mean the same (a heater's efficiency is its "COP")
+COP_OBSERVATIONS = {"cooling_device_cop": "cooling", "heating_device_cop": "heating", "dhw_device_cop": "dhw",
+                    "cooling_device_efficiency": "cooling", "heating_device_efficiency": "heating",
+                    "dhw_device_efficiency": "dhw"}
+#: signed set-point deviations (v2.2+): observation -> the set-point column; value T_indoor - T_set [degC]
+SET_POINT_DELTAS = {"indoor_dry_bulb_temperature_cooling_delta": "indoor_dry_bulb_temperature_cooling_set_point",
+                    "indoor_dry_bulb_temperature_heating_delta": "indoor_dry_bulb_temperature_heating_set_point"}
+#: thermal energy delivered (device + storage) observed as a demand
+DELIVERED_OBSERVATIONS = {"cooling_demand": "cooling", "heating_demand": "heating", "dhw_demand": "dhw"}
+#: observations of the simulation state (recorded or derived each step); every other one is data
+DYNAMIC = (
+    "indoor_dry_bulb_temperature",
+    "indoor_dry_bulb_temperature_delta",
+    *SET_POINT_DELTAS,
+    "net_electricity_consumption",
+    *DELIVERED_OBSERVATIONS,
+    "cooling_storage_soc", "heating_storage_soc", "dhw_storage_soc", "electrical_storage_soc",
+    "cooling_electricity_consumption", "heating_electricity_consumption", "dhw_electricity_consumption",
+    "cooling_storage_electricity_consumption", "heating_storage_electricity_consumption",
+    "dhw_storage_electricity_consumption", "electrical_storage_electricity_consumption",
+)

@@ -13,79 +13,75 @@ Owned and stepped by :class:`citylearn_env.district.District` (CityLearn 2.1 sem
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
+from citylearn_env.actions import Actions
+from citylearn_env.config import BuildingConfig
+from citylearn_env.dynamics import build_bank
 from citylearn_env.settings import Behaviour
-
-if TYPE_CHECKING:
-    from citylearn_env.district import Actions, District
+from citylearn_env.state import DYNAMIC, EndUseState
 
 #: end use, hvac_mode value that selects it, device action
 MODES = (("cooling", 1.0, "cooling_device"), ("heating", 2.0, "heating_device"))
 
 
 class ThermalModel:
-    """The LSTM bank of a district's dynamics buildings and its coupling to their heat pumps."""
+    """The LSTM bank of a district's dynamics buildings and its coupling to their heat pumps.
 
-    def __init__(self, district: District, settings: Behaviour):
-        from citylearn_env.dynamics import build_bank
+    ``buildings``: every building of the district; ``dynamics`` (B,) bool marks those with LSTM models.
+    The district passes in what the model reads of it: its data series, observed values and end uses."""
 
-        self.district = district
-        self.index = np.flatnonzero(district.dynamics)
-        self.bank = build_bank([district.config.buildings[i] for i in self.index], settings=settings)
-        self.hvac_mode = district.signals["hvac_mode"]
-        self._warm = np.zeros(district.n, dtype=bool)
+    def __init__(self, buildings: Sequence[BuildingConfig], dynamics: np.ndarray, settings: Behaviour):
+        self.index = np.flatnonzero(dynamics)
+        self.bank = build_bank([buildings[i] for i in self.index], settings=settings)
+        self._warm = np.zeros(len(buildings), dtype=bool)
 
-    def reset(self) -> None:
-        """Episode start: empty every model's window and state; find where each model input comes from."""
-        from citylearn_env.observations import DYNAMIC, static_series
-
+    def reset(self, hvac_mode: np.ndarray, data_series: Callable[[str], np.ndarray]) -> None:
+        """Episode start: empty every model's window and state; find where each model input comes from.
+        ``hvac_mode`` (B, T) of the episode; ``data_series(name)`` the (B, T) episode series of a data input."""
         self.bank.reset()
-        d = self.district
-        self.hvac_mode = d.episode["hvac_mode"]
+        self.hvac_mode = hvac_mode
         # data inputs: the dynamics buildings' rows of the episode series, stacked once as (T, n_data, k);
         # the simulated ones (delivered energy, indoor temperature) are read each step
         names = self.bank.input_names
         data = [j for j, name in enumerate(names) if name not in DYNAMIC]
         self._data_rows = np.array(data, dtype=np.intp)
-        self._data = np.ascontiguousarray(np.stack([static_series(d, names[j])[self.index].T for j in data],
+        self._data = np.ascontiguousarray(np.stack([data_series(names[j])[self.index].T for j in data],
                                                    axis=1)) if data else None
         self._simulated = [(j, name) for j, name in enumerate(names) if name in DYNAMIC]
         self._raw = np.zeros((len(names), len(self.index)))
 
-    def demands(self, t: int, actions: Actions) -> dict[str, np.ndarray] | None:
+    def demands(self, t: int, actions: Actions, end_use: Callable[[str], EndUseState]
+                ) -> dict[str, np.ndarray] | None:
         """Thermal demand [kWh] the device actions ask for at step ``t``, per end use ("cooling", "heating"):
-        (B,) arrays, NaN where the data set's demand stays. None when no action applies."""
-        d = self.district
+        (B,) arrays, NaN where the data set's demand stays. None when no action applies. ``end_use(name)`` is
+        the episode state of an end use (nominal power [kW], COP)."""
         hvac = self.hvac_mode[:, t]
         warm = self._warm
         warm[:] = False
         warm[self.index] = self.bank.warm(hvac[self.index])
         out = {}
-        for end_use, mode, action_name in MODES:
+        for name, mode, action_name in MODES:
             a = getattr(actions, action_name)
             use = warm & np.isfinite(a)
             if not use.any():
                 continue
-            state = d.end_use(end_use)
+            state = end_use(name)
             power = state.params.nominal_power
             q = np.where(hvac == mode, np.minimum(np.maximum(a, 0.0) * power, power), 0.0)
-            out[end_use] = np.where(use, q * state.cop[:, t], np.nan)
+            out[name] = np.where(use, q * state.cop[:, t], np.nan)
         return out or None
 
-    def update(self, t: int) -> None:
-        """Predict the indoor temperature at step ``t`` and write it where the model is warm."""
-        from citylearn_env.observations import dynamic_value
-
-        d = self.district
+    def update(self, t: int, observed: Callable[[str, int], np.ndarray], temperature: np.ndarray) -> None:
+        """Predict the indoor temperature [degC] at step ``t`` and write it into ``temperature`` (B, T) where
+        the model is warm; ``observed(name, t)`` is the (B,) value of a simulated input at t."""
         idx = self.index
         raw = self._raw
         if self._data is not None:
             raw[self._data_rows] = self._data[t]
         for j, name in self._simulated:
-            raw[j] = dynamic_value(d, name, t)[idx]
+            raw[j] = observed(name, t)[idx]
         predicted = self.bank.step_raw(raw, self.hvac_mode[idx, t])
-        temps = d.building_record.indoor_dry_bulb_temperature
-        temps[idx, t] = np.where(np.isnan(predicted), temps[idx, t], predicted)
+        temperature[idx, t] = np.where(np.isnan(predicted), temperature[idx, t], predicted)

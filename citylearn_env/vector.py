@@ -12,7 +12,7 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Iterator, Mapping
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import gymnasium as gym
 import numpy as np
@@ -24,6 +24,9 @@ from citylearn_env.config import DistrictConfig
 from citylearn_env.env import CityLearnEnv
 from citylearn_env.schema import load_schema
 from citylearn_env.settings import Behaviour, resolve
+
+if TYPE_CHECKING:  # pandas is imported where a table is built (importing citylearn_env stays light)
+    import pandas as pd
 
 
 class _CopyView(Mapping):
@@ -70,8 +73,7 @@ class CityLearnVectorEnv(VectorEnv):
         probe = rewards.make_reward(spec, context, settings=settings)
         self._batched = None
         self._rewards = []
-        if type(probe).__call__ is rewards.Reward.__call__:
-            # central value = sum (or mean) of per-building values: one call over all copies' buildings
+        if probe.batchable:  # central value = sum (or mean) of per-building values (rewards.Reward.batchable)
             batched_context = dataclasses.replace(self.inner.reward_context, central_agent=False)
             self._batched = rewards.make_reward(spec, batched_context, settings=settings)
             self._batched_context = batched_context
@@ -83,10 +85,12 @@ class CityLearnVectorEnv(VectorEnv):
 
     @property
     def batched_reward(self) -> bool:
-        """True when the reward is computed in one call over all copies' buildings (sum-decomposable)."""
+        """True when the reward is computed in one call over all copies' buildings: the reward class declares
+        itself :attr:`~citylearn_env.rewards.Reward.batchable`; otherwise one reward object per copy."""
         return self._batched is not None
 
-    def reset(self, *, seed: int | None = None, options: dict | None = None):
+    def reset(self, *, seed: int | None = None, options: dict | None = None) -> tuple[np.ndarray, dict[str, Any]]:
+        """Reset every copy (one shared episode); return the (N, obs) float32 observations and ``{}``."""
         self.inner.reset(seed=seed, options=options)
         for reward in self._rewards:
             reward.reset(self.single.reward_context)
@@ -95,7 +99,9 @@ class CityLearnVectorEnv(VectorEnv):
         self._needs_reset = False
         return self._observations(), {}
 
-    def step(self, actions):
+    def step(self, actions: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+        """Step every copy with its row of ``actions`` (N, act); (observations, rewards, terminated,
+        truncated, info) batched over the copies (NEXT_STEP autoreset after the last step)."""
         if self._needs_reset:
             obs, info = self.reset()
             zeros = np.zeros(self.num_envs, dtype=bool)
@@ -116,7 +122,7 @@ class CityLearnVectorEnv(VectorEnv):
     def _observations(self) -> np.ndarray:
         return self.inner.flat_observations()[self._obs_index].astype(np.float32)
 
-    def history(self):
+    def history(self) -> pd.DataFrame:
         """The inner history: buildings are named ``<building>#<copy>``."""
         return self.inner.history(include_district=False)
 

@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from citylearn_env.dataset import _row, read_frame
+from citylearn_env.dataset import read_frame, row_label
 from citylearn_env.errors import SchemaError
 from citylearn_env.ev import parse_number_column
 
@@ -52,15 +52,15 @@ def parse_load_profile(text: str, path: object, row: int) -> tuple[float, ...]:
         return ()
     if not (cell.startswith("[") and cell.endswith("]")):
         raise SchemaError(f"load profile {cell!r} is not a [list] of kWh", file=path, column="load_profile",
-                          row=_row(row))
+                          row=row_label(row))
     try:
         values = tuple(float(v) for v in cell[1:-1].split(",") if v.strip())
     except ValueError:
         raise SchemaError(f"load profile {cell!r} holds a non-number", file=path, column="load_profile",
-                          row=_row(row)) from None
+                          row=row_label(row)) from None
     if any(not np.isfinite(v) or v < 0 for v in values):
         raise SchemaError(f"load profile {cell!r} needs finite values >= 0", file=path, column="load_profile",
-                          row=_row(row))
+                          row=row_label(row))
     return values
 
 
@@ -85,7 +85,7 @@ def read_washing_machine_table(path: str | Path, n_rows: int) -> WashingMachineT
     if half.any():
         i = int(half.argmax())
         raise SchemaError("a start window needs both ends (or -1 for both)", file=path,
-                          column="wm_start_time_step / wm_end_time_step", row=_row(i))
+                          column="wm_start_time_step / wm_end_time_step", row=row_label(i))
     profiles = tuple(parse_load_profile(str(cell), path, i)
                      for i, cell in enumerate(frame["load_profile"].to_numpy()[:n_rows]))
     return WashingMachineTable(start=start, end=end, profile=profiles)

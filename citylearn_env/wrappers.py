@@ -8,6 +8,7 @@ import gymnasium as gym
 import numpy as np
 
 from citylearn_env.dataset import PERIODS, periodic_encoding
+from citylearn_env.env import CityLearnEnv
 
 
 class NormalizedObservationWrapper(gym.ObservationWrapper):
@@ -77,11 +78,9 @@ class NormalizedActionWrapper(gym.ActionWrapper):
         return self.low + np.asarray(action, dtype=np.float64) * self.span
 
 
-def parallel_env(schema: Any, **kwargs: Any):
+def parallel_env(schema: Any, **kwargs: Any) -> Any:
     """A PettingZoo ParallelEnv with one agent per building (its own observations, actions and reward)."""
-    from pettingzoo import ParallelEnv
-
-    from citylearn_env.env import CityLearnEnv
+    from pettingzoo import ParallelEnv  # lazy: pettingzoo is an optional dependency (the rl extra)
 
     class CityLearnParallelEnv(ParallelEnv):
         metadata = {"name": "citylearn_env_parallel_v0", "render_modes": []}
@@ -100,22 +99,22 @@ def parallel_env(schema: Any, **kwargs: Any):
             self._act_spaces = {a: gym.spaces.Box(env.action_space.low[ix], env.action_space.high[ix],
                                                   dtype=np.float32) for a, ix in self._act_index.items()}
 
-        def observation_space(self, agent):
+        def observation_space(self, agent: str) -> gym.spaces.Box:
             return self._obs_spaces[agent]
 
-        def action_space(self, agent):
+        def action_space(self, agent: str) -> gym.spaces.Box:
             return self._act_spaces[agent]
 
-        def _split(self):
+        def _split(self) -> dict[str, np.ndarray]:
             flat = self.env.flat_observations()
             return {a: flat[s].astype(np.float32) for a, s in self._obs_slices.items()}
 
-        def reset(self, seed=None, options=None):
+        def reset(self, seed: int | None = None, options: dict | None = None) -> tuple[dict, dict]:
             self.agents = list(self.possible_agents)
             self.env.reset(seed=seed, options=options)
             return self._split(), {a: {} for a in self.agents}
 
-        def step(self, actions):
+        def step(self, actions: dict[str, Any]) -> tuple[dict, ...]:
             vector = np.zeros(self.env.action_space.shape)
             for a, ix in self._act_index.items():
                 vector[ix] = np.asarray(actions[a], dtype=np.float64).reshape(-1)

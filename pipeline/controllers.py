@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from citylearn_env import CityLearnEnv, load_schema
+from citylearn_env.actions import DEVICE_ACTIONS
 from citylearn_env.config import DistrictConfig
 
 OFF_PEAK = {23, 24, 1, 2, 3, 4, 5, 6, 7}        # 10 PM - 7 AM
@@ -93,10 +94,6 @@ PUBLISHED_RULES = {"cost_rbc": published_cost_rbc, "emission_rbc": published_emi
 #: rule set -> (rules by name, which time step's hour/day type a rule reads: 1 = the step it controls,
 #: t + 1, as described; 0 = the observation's own step t, as the published code does -- one hour early)
 RULE_SETS = {"described": (RULES, 1), "published": (PUBLISHED_RULES, 0)}
-
-
-#: actions of conversion devices (not storages): inactive under ``ideal_cooling``
-DEVICE_ACTIONS = ("cooling_device", "heating_device")
 
 
 def rule_actions(env, rule, lookahead: int = 1) -> np.ndarray:

@@ -100,7 +100,7 @@ def _heating(spec: Mapping[str, Any]) -> str:
 
 
 def sizing_table(schema: Mapping[str, Any], buildings: list[str]) -> list[str]:
-    """The devices of each building as sized by pipeline/sizing.py [kW, kWh, kWp]; "-": no such device."""
+    """The devices of each building as sized by citylearn_env.sizing (the paper's rules) [kW, kWh, kWp]; "-": no such device."""
     rows = []
     for building in buildings:
         spec = schema["buildings"][building]
@@ -109,7 +109,7 @@ def sizing_table(schema: Mapping[str, Any], buildings: list[str]) -> list[str]:
                      f"{_attribute(spec, 'electrical_storage', 'capacity', 1)} / "
                      f"{_attribute(spec, 'electrical_storage', 'nominal_power', 2)}",
                      _attribute(spec, "pv", "nominal_power", 2)])
-    return ["## Devices (sized by pipeline/sizing.py)", "",
+    return ["## Devices (sized by citylearn_env.sizing: the paper's rules)", "",
             *_table(["building", "heat pump kW", "heating device kW", "DHW heater kW", "DHW tank kWh",
                      "battery kWh / kW", "PV kWp"], rows), ""]
 

@@ -10,37 +10,49 @@ import pytest
 
 from citylearn_env import SchemaError, load_schema
 from citylearn_env.autosize import (
+    SLOT_DEMAND,
+    autosize_device,
     battery_capacity,
-    heat_pump_power,
+    heat_pump_rules,
     heater_power,
-    pv_power,
+    pv_peak_power,
     safety_factor,
     tank_capacity,
 )
+from citylearn_env.config import ConversionDevice
 from citylearn_env.example import write_example_district
+from citylearn_env.sizing import heat_pump_power
 from tests.conftest import SHARED, need_shared
 
-HP = {"efficiency": 0.2, "target_cooling_temperature": 8.0, "target_heating_temperature": 45.0}
+HEAT_PUMP = ConversionDevice(kind="HeatPump", efficiency=0.2, target_cooling_temperature=8.0,
+                             target_heating_temperature=45.0)
+
+
+def autosized_heat_pump(slot: str, outdoor: list[float], demand: list[float], sf: float = 1.0) -> float:
+    """The nominal power [kW] CityLearn 2.1's autosize gives :data:`HEAT_PUMP` in ``slot``."""
+    series = {"outdoor_dry_bulb_temperature": np.array(outdoor), SLOT_DEMAND[slot]: np.array(demand)}
+    return autosize_device(slot, HEAT_PUMP, series, sf).nominal_power
 
 
 def test_heat_pump_cooling_peak_electric_input():
     # COP_c = 0.2 * 281.15 / (T_o - 8): at 30 degC 2.5559 (2 kWh -> 0.7825 kW), at 35 degC 2.0826 (3 -> 1.4405)
-    power = heat_pump_power(np.array([30.0, 35.0]), cooling_kwh=np.array([2.0, 3.0]), **HP, safety_factor=1.5)
+    power = autosized_heat_pump("cooling_device", [30.0, 35.0], [2.0, 3.0], sf=1.5)
     assert power == pytest.approx(3.0 / (0.2 * 281.15 / 27.0) * 1.5, rel=1e-12)
     assert power == pytest.approx(2.16078, rel=1e-5)
 
 
 def test_heat_pump_heating_and_the_cop_cap():
     # COP_h = 0.2 * 318.15 / (45 - T_o): at 0 degC 1.414 (4 kWh -> 2.8289 kW), at 10 degC 1.818 (1 -> 0.55)
-    power = heat_pump_power(np.array([0.0, 10.0]), heating_kwh=np.array([4.0, 1.0]), **HP)
-    assert power == pytest.approx(4.0 * 45.0 / (0.2 * 318.15), rel=1e-12)
+    for slot in ("heating_device", "dhw_device"):
+        power = autosized_heat_pump(slot, [0.0, 10.0], [4.0, 1.0])
+        assert power == pytest.approx(4.0 * 45.0 / (0.2 * 318.15), rel=1e-12)
     # cooling with outdoor air below the supply target: COP -> 20 (CityLearn's cap), so 5 kWh needs 0.25 kW
-    assert heat_pump_power(np.array([5.0]), cooling_kwh=np.array([5.0]), **HP) == pytest.approx(0.25)
+    assert autosized_heat_pump("cooling_device", [5.0], [5.0]) == pytest.approx(0.25)
 
 
 def test_heat_pump_cooling_plus_heating_is_summed_per_hour():
     # hour 1: 2 kWh cooling at 30 degC (0.7825 kW) + 1 kWh heating at 30 degC (COP 0.2*318.15/15 = 4.242 -> 0.2357)
-    power = heat_pump_power(np.array([30.0]), cooling_kwh=np.array([2.0]), heating_kwh=np.array([1.0]), **HP)
+    power = heat_pump_power(np.array([2.0]), np.array([30.0]), heat_pump_rules(HEAT_PUMP), np.array([1.0]))
     assert power == pytest.approx(2.0 * 22.0 / (0.2 * 281.15) + 1.0 * 15.0 / (0.2 * 318.15), rel=1e-12)
 
 
@@ -51,7 +63,7 @@ def test_heater_tank_battery_pv():
     solar = np.array([0.0, 800.0, 650.0])  # W per kW of PV
     assert battery_capacity(5.0, solar, safety_factor=1.0) == pytest.approx(4.0)  # 5 kW x 0.8 kWh/kW
     assert battery_capacity(0.0, solar) == 0.0
-    assert pv_power(5.0, solar, efficiency=0.8, safety_factor=1.0) == pytest.approx(5.0)  # 4 kWh / 0.8
+    assert pv_peak_power(5.0, solar, efficiency=0.8, safety_factor=1.0) == pytest.approx(5.0)  # 4 kWh / 0.8
 
 
 @pytest.mark.parametrize(("attrs", "message"), [

@@ -120,7 +120,7 @@ def test_a_district_without_chargers_carries_no_ev_state(tmp_path):
     env = CityLearnEnv(write_example_district(tmp_path, n_buildings=2, hours=24, seed=1))
     env.reset(seed=0)
     env.step(env.action_space.sample())
-    assert env.district.ev is None and env.district.machines is None and env._device_actions is None
+    assert env.district.ev is None and env.district.machines is None and env.action_layout.device_index is None
     assert "chargers_electricity_consumption" not in env.series()
 
 

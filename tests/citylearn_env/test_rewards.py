@@ -10,6 +10,7 @@ import pandas as pd
 import pytest
 
 from citylearn_env import rewards as R
+from citylearn_env.actions import STORAGE_ACTIONS
 from citylearn_env.errors import SchemaError
 from citylearn_env.settings import CITYLEARN_2_1, CORRECTED
 from tests.conftest import GOLDEN, need_shared
@@ -39,7 +40,7 @@ def golden():
                   for c in frame.columns if c not in ("building", "time_step")}
         schema = json.loads((folder / "schema_used.json").read_text())
         capacity = {kind: np.array([((schema["buildings"][n].get(kind) or {}).get("attributes") or {})
-                                    .get("capacity", 0.0) for n in names]) for kind in R.STORAGES}
+                                    .get("capacity", 0.0) for n in names]) for kind in STORAGE_ACTIONS}
         trace = pd.read_parquet(folder / "trace.parquet").sort_values(["building", "time_step"])
         out[scenario] = {
             "obs": [{c: a[:, t] for c, a in arrays.items()} for t in range(steps)],

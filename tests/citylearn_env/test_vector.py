@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from citylearn_env import CityLearnEnv
+from citylearn_env import CityLearnEnv, rewards
 from citylearn_env.example import write_example_district
 from citylearn_env.vector import CityLearnVectorEnv
 
@@ -47,20 +47,30 @@ def test_spaces_are_batched(schema):
     assert vec.observation_space.shape[0] == 3
 
 
-@pytest.mark.parametrize("reward", ["citylearn.reward_function.ComfortReward", "cost", "emissions"])
-def test_batched_rewards_match_single_envs(schema, reward):
-    """Sum-decomposable rewards are computed in one call over all copies; same values as separate envs."""
+REWARD_CLASSES = {cls: name for name, cls in reversed(rewards.REWARDS.items())}  # each class once
+
+
+def test_a_reward_that_overrides_call_is_not_batchable():
+    for cls in REWARD_CLASSES:
+        if cls.__call__ is not rewards.Reward.__call__:
+            assert not cls.batchable, cls.__name__
+
+
+@pytest.mark.parametrize("name", sorted(REWARD_CLASSES.values()))
+def test_declared_batching_is_what_the_vector_env_does_and_matches_single_envs(schema, name):
+    """Every registered reward: the vector env batches exactly the rewards declared ``batchable`` (one call
+    over all copies' buildings), and either way each copy's reward equals a separate environment's."""
     n = 3
-    vec = CityLearnVectorEnv(schema, n, reward_function={"type": reward, "attributes": {}})
-    assert vec.batched_reward
-    singles = [CityLearnEnv(schema, reward_function={"type": reward, "attributes": {}}) for _ in range(n)]
-    vec.reset(seed=1)
+    vec = CityLearnVectorEnv(schema, n, reward_function=name)
+    assert vec.batched_reward == rewards.REWARDS[name].batchable
+    singles = [CityLearnEnv(schema, reward_function=name) for _ in range(n)]
+    vec.reset(seed=2)
     for env in singles:
-        env.reset(seed=1)
-    rng = np.random.default_rng(1)
+        env.reset(seed=2)
+    rng = np.random.default_rng(2)
     low, high = singles[0].action_space.low, singles[0].action_space.high
-    for _ in range(20):
+    for _ in range(12):
         actions = rng.uniform(low, high, size=(n, low.size))
-        _, rewards, *_ = vec.step(actions)
+        _, values, *_ = vec.step(actions)
         expected = [env.step(actions[i])[1] for i, env in enumerate(singles)]
-        np.testing.assert_allclose(rewards, expected, rtol=1e-9, atol=1e-12)
+        np.testing.assert_allclose(values, expected, rtol=1e-9, atol=1e-12)

@@ -64,97 +64,136 @@ def _vexp(x, n, out, bits):  # pragma: no cover - compiled by numba
         out[i] *= scale[i]
 
 
+def _encoded(v, kind, period):  # pragma: no cover - compiled by numba
+    """Raw input ``v`` as the model sees it before normalisation: kind 1 sin, 2 cos of 2*pi*v/period, else v."""
+    if kind == 1:
+        return math.sin(2.0 * math.pi * v / period)
+    if kind == 2:
+        return math.cos(2.0 * math.pi * v / period)
+    return v
+
+
+def _push_inputs(raw, b, m, src, kind, period, lo, span, buf):  # pragma: no cover - compiled by numba
+    """Shift model slot ``m``'s buffer one row (oldest dropped) and write building ``b``'s newest normalised
+    inputs in the last row (step 1 of the module docstring)."""
+    lookback = buf.shape[1] - 1
+    n_in = buf.shape[2]
+    for k in range(lookback):
+        for i in range(n_in):
+            buf[m, k, i] = buf[m, k + 1, i]
+    for i in range(n_in):
+        buf[m, lookback, i] = (_encoded(raw[src[m, i], b], kind[m, i], period[m, i]) - lo[m, i]) / span[m, i]
+
+
+def _window_row(buf, m, s, t_col, f32, x):  # pragma: no cover - compiled by numba
+    """x = the LSTM input of window step ``s``: buffer row s + 1, the temperature column from row s."""
+    for i in range(buf.shape[2]):
+        v = buf[m, s, i] if i == t_col else buf[m, s + 1, i]
+        x[i] = np.float32(v) if f32 else v
+
+
+def _gate_sums(m, layer, x, h, wih0t, wihrt, whht, bias, z):  # pragma: no cover - compiled by numba
+    """z = bias + W_ih x + W_hh h: the 4H gate pre-activations (i, f, g, o) of one layer."""
+    n_hidden = h.shape[2]
+    g4 = 4 * n_hidden
+    for g in range(g4):
+        z[g] = bias[m, layer, g]
+    if layer == 0:
+        for i in range(wih0t.shape[1]):
+            xi = x[i]
+            for g in range(g4):
+                z[g] += wih0t[m, i, g] * xi
+    else:
+        for i in range(n_hidden):
+            xi = x[i]
+            for g in range(g4):
+                z[g] += wihrt[m, layer - 1, i, g] * xi
+    for j in range(n_hidden):
+        hj = h[m, layer, j]
+        for g in range(g4):
+            z[g] += whht[m, layer, j, g] * hj
+
+
+def _cell_update(m, layer, z, e, bits, h, c, x):  # pragma: no cover - compiled by numba
+    """The gates from the pre-activations ``z``, then the new cell state c and hidden state h of one layer
+    (h also copied to ``x``, the next layer's input): sigmoid(u) = 1 / (1 + exp(-u)),
+    tanh(u) = 1 - 2 / (exp(2u) + 1)."""
+    n_hidden = h.shape[2]
+    g4 = 4 * n_hidden
+    for g in range(g4):
+        z[g] = 2.0 * z[g] if 2 * n_hidden <= g < 3 * n_hidden else -z[g]
+    _vexp(z, g4, e, bits)
+    for j in range(n_hidden):
+        gi = 1.0 / (1.0 + e[j])
+        gf = 1.0 / (1.0 + e[n_hidden + j])
+        gg = 1.0 - 2.0 / (e[2 * n_hidden + j] + 1.0)
+        cj = gf * c[m, layer, j] + gi * gg
+        c[m, layer, j] = cj
+        z[j] = 2.0 * cj
+    _vexp(z, n_hidden, e, bits)
+    for j in range(n_hidden):
+        go = 1.0 / (1.0 + e[3 * n_hidden + j])
+        hj = go * (1.0 - 2.0 / (e[j] + 1.0))
+        h[m, layer, j] = hj
+        x[j] = hj
+
+
+def _predict(m, b, h, wlin, blin, out_lo, out_span, f32, out):  # pragma: no cover - compiled by numba
+    """y = w_lin . h_top + b_lin (normalised); writes the de-normalised temperature [degC] to ``out[b]``."""
+    n_hidden = h.shape[2]
+    y = blin[m]
+    for j in range(n_hidden):
+        y += wlin[m, j] * h[m, h.shape[1] - 1, j]
+    if f32:
+        y = np.float32(y)
+        out[b] = np.float32(np.float32(y) * np.float32(out_span[m]) + np.float32(out_lo[m]))
+    else:
+        out[b] = y * out_span[m] + out_lo[m]
+    return y
+
+
 def _lstm_group_step(raw, bidx, slots, src, kind, period, lo, span, tcol, out_lo, out_span,
                      buf, count, wih0t, wihrt, whht, bias, wlin, blin, h, c, f32, out, warm):  # pragma: no cover
     lookback = buf.shape[1] - 1
-    n_in = buf.shape[2]
     n_layers = h.shape[1]
-    n_hidden = h.shape[2]
-    g4 = 4 * n_hidden
-    x = np.empty(max(n_in, n_hidden))
+    g4 = 4 * h.shape[2]
+    x = np.empty(max(buf.shape[2], h.shape[2]))
     z = np.empty(g4)
     e = np.empty(g4)
     bits = np.empty(g4, dtype=np.int64)
     for a in range(slots.shape[0]):
         m = slots[a]
         b = bidx[a]
-        for k in range(lookback):
-            for i in range(n_in):
-                buf[m, k, i] = buf[m, k + 1, i]
-        for i in range(n_in):
-            v = raw[src[m, i], b]
-            if kind[m, i] == 1:
-                v = math.sin(2.0 * math.pi * v / period[m, i])
-            elif kind[m, i] == 2:
-                v = math.cos(2.0 * math.pi * v / period[m, i])
-            buf[m, lookback, i] = (v - lo[m, i]) / span[m, i]
+        _push_inputs(raw, b, m, src, kind, period, lo, span, buf)
         if count[m] <= lookback:
             count[m] += 1
         warm[b] = count[m] > lookback
         if not warm[b]:
             out[b] = np.nan
             continue
-        t_col = tcol[m]
         for s in range(lookback):
-            for i in range(n_in):
-                v = buf[m, s, i] if i == t_col else buf[m, s + 1, i]
-                x[i] = np.float32(v) if f32 else v
+            _window_row(buf, m, s, tcol[m], f32, x)
             for layer in range(n_layers):
-                for g in range(g4):
-                    z[g] = bias[m, layer, g]
-                if layer == 0:
-                    for i in range(n_in):
-                        xi = x[i]
-                        for g in range(g4):
-                            z[g] += wih0t[m, i, g] * xi
-                else:
-                    for i in range(n_hidden):
-                        xi = x[i]
-                        for g in range(g4):
-                            z[g] += wihrt[m, layer - 1, i, g] * xi
-                for j in range(n_hidden):
-                    hj = h[m, layer, j]
-                    for g in range(g4):
-                        z[g] += whht[m, layer, j, g] * hj
-                # gates (i, f, g, o): sigmoid(u) = 1 / (1 + exp(-u)), tanh(u) = 1 - 2 / (exp(2u) + 1)
-                for g in range(g4):
-                    z[g] = 2.0 * z[g] if 2 * n_hidden <= g < 3 * n_hidden else -z[g]
-                _vexp(z, g4, e, bits)
-                for j in range(n_hidden):
-                    gi = 1.0 / (1.0 + e[j])
-                    gf = 1.0 / (1.0 + e[n_hidden + j])
-                    gg = 1.0 - 2.0 / (e[2 * n_hidden + j] + 1.0)
-                    cj = gf * c[m, layer, j] + gi * gg
-                    c[m, layer, j] = cj
-                    z[j] = 2.0 * cj
-                _vexp(z, n_hidden, e, bits)
-                for j in range(n_hidden):
-                    go = 1.0 / (1.0 + e[3 * n_hidden + j])
-                    hj = go * (1.0 - 2.0 / (e[j] + 1.0))
-                    h[m, layer, j] = hj
-                    x[j] = hj
-        y = blin[m]
-        for j in range(n_hidden):
-            y += wlin[m, j] * h[m, n_layers - 1, j]
-        if f32:
-            y = np.float32(y)
-            out[b] = np.float32(np.float32(y) * np.float32(out_span[m]) + np.float32(out_lo[m]))
-        else:
-            out[b] = y * out_span[m] + out_lo[m]
-        buf[m, lookback, t_col] = y
+                _gate_sums(m, layer, x, h, wih0t, wihrt, whht, bias, z)
+                _cell_update(m, layer, z, e, bits, h, c, x)
+        buf[m, lookback, tcol[m]] = _predict(m, b, h, wlin, blin, out_lo, out_span, f32, out)
+
+
+#: helpers the group step resolves as module globals when numba compiles it: swapped for jitted, inlined ones
+_HELPERS = ("_vexp", "_encoded", "_push_inputs", "_window_row", "_gate_sums", "_cell_update", "_predict")
 
 
 def get_numba_kernel():
     """The numba-compiled version of the group step, or None when numba is not installed."""
-    global _KERNEL, _vexp
+    global _KERNEL
     if _KERNEL is None:
         try:
-            from numba import njit
+            from numba import njit  # lazy: numba is an optional dependency
         except ImportError:  # pragma: no cover - numba is optional
             _KERNEL = False
         else:
-            # the group step resolves ``_vexp`` as a module global at compile time: swap in the jitted helper
-            _vexp = njit(cache=True, nogil=True, inline="always")(_vexp)
+            for name in _HELPERS:
+                globals()[name] = njit(cache=True, nogil=True, inline="always")(globals()[name])
             _KERNEL = njit(cache=True, nogil=True)(_lstm_group_step)
     return _KERNEL or None
 
