@@ -54,9 +54,10 @@ def train_on_raw(epochs: int | None, use_free_float: bool = True) -> None:
 
     import numpy as np
 
+    from surrogates.config import TrainConfig
     from surrogates.evaluate import evaluate_segments
     from surrogates.ilv import read_ilv
-    from surrogates.train import TrainConfig, train_surrogate
+    from surrogates.train import train_surrogate
 
     medians = []
     fixture = Path(__file__).resolve().parents[1] / "tests" / "fixtures" / "synthetic_district" / "ilv"

@@ -50,7 +50,8 @@ def make_surrogate_bank(n: int, hidden: int, lookback: int = 6) -> LSTMBank:
     (``surrogates.model.LSTMModel`` on ``DEFAULT_INPUTS``, 2 layers; torch is imported only here)."""
     import torch
 
-    from surrogates.model import DEFAULT_INPUTS, LSTMModel
+    from surrogates.config import DEFAULT_INPUTS
+    from surrogates.model import LSTMModel
 
     names = DEFAULT_INPUTS
     block = DynamicsBlock("model.pth", names, (0.0,) * len(names), (1.0,) * len(names), hidden_size=hidden,

@@ -34,10 +34,11 @@ sys.path.insert(0, str(ROOT))
 
 from benchmarks import reference_houses as rh  # noqa: E402
 from citylearn_env.settings import CITYLEARN_2_1, CORRECTED  # noqa: E402
+from surrogates.config import TrainConfig  # noqa: E402
 from surrogates.evaluate import bank_rollout, monthly_rmse  # noqa: E402
 from surrogates.export import dynamics_block, save_checkpoint  # noqa: E402
 from surrogates.ilv import read_ilv  # noqa: E402
-from surrogates.train import TrainConfig, run_segments, train_surrogate  # noqa: E402
+from surrogates.train import run_segments, train_surrogate  # noqa: E402
 
 CACHE = Path(os.environ.get("DISTRICTGEN_SUITE_CACHE", "/tmp/districtgen_surrogate_suite"))
 #: climate -> EPW shipped in pyenergyplus/data/weather (TMY3)

@@ -23,9 +23,10 @@ import pandas as pd
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from surrogates.config import TrainConfig  # noqa: E402
 from surrogates.evaluate import evaluate_segments, predict_segment  # noqa: E402
 from surrogates.sources.fmu import simulate_ilv_fmu  # noqa: E402
-from surrogates.train import TrainConfig, run_segments, train_surrogate  # noqa: E402
+from surrogates.train import run_segments, train_surrogate  # noqa: E402
 from tests.surrogates.fmu.build import VARIABLE_MAP, build_room_fmu, house_loads  # noqa: E402
 
 #: house -> (row of the step, load column) for the step-response check

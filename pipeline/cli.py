@@ -21,6 +21,7 @@ _EXTRA_OF = dict.fromkeys(("prefect", "pydantic", "fastapi", "pvlib", "pyarrow",
 
 
 def build_parser() -> argparse.ArgumentParser:
+    # the feature areas load here, inside main's try: one a missing extra breaks is one line naming the extra
     from pipeline import select as stock_selection
     from pipeline.commands import register, register_surrogate_install
     from pipeline.ingest import commands as ingest_commands

@@ -3,6 +3,9 @@
 ``build`` runs the district build flow on a TOML configuration (default ``raw/district.toml``, the embedded
 inputs); ``verify`` re-checks a build; ``run`` runs any schema (default: the synthetic example district the
 package writes itself) through the environment and prints its KPI table.
+
+Each command imports the build, the paper or the configuration (Prefect, pydantic, torch: the ``pipeline``
+extra) inside itself, so ``districtgen --help`` and ``run`` on a plain install load none of them.
 """
 
 from __future__ import annotations
@@ -13,9 +16,15 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 
+from citylearn_env.errors import SchemaError
+from citylearn_env.example import write_example_district
+from pipeline import progress
+from pipeline.controllers import run_policy
 from pipeline.errors import InputError
 from pipeline.paper.sac.train import BACKENDS
+from pipeline.runners import DaskRunner
 from surrogates.precision import PRECISIONS
 
 ARTIFACTS = Path("artifacts")
@@ -84,10 +93,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run_command(args: argparse.Namespace) -> int:
-    import pandas as pd
 
-    from citylearn_env.example import write_example_district
-    from pipeline.controllers import run_policy
 
     policy = "no_control" if args.policy == "zero" else "random"
     with tempfile.TemporaryDirectory(prefix="districtgen_example_") as scratch:  # never ./artifacts in the cwd
@@ -125,7 +131,6 @@ def build_command(args: argparse.Namespace) -> int:
     if args.workers is not None and (args.workers < 1 or not args.dask or args.dask != "local"):
         raise InputError("--workers N (N >= 1) sizes the local Dask cluster: use it with --dask and no ADDRESS",
                          column="--workers")
-    from pipeline import progress
 
     with progress.active(progress.make_reporter("quiet" if args.quiet else "auto")):
         folder = _build(config, args)
@@ -138,7 +143,6 @@ def build_command(args: argparse.Namespace) -> int:
 def _build(config, args: argparse.Namespace) -> Path:
     """Run the build the way ``args`` asks; any failure that is not already one located error becomes one
     line (:class:`InputError` naming the configuration), never a traceback."""
-    from citylearn_env.errors import SchemaError
 
     _quiet_orchestration()
     try:
@@ -214,7 +218,6 @@ def paper_command(args: argparse.Namespace) -> int:
     only = args.only if args.only or args.full or not args.sweep else []
     runner = None
     if args.dask:
-        from pipeline.runners import DaskRunner
 
         runner = DaskRunner(None if args.dask == "local" else args.dask, args.workers)
     run_paper(args.schema, args.output, only=only, sweep=sweep, seed=args.seed, seeds=args.seeds,

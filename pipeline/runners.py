@@ -66,7 +66,7 @@ class PrefectRunner:
         from prefect.cache_policies import (
             NO_CACHE,  # optional: Prefect (pipeline extra) loads only when a flow runs
         )
-        from prefect.futures import as_completed
+        from prefect.futures import as_completed  # (the same extra)
 
         work = task(fn, name=step, cache_policy=NO_CACHE, persist_result=False)
         futures = {label: work.with_options(task_run_name=f"{step}-{label}").submit(*args)

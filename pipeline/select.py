@@ -41,6 +41,13 @@ import numpy as np
 import pandas as pd
 
 from pipeline.errors import InputError
+from surrogates.energyplus.metadata import (
+    parse_ach50,
+    parse_orientation,
+    parse_r_value,
+    parse_vintage,
+    parse_window_to_wall,
+)
 
 #: id column and characteristic prefix of each metadata layout
 LAYOUTS = {"bldg_id": "in.", "building_id": "build_existing_model."}
@@ -143,25 +150,21 @@ def _bare(key: str) -> str:
 
 # ----------------------------------------------------------------------------------------------- features
 def _r_value(text: object) -> float:
-    from surrogates.energyplus.metadata import parse_r_value
 
     return parse_r_value(str(text)) if str(text).strip().lower() not in ("none", "") else 0.0
 
 
 def _vintage(text: object) -> float:
-    from surrogates.energyplus.metadata import parse_vintage
 
     return float(parse_vintage(str(text)))
 
 
 def _ach50(text: object) -> float:
-    from surrogates.energyplus.metadata import parse_ach50
 
     return parse_ach50(str(text))
 
 
 def _window_to_wall(row: pd.Series) -> float:
-    from surrogates.energyplus.metadata import parse_window_to_wall
 
     window, wall = row.get("window_area_ft_2"), row.get("wall_area_above_grade_exterior_ft_2")
     if window is not None and wall is not None and pd.notna(window) and pd.notna(wall) and float(wall) > 0:
@@ -170,7 +173,6 @@ def _window_to_wall(row: pd.Series) -> float:
 
 
 def _orientation_index(text: object) -> float:
-    from surrogates.energyplus.metadata import parse_orientation
 
     return parse_orientation(str(text)) / 45.0
 
@@ -220,7 +222,11 @@ def selection_features(frame: pd.DataFrame, *, file: object = "<metadata>") -> p
 # ----------------------------------------------------------------------------------------------- clustering
 def validity_table(features: pd.DataFrame, ks: Iterable[int], seed: int) -> pd.DataFrame:
     """k-means for every k of ``ks``: columns ``k, sse, calinski_harabasz, silhouette, davies_bouldin``."""
-    from sklearn.metrics import calinski_harabasz_score, davies_bouldin_score, silhouette_score
+    from sklearn.metrics import (  # scikit-learn loads only when a selection clusters
+        calinski_harabasz_score,
+        davies_bouldin_score,
+        silhouette_score,
+    )
 
     x = features.to_numpy(dtype=float)
     rows = []
@@ -247,7 +253,7 @@ def choose_k(table: pd.DataFrame) -> int:
 
 
 def _kmeans(x: np.ndarray, k: int, seed: int):
-    from sklearn.cluster import KMeans
+    from sklearn.cluster import KMeans  # scikit-learn loads only when a selection clusters
 
     return KMeans(n_clusters=int(k), n_init=10, random_state=int(seed)).fit(x)
 

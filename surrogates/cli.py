@@ -7,16 +7,16 @@ import json
 import os
 from pathlib import Path
 
-from surrogates.evaluate import evaluate_segments, month_table, plot_predictions
-from surrogates.export import load_surrogate, train_and_export
+from surrogates.config import TrainConfig
 from surrogates.precision import PRECISIONS
 from surrogates.sources.csv import read_ilv_table
-from surrogates.train import TrainConfig, run_segments, split_segments
 
 
 def train(table_path: str | os.PathLike, out_dir: str | os.PathLike, name: str | None = None,
           config: TrainConfig | None = None) -> dict:
     """Read an ILV table (CSV/parquet), train, evaluate and export; returns the metrics report."""
+    from surrogates.export import train_and_export  # torch: the CLI builds its parser without it
+
     table = read_ilv_table(table_path)
     name = name or Path(table_path).stem
     return train_and_export(table, out_dir, name, config, source=table_path)
@@ -26,6 +26,10 @@ def evaluate(pth: str | os.PathLike, table_path: str | os.PathLike, all_runs: bo
              plot: str | os.PathLike | None = None) -> dict:
     """Metrics of an exported model on an ILV table: its held-out test segments (or every run); with ``plot``
     also the PNG of simulated vs predicted temperature."""
+    from surrogates.evaluate import evaluate_segments, plot_predictions  # torch: not at parser build
+    from surrogates.export import load_surrogate  # torch: not at parser build
+    from surrogates.train import run_segments, split_segments  # torch: not at parser build
+
     model, norm, names, lookback = load_surrogate(pth)
     table = read_ilv_table(table_path)
     segments = list(run_segments(table).values()) if all_runs else split_segments(table)["test"]
@@ -50,6 +54,8 @@ def _train_command(args: argparse.Namespace) -> int:
 
 
 def _evaluate_command(args: argparse.Namespace) -> int:
+    from surrogates.evaluate import month_table  # torch: the CLI builds its parser without it
+
     plot = args.plot or Path(args.model).with_suffix(".evaluate.png")
     metrics = evaluate(args.model, args.table, all_runs=args.all, plot=plot)
     if args.json:

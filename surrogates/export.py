@@ -24,10 +24,11 @@ import torch
 
 from citylearn_env.dataset import DynamicsBlock
 from citylearn_env.errors import InputError, SchemaError
+from surrogates.config import TrainConfig
 from surrogates.evaluate import evaluate_segments, plot_predictions, write_json
 from surrogates.ilv import validate_ilv
 from surrogates.model import LSTMModel, Normalization
-from surrogates.train import TrainConfig, Trained, train_surrogate
+from surrogates.train import Trained, train_surrogate
 
 
 def dynamics_block(trained: Trained, filename: str) -> DynamicsBlock:

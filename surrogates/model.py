@@ -33,22 +33,9 @@ from torch import nn
 
 from citylearn_env.dataset import PERIODS as _PERIODS
 from citylearn_env.dataset import periodic_encoding, split_periodic_name
+from surrogates.config import DEFAULT_INPUTS
 
-TARGET = "indoor_dry_bulb_temperature"
 PERIODS = dict(_PERIODS)  # month 12, hour 24, day_type 7 (the trained models' periods)
-#: default inputs, upstream order with both loads (a mixed-climate house needs heating and cooling) and
-#: without upstream's day_type_sin/cos: CityLearn 2.1 encodes the day type with period 8 at run time where
-#: the models are trained with 7, so a model that reads the day type runs differently there (on the
-#: validation suite, up to 0.2 degC worse monthly median); occupancy carries the weekly schedule
-#: (docs/surrogates.md, fifth pass). The day-type inputs stay available by name.
-DEFAULT_INPUTS: tuple[str, ...] = (
-    "direct_solar_irradiance", "diffuse_solar_irradiance", "outdoor_dry_bulb_temperature",
-    "indoor_dry_bulb_temperature_set_point", "occupant_count", "cooling_demand", "heating_demand",
-    "month_sin", "month_cos", "hour_sin", "hour_cos", TARGET,
-)
-#: upstream's full input set: the defaults with the day-type encoding before the temperature (the default
-#: before the fifth pass; its ablation recipes and the CityLearn 2.1 comparison use it)
-INPUTS_WITH_DAY_TYPE: tuple[str, ...] = (*DEFAULT_INPUTS[:-1], "day_type_sin", "day_type_cos", TARGET)
 
 
 @contextmanager

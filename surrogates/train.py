@@ -29,10 +29,9 @@ import torch
 from tqdm.auto import tqdm
 
 from citylearn_env.errors import InputError
+from surrogates.config import TrainConfig
 from surrogates.ilv import validate_ilv
 from surrogates.model import (
-    DEFAULT_INPUTS,
-    TARGET,
     LSTMModel,
     Normalization,
     available_inputs,
@@ -41,7 +40,7 @@ from surrogates.model import (
     rollout,
     torch_threads,
 )
-from surrogates.precision import Choice, Probe, check_precision, choose
+from surrogates.precision import Choice, Probe, choose
 
 ROLES = ("train", "validation", "test")
 
@@ -53,85 +52,6 @@ class Segment:
     reference: int
     start: int
     stop: int
-
-
-@dataclass(frozen=True)
-class TrainConfig:
-    """Hyper-parameters; the defaults are the best recipe measured on the independent validation suite
-    (docs/surrogates.md, section 4 and its eighth pass): lookback 1 (a plain stateful LSTM), a
-    teacher-forced warm start on 48-h sequences, then closed-loop epochs on 48-h and 168-h chunks."""
-
-    inputs: tuple[str, ...] = DEFAULT_INPUTS
-    hidden_size: int = 32
-    num_layers: int = 2
-    #: window length (h); the other defaults are tuned for 1, where the warm start trains whole sequences
-    #: (longer windows run, with a warm start on independent windows from zero state)
-    lookback: int = 1
-    epochs: int = 32
-    seed: int = 0
-    pretrain_steps: int = 6000
-    #: samples per one-step update: windows (lookback > 1) or sequences (lookback 1)
-    pretrain_batch_size: int = 32
-    #: lookback 1 only: length (h) of the teacher-forced sequences of the warm start (state carried through
-    #: each, from zero); at most the longest training segment allows
-    pretrain_sequence_hours: int = 48
-    chunk_hours: int = 48
-    #: the last ``long_chunk_epochs`` epochs (at most ``epochs - 1``; 0: none) train on chunks of
-    #: ``long_chunk_hours`` hours (at most the longest training segment allows) at
-    #: ``long_chunk_learning_rate``, continuing from the current weights: a low-rate fine-tune on longer
-    #: closed-loop horizons, which corrects multi-day drift that shorter chunks do not see
-    #: (docs/surrogates.md)
-    long_chunk_hours: int = 168
-    long_chunk_epochs: int = 10
-    long_chunk_learning_rate: float = 2.5e-4
-    batch_size: int = 128
-    learning_rate: float = 0.01
-    #: Adam rate of the closed-loop epochs before the long phase (fresh moments after the warm start)
-    finetune_learning_rate: float = 0.0005
-    #: standard deviation (normalised temperature units; x the training range in degC) of Gaussian noise
-    #: added to every temperature of the history in the one-step phase, drawn afresh per update: the model
-    #: learns not to copy its temperature input, which it will be fed back from its own predictions, and
-    #: drifts less in closed loop (docs/surrogates.md, sixth and seventh passes)
-    pretrain_noise: float = 0.06
-    #: the first ``pretrain_clean_hours`` temperatures of each warm-start sample (sequence or window) carry no
-    #: noise: with its state still empty the model should trust its temperature input, as it must at the start
-    #: of a rollout, where that input is measured (docs/surrogates.md, eighth pass). Tuned for lookback 1: a
-    #: window of ``lookback`` <= ``pretrain_clean_hours`` rows gets no noise at all
-    pretrain_clean_hours: int = 6
-    #: the validated and exported weights are an exponential moving average of the closed-loop iterates, this
-    #: decay per update (0: the iterates themselves)
-    ema_decay: float = 0.95
-    use_free_float: bool = False
-    use_ideal: bool = False
-    test_runs: int = 1
-    validation_hours: int = 336
-    ensemble: int = 1
-    max_seconds: float | None = None
-    threads: int = 1
-    progress: bool = True
-    #: numeric mode of the one-step and closed-loop updates (:data:`surrogates.precision.PRECISIONS`):
-    #: ``bfloat16`` runs them under bfloat16 autocast with a fused Adam (validation and the exported weights
-    #: stay float32; not bit-identical to float32); ``auto`` picks bfloat16 only where the CPU multiplies it
-    #: natively and a short measurement of this network's update finds it faster (:func:`update_precision`)
-    precision: str = "auto"
-
-    def __post_init__(self):
-        if self.inputs and self.inputs[-1] != TARGET:
-            raise InputError(f"the last input must be {TARGET!r}", column="inputs")
-        for key in ("hidden_size", "num_layers", "lookback", "epochs", "chunk_hours", "long_chunk_hours",
-                    "batch_size", "ensemble", "pretrain_batch_size", "pretrain_sequence_hours"):
-            if getattr(self, key) < 1:
-                raise InputError("must be >= 1", column=key)
-        for key in ("long_chunk_epochs", "pretrain_noise", "pretrain_clean_hours", "ema_decay"):
-            if getattr(self, key) < 0:
-                raise InputError("must be >= 0", column=key)
-        check_precision(self.precision, column="precision")
-
-    @property
-    def long_start(self) -> int | None:
-        """Epoch at which the long-chunk phase starts (None: no long phase)."""
-        long = min(self.long_chunk_epochs, self.epochs - 1)
-        return self.epochs - long if long > 0 else None
 
 
 @dataclass
@@ -251,11 +171,13 @@ def check_trainable(table: pd.DataFrame, splits: dict[str, list[Segment]], confi
                              "more reference runs (0 = ideal, >= 2 partial loads)", column="reference")
 
 
-def train_surrogate(table: pd.DataFrame, config: TrainConfig = TrainConfig(),
+def train_surrogate(table: pd.DataFrame, config: TrainConfig | None = None,
                     source: object = "<ILV table>", progress: Callable[[int, int], None] | None = None) -> Trained:
-    """Validate ``table``, split it, and train one LSTM; deterministic on CPU for a given ``config.seed``.
+    """Validate ``table``, split it, and train one LSTM; deterministic on CPU for a given ``config.seed``
+    (default: ``TrainConfig()``).
 
     ``progress``: optional ``progress(epochs_done, epochs)``, called after each epoch (progress bars)."""
+    config = config or TrainConfig()
     table = validate_ilv(table, source=source)
     inputs = available_inputs(table, config.inputs)
     missing = [n for n in config.inputs if n not in inputs and n != "indoor_dry_bulb_temperature_set_point"]

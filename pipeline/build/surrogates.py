@@ -22,14 +22,15 @@ from pipeline.build.steps import check_weather, eulp_metadata_row
 from pipeline.config import BuildConfig
 from pipeline.errors import InputError
 from pipeline.progress import epochs, report
+from surrogates.config import TrainConfig
 from surrogates.export import train_and_export
 from surrogates.ilv import read_ilv, validate_ilv
 from surrogates.sources.energyplus import energyplus_ilv_table
 from surrogates.sources.fmu import simulate_ilv_fmu
-from surrogates.train import TrainConfig, update_precision
+from surrogates.train import update_precision
 
 #: the trainer's source files (relative to the ``surrogates`` package): part of every surrogate cache key
-TRAINER_SOURCES = ("train.py", "model.py", "export.py", "evaluate.py", "ilv.py")
+TRAINER_SOURCES = ("config.py", "train.py", "model.py", "export.py", "evaluate.py", "ilv.py")
 
 
 #: what turns EULP metadata + EPW into an ILV table: part of the key for ``surrogate.source = "energyplus"``

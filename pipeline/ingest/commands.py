@@ -9,15 +9,20 @@ from __future__ import annotations
 import argparse
 import datetime as dt
 import os
+import sys
 from collections.abc import Iterable
 from pathlib import Path
 
 import pandas as pd
 
 from citylearn_env.dataset import LAYOUTS, write_table
+from pipeline.carbon import carbon_intensity, read_emission_factors
 from pipeline.errors import InputError
-from pipeline.ingest.eulp import citylearn_building, read_eulp_building
+from pipeline.ingest.eulp import citylearn_building, read_eulp_building, solar_noon_lag_hours
+from pipeline.ingest.fuel_mix import read_fuel_mix_csv, read_fuel_mix_workbook
+from pipeline.ingest.tariff import citylearn_pricing, read_tariff
 from pipeline.ingest.timeindex import period_index, select_period
+from pipeline.ingest.weather import ForecastSpec, citylearn_weather, read_epw, read_resstock_weather
 
 DEFAULT_CACHE = Path(".cache") / "districtgen"
 PathLike = str | os.PathLike
@@ -26,7 +31,6 @@ DateLike = str | dt.date
 
 def read_weather_file(path: PathLike, tmy_year: int | None = None) -> tuple[pd.DataFrame, dict]:
     """EPW (``.epw``) or ResStock county CSV (anything else) -> ``(frame, metadata)``."""
-    from pipeline.ingest.weather import read_epw, read_resstock_weather
 
     path = Path(path)
     return read_epw(path, tmy_year=tmy_year) if path.suffix.lower() == ".epw" else read_resstock_weather(path)
@@ -35,7 +39,6 @@ def read_weather_file(path: PathLike, tmy_year: int | None = None) -> tuple[pd.D
 def write_weather(path: PathLike, start: DateLike, end: DateLike, output: PathLike, *, layout: str = "v2.2",
                   forecast: str = "perfect", seed: int = 0) -> Path:
     """Write CityLearn ``weather.csv`` for a period from an EPW or ResStock weather file."""
-    from pipeline.ingest.weather import ForecastSpec, citylearn_weather
 
     index = period_index(start, end)
     frame, _ = read_weather_file(path, tmy_year=index[0].year)
@@ -46,7 +49,6 @@ def write_weather(path: PathLike, start: DateLike, end: DateLike, output: PathLi
 def write_pricing(path: PathLike, start: DateLike, end: DateLike, output: PathLike, *,
                   layout: str = "v2.2") -> Path:
     """Write CityLearn ``pricing.csv`` for a period from a tariff TOML file."""
-    from pipeline.ingest.tariff import citylearn_pricing, read_tariff
 
     table = citylearn_pricing(read_tariff(path), period_index(start, end))
     return _write(output, "pricing", table, layout)
@@ -64,8 +66,6 @@ def carbon_table(path: PathLike, index: pd.DatetimeIndex, *, clock: str = "preva
                  timezone: str = "America/Chicago", factors: PathLike | None = None) -> pd.DataFrame:
     """Hourly grid carbon intensity [kg CO2e/kWh] over ``index`` (local standard time, interval-beginning)
     from an ERCOT fuel-mix workbook (.xlsx) or a long CSV; one column ``carbon_intensity``."""
-    from pipeline.carbon import carbon_intensity, read_emission_factors
-    from pipeline.ingest.fuel_mix import read_fuel_mix_csv, read_fuel_mix_workbook
 
     path = Path(path)
     if path.suffix.lower() in (".xlsx", ".xlsm"):
@@ -87,7 +87,7 @@ def write_building(source: PathLike, building: int, start: DateLike, end: DateLi
                               timestamp_offset_hours=timestamp_offset_hours)
     solar = None
     if weather is not None:
-        from pipeline.pv import PVSite, pv_yield
+        from pipeline.pv import PVSite, pv_yield  # pvlib (pipeline.pv) loads only when PV is asked for
 
         frame, meta = read_weather_file(weather, tmy_year=index[0].year)
         if "latitude" not in meta:
@@ -108,9 +108,7 @@ def _write(output: PathLike, kind: str, table: pd.DataFrame, layout: str) -> Pat
 
 def _warn_if_shifted(series, longitude: float, utc_offset_hours: float) -> None:
     """Print a note when the building's own PV output peaks an hour or more away from solar noon."""
-    import sys
 
-    from pipeline.ingest.eulp import solar_noon_lag_hours
 
     pv = [c for c in series.columns if c.startswith("out.electricity.pv.energy_consumption")]
     if not pv or not series[pv[0]].abs().gt(0).any():

@@ -358,7 +358,7 @@ def test_surrogate_section_defaults_are_the_trainers():
     pytest.importorskip("torch", reason="the surrogate extra is not installed")
     from dataclasses import replace
 
-    from surrogates.train import TrainConfig
+    from surrogates.config import TrainConfig
 
     config = read_build_config(ROOT / "raw" / "district.toml")  # [surrogate]: source and seed only
     assert train_config(config) == replace(TrainConfig(), progress=False, threads=1)

@@ -144,7 +144,7 @@ def test_a_district_moved_away_from_its_inputs_warns(district, tmp_path):
 def tiny_model(table: Path, out: Path, **settings) -> Path:
     """Train a tiny LSTM with ``surrogates.cli.train`` (a few one-step updates, one closed-loop epoch)."""
     from surrogates.cli import train
-    from surrogates.train import TrainConfig
+    from surrogates.config import TrainConfig
 
     config = TrainConfig(hidden_size=8, num_layers=1, lookback=6, epochs=1, pretrain_steps=30, batch_size=64,
                          pretrain_batch_size=64, progress=False, **settings)

@@ -18,8 +18,9 @@ def room_fmu(tmp_path_factory):
 @pytest.fixture(scope="session")
 def austin_surrogate(room_fmu):
     """(loads, ILV table, trained surrogate) of the 2R2C zone on the Austin TMY3 year, default training."""
+    from surrogates.config import TrainConfig
     from surrogates.sources.fmu import simulate_ilv_fmu
-    from surrogates.train import TrainConfig, train_surrogate
+    from surrogates.train import train_surrogate
 
     need_shared(AUSTIN)
     loads = house_loads(room_fmu, AUSTIN)

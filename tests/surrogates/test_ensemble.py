@@ -11,10 +11,11 @@ import pytest
 import torch
 
 from citylearn_env.settings import CORRECTED
+from surrogates.config import TrainConfig
 from surrogates.evaluate import bank_rollout, predict_segment
 from surrogates.export import dynamics_block, save_checkpoint
 from surrogates.model import LSTMModel, Normalization, feature_matrix, merge_ensemble, rollout
-from surrogates.train import TrainConfig, Trained, run_segments, train_surrogate
+from surrogates.train import Trained, run_segments, train_surrogate
 from tests.surrogates.test_suite_closed_loop import one_r_one_c
 
 

@@ -9,7 +9,8 @@ import pandas as pd
 import pytest
 import torch
 
-from surrogates.model import DEFAULT_INPUTS, LSTMModel, Normalization, feature_matrix, rollout
+from surrogates.config import DEFAULT_INPUTS
+from surrogates.model import LSTMModel, Normalization, feature_matrix, rollout
 from surrogates.train import Segment, perturb_history, split_segments, warm_start_sequences
 from tests.surrogates.test_ilv import make_table
 

@@ -104,7 +104,7 @@ def test_bfloat16_where_emulated_warns_once_with_the_slowdown(no_native_bf16):
 def test_unknown_precision_is_one_clear_error():
     with pytest.raises(InputError, match="unknown precision 'half'.*auto, float32, bfloat16"):
         precision.check_precision("half")
-    from surrogates.train import TrainConfig
+    from surrogates.config import TrainConfig
 
     with pytest.raises(InputError, match="precision"):
         TrainConfig(precision="fp16")
@@ -119,7 +119,8 @@ def test_every_default_path_runs_float32_without_native_bf16(no_native_bf16, tmp
     from pipeline.paper.benchmarks import RunOptions
     from pipeline.paper.sac.train import sac_precision
     from pipeline.paper.tasks import run_paper
-    from surrogates.train import TrainConfig, update_precision
+    from surrogates.config import TrainConfig
+    from surrogates.train import update_precision
 
     assert sac_precision(RunOptions().precision, 9, 2).precision == "float32"
     assert update_precision(TrainConfig()).precision == "float32"

@@ -12,11 +12,12 @@ import torch
 
 from benchmarks import reference_houses as rh
 from citylearn_env.settings import CORRECTED
+from surrogates.config import TrainConfig
 from surrogates.evaluate import bank_rollout, monthly_rmse, predict_segment
 from surrogates.export import dynamics_block, save_checkpoint
 from surrogates.ilv import calendar_columns, validate_ilv
 from surrogates.sources.fmu import load_multipliers
-from surrogates.train import TrainConfig, run_segments, train_surrogate
+from surrogates.train import run_segments, train_surrogate
 
 UA_W_K = 200.0  # envelope conductance
 TAU_H = 20.0  # time constant C / UA

@@ -10,11 +10,12 @@ import torch
 
 from pipeline.cli import main
 from pipeline.errors import InputError
+from surrogates.config import DEFAULT_INPUTS, INPUTS_WITH_DAY_TYPE, TrainConfig
 from surrogates.export import export_surrogate, load_surrogate
 from surrogates.ilv import REQUIRED_COLUMNS, write_ilv
-from surrogates.model import DEFAULT_INPUTS, INPUTS_WITH_DAY_TYPE, rollout, torch_threads
+from surrogates.model import rollout, torch_threads
 from surrogates.sources.fmu import simulate_ilv_fmu
-from surrogates.train import TrainConfig, train_surrogate
+from surrogates.train import train_surrogate
 from tests.surrogates.fmu.build import VARIABLE_MAP, synthetic_house
 
 TINY = TrainConfig(epochs=2, pretrain_steps=20, chunk_hours=24, validation_hours=120, hidden_size=8,

@@ -8,10 +8,11 @@ from dataclasses import replace
 import pytest
 import torch
 
+from surrogates.config import TrainConfig
 from surrogates.model import LSTMModel, rollout
 from surrogates.precision import capability
 from surrogates.sources.fmu import simulate_ilv_fmu
-from surrogates.train import TrainConfig, ema_update, train_surrogate
+from surrogates.train import ema_update, train_surrogate
 from tests.surrogates.fmu.build import VARIABLE_MAP, synthetic_house
 
 
