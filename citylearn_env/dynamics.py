@@ -315,15 +315,28 @@ class LSTMSpec:
             raise SchemaError("normalization maximum equals minimum", file=where, column=names[i])
 
 
+#: largest |weight| a model may have: trained LSTM weights are of order 1 (CityLearn's and ours within +-10);
+#: 1e4 leaves room for any plausible training and refuses a finite but absurd file (e.g. 1e30)
+MAX_ABS_WEIGHT = 1e4
+
+
 def _weight(state_dict: Mapping[str, np.ndarray], key: str, shape: tuple[int, ...], where: str) -> np.ndarray:
-    """Weight ``key`` of ``state_dict`` as float64, checked present, of ``shape`` and finite."""
+    """Weight ``key`` of ``state_dict`` as float64, checked present, floating point, of ``shape``, finite and
+    within +-:data:`MAX_ABS_WEIGHT`."""
     if key not in state_dict:
         raise SchemaError("missing weight", file=where, column=key)
-    value = np.asarray(state_dict[key], dtype=np.float64)
+    stored = np.asarray(state_dict[key])
+    if not np.issubdtype(stored.dtype, np.floating):
+        raise SchemaError(f"weights must be floating point, found {stored.dtype}", file=where, column=key)
+    value = stored.astype(np.float64)
     if value.shape != shape:
         raise SchemaError(f"shape {value.shape}, expected {shape}", file=where, column=key)
     if not np.isfinite(value).all():  # NaN/inf weights would silently poison the temperatures
         raise SchemaError("weights must be finite (found NaN or inf)", file=where, column=key)
+    largest = float(np.max(np.abs(value))) if value.size else 0.0
+    if largest > MAX_ABS_WEIGHT:
+        raise SchemaError(f"a weight of magnitude {largest:.3g} is outside +-{MAX_ABS_WEIGHT:g} (a trained LSTM's "
+                          "weights are of order 1): not a usable model", file=where, column=key)
     return value
 
 

@@ -29,3 +29,8 @@ class SchemaError(LocatedError):
 class InputError(LocatedError):
     """A raw input of the pipeline or the surrogates (EULP, weather, tariff, fuel mix, ILV table, FMU, ...)
     is invalid. The CLI prints ``str(error)`` and exits with status 2, never a traceback."""
+
+
+class DynamicsError(SchemaError):
+    """A building's temperature model produced what no building can be (an indoor temperature outside the
+    physical range): its weights or normalisation do not belong to this building. The episode stops."""

@@ -8,7 +8,8 @@ Owned and stepped by :class:`citylearn_env.district.District` (CityLearn 2.1 sem
   up (fewer than ``lookback + 1`` steps since the episode start or the last cooling<->heating switch) keeps the
   data set's demand;
 * after the devices ran, :meth:`ThermalModel.update` feeds the step's inputs (weather, calendar, the energy
-  delivered, the indoor temperature held so far) to the LSTM bank and writes the predicted indoor temperature.
+  delivered, the indoor temperature held so far) to the LSTM bank and writes the predicted indoor temperature;
+  a prediction outside :data:`INDOOR_RANGE_C` stops the episode with one :class:`DynamicsError`.
 """
 
 from __future__ import annotations
@@ -20,11 +21,30 @@ import numpy as np
 from citylearn_env.actions import Actions
 from citylearn_env.config import BuildingConfig
 from citylearn_env.dynamics import build_bank
+from citylearn_env.errors import DynamicsError
 from citylearn_env.settings import Behaviour
 from citylearn_env.state import DYNAMIC, EndUseState
 
 #: end use, hvac_mode value that selects it, device action
 MODES = (("cooling", 1.0, "cooling_device"), ("heating", 2.0, "heating_device"))
+#: indoor temperatures [degC] a building can have; a prediction outside stops the episode (DynamicsError)
+INDOOR_RANGE_C = (-50.0, 80.0)
+
+
+def check_indoor_range(predicted_c: np.ndarray, names: Sequence[str], t: int,
+                       bounds_c: tuple[float, float] = INDOOR_RANGE_C) -> None:
+    """Refuse predicted indoor temperatures [degC] outside ``bounds_c`` (NaN: a model still warming up, not
+    checked) with one :class:`DynamicsError` naming the first such building (``names`` aligned with
+    ``predicted_c``) and the time step ``t``."""
+    low, high = bounds_c
+    if predicted_c.min() >= low and predicted_c.max() <= high:  # the common case; NaN falls through
+        return
+    bad = np.flatnonzero(~np.isnan(predicted_c) & ~((predicted_c >= low) & (predicted_c <= high)))
+    if bad.size:
+        i = int(bad[0])
+        raise DynamicsError(f"the LSTM predicted an indoor temperature of {predicted_c[i]:.4g} degC at time step {t}, "
+                            f"outside {low:g}..{high:g} degC: its weights or normalisation do not fit this "
+                            "building; the episode stops", column=f"buildings.{names[i]}.dynamics", row=t)
 
 
 class ThermalModel:
@@ -35,6 +55,7 @@ class ThermalModel:
 
     def __init__(self, buildings: Sequence[BuildingConfig], dynamics: np.ndarray, settings: Behaviour):
         self.index = np.flatnonzero(dynamics)
+        self.names = [buildings[i].name for i in self.index]
         self.bank = build_bank([buildings[i] for i in self.index], settings=settings)
         self._warm = np.zeros(len(buildings), dtype=bool)
 
@@ -84,4 +105,5 @@ class ThermalModel:
         for j, name in self._simulated:
             raw[j] = observed(name, t)[idx]
         predicted = self.bank.step_raw(raw, self.hvac_mode[idx, t])
+        check_indoor_range(predicted, self.names, t)
         temperature[idx, t] = np.where(np.isnan(predicted), temperature[idx, t], predicted)
