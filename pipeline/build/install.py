@@ -26,7 +26,7 @@ from pipeline.build.manifest import (
     split_metrics_timings,
     write_json_file,
 )
-from pipeline.build.staging import swap_in
+from pipeline.build.staging import clean_leftovers, swap_in
 from pipeline.build.validate import validate_district
 from pipeline.errors import InputError
 from surrogates.export import load_surrogate
@@ -133,6 +133,7 @@ def install_surrogate(district: str | os.PathLike, building: str, model: str | o
     """
 
     folder = Path(district)
+    clean_leftovers(folder.parent, folder.name)  # a killed earlier install or build: old or new, never neither
     manifest = read_manifest(folder)
     try:
         schema = json.loads((folder / "schema.json").read_text())

@@ -3,11 +3,14 @@
 
 from __future__ import annotations
 
+import ctypes
+import errno
 import glob
 import json
 import os
 import re
 import shutil
+from collections.abc import Callable
 from pathlib import Path
 
 from pipeline.config import NAME_PATTERN, BuildConfig
@@ -22,7 +25,8 @@ class staging:
       districtgen build of the same name (a folder with a ``manifest.json`` naming it), never a symlink;
     * each staging folder has an ownership mark beside it (``.<name>.building-<pid>.districtgen``, JSON with the
       pid); a staging folder whose mark names a process that is gone (a killed build) is deleted on the next
-      build of that name, as is a ``.<name>.old-<pid>`` that holds a districtgen build of that name.
+      build of that name, as is every other leftover of a killed writer (:func:`clean_leftovers`);
+    * the new version replaces the old in one atomic step (:func:`swap_in`).
 
     Problems are one :class:`~pipeline.errors.InputError` naming the folder and key ``name``/``output_root``.
     """
@@ -73,6 +77,7 @@ class staging:
 
     def _clean_stale(self) -> None:
         """Delete what killed builds of this name left: marked staging folders of dead processes, old builds."""
+        clean_leftovers(self.root, self.name)  # first: puts a killed fallback swap's old version back
         for mark in self.root.glob(f".{glob.escape(self.name)}.building-*.districtgen"):
             folder = mark.with_name(mark.name[: -len(".districtgen")])
             try:
@@ -84,9 +89,6 @@ class staging:
             if folder.is_dir() and not folder.is_symlink():
                 shutil.rmtree(folder, ignore_errors=True)
             mark.unlink(missing_ok=True)
-        for old in self.root.glob(f".{glob.escape(self.name)}.old-*"):
-            if is_build(old, self.name):
-                shutil.rmtree(old, ignore_errors=True)
 
 
 def is_build(folder: Path, name: str) -> bool:
@@ -108,18 +110,90 @@ def process_alive(pid: int) -> bool:
     return True
 
 
-def swap_in(new: Path, final: Path) -> None:
-    """Put the folder ``new`` (a sibling) under the name ``final``: the old folder (if any) is renamed aside to
-    ``.<name>.old-<pid>``, the new one in, the old one deleted; the old one is put back when the second rename
-    fails. Every writer of a district (the build, ``surrogate install``) replaces it through here."""
+#: called with the label of each step of :func:`swap_in` before it runs; None in use (the fault-injection
+#: tests set it to kill the process at one step)
+STEP_HOOK: Callable[[str], None] | None = None
+#: Linux renameat2(2): relative paths from the current directory, swap both names in one step
+AT_FDCWD, RENAME_EXCHANGE = -100, 2
+#: what a killed writer of district ``<name>`` may leave beside it: its staging folder (a build), its working
+#: copy (``surrogate install``) or the old version it renamed aside (the two-rename fallback)
+LEFTOVER = r"\.{name}\.(building|install|old)-(\d+)"
+
+
+def exchange(a: Path, b: Path) -> bool:
+    """Swap the names of two existing paths in ONE atomic step (Linux ``renameat2`` with
+    ``RENAME_EXCHANGE``); False, nothing changed, where the C library, kernel or file system lacks it."""
+    rename = getattr(ctypes.CDLL(None, use_errno=True), "renameat2", None)
+    if rename is None:
+        return False
+    rename.argtypes = (ctypes.c_int, ctypes.c_char_p, ctypes.c_int, ctypes.c_char_p, ctypes.c_uint)
+    if rename(AT_FDCWD, os.fsencode(a), AT_FDCWD, os.fsencode(b), RENAME_EXCHANGE) == 0:
+        return True
+    code = ctypes.get_errno()
+    if code in (errno.EINVAL, errno.ENOSYS, errno.ENOTSUP, errno.EOPNOTSUPP):
+        return False
+    raise OSError(code, os.strerror(code), str(b))
+
+
+def swap_in(new: Path, final: Path, step: Callable[[str], None] | None = None) -> None:
+    """Put the folder ``new`` (a sibling) under the name ``final`` so that at every instant ``final`` is the
+    whole old district or the whole new one (a kill at any point, the next writer cleans the rest). Every
+    writer of a district (the build, ``surrogate install``) replaces it through here.
+
+    * no ``final`` yet: one ``rename``;
+    * else one atomic exchange of the two names (:func:`exchange`), then the old version, now under ``new``'s
+      name, is deleted;
+    * where the OS has no exchange: the old one is renamed aside to ``.<name>.old-<pid>``, the new one in (a
+      kill between the two leaves no ``final`` until the next writer puts the old one back,
+      :func:`clean_leftovers`), the old one deleted; the old one is put back when the second rename fails.
+
+    ``step(label)`` is called before each file-system step (``"rename"``, ``"exchange"``, ``"delete old"``,
+    ``"rename aside"``; default :data:`STEP_HOOK`): the fault-injection tests kill the process there."""
+    step = step or STEP_HOOK or (lambda _: None)
+    if not final.exists() and not final.is_symlink():
+        step("rename")
+        new.rename(final)
+        return
+    step("exchange")
+    if exchange(new, final):
+        step("delete old")
+        shutil.rmtree(new, ignore_errors=True)
+        return
     old = final.with_name(f".{final.name}.old-{os.getpid()}")
-    had_old = final.exists()
-    if had_old:
-        final.rename(old)
+    step("rename aside")
+    final.rename(old)
     try:
+        step("rename")
         new.rename(final)
     except OSError:
-        if had_old:
-            old.rename(final)
+        old.rename(final)
         raise
+    step("delete old")
     shutil.rmtree(old, ignore_errors=True)
+
+
+def clean_leftovers(root: Path, name: str) -> list[Path]:
+    """Delete what killed writers of district ``name`` left in ``root``, recognised by name AND content: a
+    ``.<name>.(building|install|old)-<pid>`` folder of a process that is gone which holds a districtgen build
+    of ``name`` (a manifest naming it) or is a build's marked staging folder. When ``root/<name>`` is missing
+    (a kill between the fallback's two renames) the newest old version is put back first. Returns what was
+    deleted."""
+    pattern = re.compile(LEFTOVER.format(name=re.escape(name)))
+    found = []
+    for folder in root.glob(f".{glob.escape(name)}.*-*"):
+        match = pattern.fullmatch(folder.name)
+        if match and not folder.is_symlink() and folder.is_dir() and not process_alive(int(match.group(2))):
+            found.append((match.group(1), folder))
+    final = root / name
+    olds = sorted((f for kind, f in found if kind == "old" and is_build(f, name)), key=lambda f: f.stat().st_mtime)
+    if olds and not final.exists() and not final.is_symlink():
+        olds[-1].rename(final)
+        found = [(k, f) for k, f in found if f != olds[-1]]
+    deleted = []
+    for kind, folder in found:
+        marked = kind == "building" and folder.with_name(folder.name + ".districtgen").is_file()
+        if is_build(folder, name) or marked:
+            shutil.rmtree(folder, ignore_errors=True)
+            folder.with_name(folder.name + ".districtgen").unlink(missing_ok=True)
+            deleted.append(folder)
+    return deleted

@@ -140,7 +140,7 @@ def test_staging_of_a_killed_build_is_cleaned_on_the_next_run(tmp_path):
     stale = tmp_path / f".x.building-{pid}"
     (stale / "surrogates").mkdir(parents=True)
     (tmp_path / f".x.building-{pid}.districtgen").write_text(json.dumps({"pid": pid, "district": "x"}))
-    old = tmp_path / ".x.old-1"
+    old = tmp_path / f".x.old-{pid}"                 # a killed two-rename swap's old version: put back, replaced
     old.mkdir()
     (old / "manifest.json").write_text(json.dumps({"district": "x"}))
     unmarked = tmp_path / ".x.building-1"           # not marked by a build: not ours, kept

@@ -1,0 +1,126 @@
+"""Replacing a district is atomic (issue 30, part 1): a writer killed (SIGKILL) before any step of the swap
+leaves the whole old district or the whole new one under the final name, and the next writer cleans what
+the killed one left, recognised by name and content. The writer is the build's real staging folder, run in a
+child process that kills itself at one step through ``staging.STEP_HOOK``."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from pipeline.build.staging import clean_leftovers, exchange, swap_in
+
+ROOT = Path(__file__).resolve().parents[3]
+
+WRITER = """
+import json, os, signal, sys
+from pathlib import Path
+from pipeline.build import staging as st
+from pipeline.config import parse_build_config
+
+root, label, fallback, version = Path(sys.argv[1]), sys.argv[2], sys.argv[3] == "1", sys.argv[4]
+if fallback:  # an OS or file system without an atomic exchange of two names
+    st.exchange = lambda a, b: False
+st.STEP_HOOK = lambda step: os.kill(os.getpid(), signal.SIGKILL) if step == label else None
+config = parse_build_config({"name": "x", "period": {"start": "2018-06-01", "end": "2018-06-02"},
+                             "inputs": {"eulp": "e", "weather": "w.epw", "tariff": "t.toml", "fuel_mix": "f.xlsx",
+                                        "buildings": [1]}}, file="district.toml")
+with st.staging(config, root) as out:
+    for i in range(20):
+        (out / f"Building_{i}.csv").write_text(version * 500)
+    (out / "manifest.json").write_text(json.dumps({"district": "x", "version": version}))
+"""
+
+
+def write(root: Path, version: str, *, kill_at: str = "-", fallback: bool = False) -> int:
+    """Run the staging writer of district ``x`` in a child process; its exit status (-9: killed)."""
+    done = subprocess.run([sys.executable, "-c", WRITER, str(root), kill_at, "1" if fallback else "0", version],
+                          cwd=ROOT, env={**os.environ, "PYTHONPATH": str(ROOT)}, capture_output=True, text=True,
+                          timeout=120)
+    assert done.returncode in (0, -signal.SIGKILL), done.stderr
+    return done.returncode
+
+
+def version_of(folder: Path) -> str:
+    """The version a complete district folder holds (every file agrees), else fail."""
+    version = json.loads((folder / "manifest.json").read_text())["version"]
+    assert all((folder / f"Building_{i}.csv").read_text() == version * 500 for i in range(20))
+    return version
+
+
+def test_exchange_swaps_two_folders_in_one_step(tmp_path):
+    a, b = tmp_path / "a", tmp_path / "b"
+    a.mkdir()
+    b.mkdir()
+    (a / "f").write_text("A")
+    (b / "f").write_text("B")
+    if not exchange(a, b):
+        pytest.skip("this OS or file system has no renameat2 RENAME_EXCHANGE: the two-rename fallback applies")
+    assert (a / "f").read_text() == "B" and (b / "f").read_text() == "A"
+
+
+@pytest.mark.parametrize("label", ["exchange", "delete old"])
+def test_a_writer_killed_at_any_step_leaves_the_old_or_the_new_district(tmp_path, label):
+    assert write(tmp_path, "A") == 0
+    assert write(tmp_path, "B", kill_at=label) == -signal.SIGKILL
+    expected = "A" if label == "exchange" else "B"
+    assert version_of(tmp_path / "x") == expected            # never neither, never a mix
+    assert write(tmp_path, "C") == 0                         # the next writer cleans what the killed one left
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["x"] and version_of(tmp_path / "x") == "C"
+
+
+def test_a_first_build_killed_before_its_rename_leaves_nothing_but_its_marked_staging(tmp_path):
+    assert write(tmp_path, "A", kill_at="rename") == -signal.SIGKILL
+    assert not (tmp_path / "x").exists()
+    assert write(tmp_path, "B") == 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["x"] and version_of(tmp_path / "x") == "B"
+
+
+@pytest.mark.parametrize("label", ["rename aside", "rename", "delete old"])
+def test_without_an_exchange_the_next_writer_restores_a_district_killed_between_two_renames(tmp_path, label):
+    assert write(tmp_path, "A", fallback=True) == 0
+    assert write(tmp_path, "B", kill_at=label, fallback=True) == -signal.SIGKILL
+    if label == "rename":   # the fallback's one window: the old version renamed aside, the new not yet in
+        assert not (tmp_path / "x").exists()
+        clean_leftovers(tmp_path, "x")                        # what every writer runs first
+    assert version_of(tmp_path / "x") == ("B" if label == "delete old" else "A")
+    assert write(tmp_path, "C", fallback=True) == 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["x"] and version_of(tmp_path / "x") == "C"
+
+
+def _dead_pid() -> int:
+    process = subprocess.Popen([sys.executable, "-c", "pass"])
+    process.wait()
+    return process.pid
+
+
+def test_leftovers_are_recognised_by_content_and_owner(tmp_path):
+    (tmp_path / "x").mkdir()
+    (tmp_path / "x" / "manifest.json").write_text(json.dumps({"district": "x", "version": "A"}))
+    folders = {}
+    for key, owner, district in (("ours", _dead_pid(), "x"), ("not a district", _dead_pid(), None),
+                                 ("another district", _dead_pid(), "y"), ("running writer", os.getpid(), "x")):
+        folder = folders[key] = tmp_path / f".x.install-{owner}"
+        folder.mkdir()
+        if district is None:
+            (folder / "notes.txt").write_text("mine")
+        else:
+            (folder / "manifest.json").write_text(json.dumps({"district": district}))
+    assert clean_leftovers(tmp_path, "x") == [folders["ours"]]
+    assert all(folders[k].exists() for k in ("not a district", "another district", "running writer"))
+
+
+def test_swap_in_into_an_empty_place_is_one_rename(tmp_path):
+    new = tmp_path / ".x.building-1"
+    new.mkdir()
+    (new / "manifest.json").write_text(json.dumps({"district": "x", "version": "A"}))
+    steps: list[str] = []
+    swap_in(new, tmp_path / "x", step=steps.append)
+    assert steps == ["rename"] and not new.exists()
+
