@@ -236,6 +236,8 @@ def register_surrogate_install(surrogate_commands: argparse._SubParsersAction) -
     install_parser.add_argument("building", help="the schema building to replace the model of, e.g. Building_1")
     install_parser.add_argument("model", type=Path, help="<name>.pth written by 'surrogate train' (dynamics JSON "
                                                          "beside it), or its folder")
+    install_parser.add_argument("--force", action="store_true",
+                                help="install even when the district no longer matches its manifest")
     install_parser.set_defaults(func=_install_command)
 
 
@@ -245,7 +247,7 @@ def _install_command(args: argparse.Namespace) -> int:
     from pipeline.build.install import install_surrogate
     from pipeline.build.manifest import verify_district
 
-    folder = install_surrogate(args.district, args.building, args.model)
+    folder = install_surrogate(args.district, args.building, args.model, force=args.force)
     problems = verify_district(folder)
     for problem in problems:
         print(f"districtgen: {folder}: {problem}")

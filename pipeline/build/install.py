@@ -19,6 +19,7 @@ from typing import Any
 from pipeline.build.manifest import (
     MANIFEST,
     TIMINGS,
+    check_outputs,
     make_world_readable,
     output_hashes,
     read_manifest,
@@ -121,20 +122,25 @@ def revalidate(folder: Path, name: str, schema: dict) -> None:
             handle.write(tail if tail.endswith("\n") else tail + "\n")
 
 
-def install_surrogate(district: str | os.PathLike, building: str, model: str | os.PathLike) -> Path:
+def install_surrogate(district: str | os.PathLike, building: str, model: str | os.PathLike, *,
+                      force: bool = False) -> Path:
     """Put a retrained surrogate (``surrogate train`` output) into a built district for ``building``.
 
     Checks the model's LSTM inputs against the schema's dynamics entry, copies the files, updates
     ``schema.json``, re-runs the validation (report included) and rewrites ``manifest.json`` (inputs and
     configuration as built; surrogate_cache of the building: the installed model's sha256) and ``timings.json``
     (the training seconds), all in a copy of the district that replaces it only when everything succeeded.
-    Errors are one :class:`InputError` naming the district, the building or the model file. Returns the
-    district folder.
+    Errors are one :class:`InputError` naming the district, the building or the model file. Refused before
+    anything is touched: a district whose artifacts no longer match its manifest (tampered or damaged; ``force``
+    installs anyway) and a district that holds the current directory (the swap would pull it away). Returns
+    the district folder (resolved).
     """
-
-    folder = Path(district)
+    folder = Path(district).resolve()
+    check_not_inside(folder)
     clean_leftovers(folder.parent, folder.name)  # a killed earlier install or build: old or new, never neither
     manifest = read_manifest(folder)
+    if not force:
+        check_untampered(folder, manifest)
     try:
         schema = json.loads((folder / "schema.json").read_text())
     except (OSError, ValueError) as error:
@@ -175,3 +181,20 @@ def write_install_timings(folder: Path, building: str, pth: Path, seconds: Mappi
                                                      "installed_utc": dt.datetime.now(dt.UTC)
                                                      .isoformat(timespec="seconds")}
     return write_json_file(folder / TIMINGS, record)
+
+
+def check_not_inside(folder: Path) -> None:
+    """Refuse (one line) to replace ``folder`` (resolved) while the current directory is inside it."""
+    here = Path.cwd().resolve()
+    if here == folder or folder in here.parents:
+        raise InputError("the current directory is inside the district, which install replaces: run it from "
+                         "outside the district", file=folder)
+
+
+def check_untampered(folder: Path, manifest: Mapping[str, Any]) -> None:
+    """Refuse (one line) a district whose artifacts do not match its manifest (what ``verify`` reports)."""
+    problems = check_outputs(folder, manifest.get("outputs") or {}).problems
+    if problems:
+        raise InputError(f"the district does not match its manifest ({problems[0]}; {len(problems)} problem(s) in "
+                         "all, see 'districtgen verify'): not installing into it (--force to install anyway)",
+                         file=folder)

@@ -45,7 +45,7 @@ class staging:
         self.check()
         self._clean_stale()
         try:
-            self.mark.write_text(json.dumps({"pid": os.getpid(), "district": self.name}))
+            write_new_file(self.mark, json.dumps({"pid": os.getpid(), "district": self.name}))
             self.tmp.mkdir()
         except OSError as error:
             self.mark.unlink(missing_ok=True)
@@ -62,6 +62,11 @@ class staging:
         except OSError as error:
             raise InputError(f"cannot create the output folder: {error.strerror or error}", file=self.root,
                              column="output_root") from None
+        here = Path.cwd().resolve()
+        final = self.final.resolve()
+        if here == final or final in here.parents:
+            raise InputError("the current directory is inside the district the build replaces: run it from "
+                             "outside", file=self.final, column="output_root")
         if (self.final.exists() or self.final.is_symlink()) and not is_build(self.final, self.name):
             raise InputError("exists and is not a districtgen build of this name: not replaced (move it away or "
                              "choose another name)", file=self.final, column="name")
@@ -89,6 +94,14 @@ class staging:
             if folder.is_dir() and not folder.is_symlink():
                 shutil.rmtree(folder, ignore_errors=True)
             mark.unlink(missing_ok=True)
+
+
+def write_new_file(path: Path, text: str) -> None:
+    """Create ``path`` with ``text``: never through a symlink and never over an existing file (O_EXCL |
+    O_NOFOLLOW; a planted link or file is an OSError, nothing written elsewhere)."""
+    handle = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_NOFOLLOW", 0), 0o644)
+    with os.fdopen(handle, "w") as stream:
+        stream.write(text)
 
 
 def is_build(folder: Path, name: str) -> bool:

@@ -191,3 +191,28 @@ def test_install_refuses_a_folder_that_is_not_a_district(tmp_path):
 
     with pytest.raises(InputError, match="no manifest.json"):
         install_surrogate(tmp_path, "Building_1", tmp_path / "x.pth")
+
+
+def test_install_refuses_a_tampered_district_before_touching_it(district, tmp_path):
+    from pipeline.build.install import install_surrogate
+    from pipeline.errors import InputError
+
+    csv = district / "Building_1.csv"
+    csv.write_bytes(csv.read_bytes().replace(b"\n", b"\n0", 1))   # one changed cell
+    before = {p: p.read_bytes() for p in district.rglob("*") if p.is_file()}
+    with pytest.raises(InputError, match=r"does not match its manifest \(.*Building_1.csv.*--force"):
+        install_surrogate(district, "Building_1", tmp_path / "model.pth")
+    assert {p: p.read_bytes() for p in district.rglob("*") if p.is_file()} == before
+    # --force passes the check; this district has no surrogates, so the model check refuses next
+    with pytest.raises(InputError, match="no .pth|not a model file"):
+        install_surrogate(district, "Building_1", tmp_path / "model.pth", force=True)
+
+
+@pytest.mark.parametrize("where", [".", "report"])
+def test_install_from_inside_the_district_is_one_line(district, monkeypatch, capsys, where):
+    monkeypatch.chdir(district / where)
+    target = "." if where == "." else ".."
+    assert main(["surrogate", "install", target, "Building_1", "model.pth"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "current directory is inside the district" in err[0]
+    assert not any(p.name.startswith(f".{district.name}.install-") for p in district.parent.iterdir())

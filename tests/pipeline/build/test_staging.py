@@ -124,3 +124,39 @@ def test_swap_in_into_an_empty_place_is_one_rename(tmp_path):
     swap_in(new, tmp_path / "x", step=steps.append)
     assert steps == ["rename"] and not new.exists()
 
+
+
+def _config():
+    from pipeline.config import parse_build_config
+
+    return parse_build_config({"name": "x", "period": {"start": "2018-06-01", "end": "2018-06-02"},
+                               "inputs": {"eulp": "e", "weather": "w.epw", "tariff": "t.toml", "fuel_mix": "f.xlsx",
+                                          "buildings": [1]}}, file="district.toml")
+
+
+def test_a_planted_link_at_the_ownership_mark_is_never_written_through(tmp_path):
+    from pipeline.build.staging import staging
+    from pipeline.errors import InputError
+
+    outside = tmp_path / "outside.txt"
+    outside.write_text("precious")
+    root = tmp_path / "out"
+    root.mkdir()
+    (root / f".x.building-{os.getpid()}.districtgen").symlink_to(outside)
+    with pytest.raises(InputError, match="cannot write into the output folder"):
+        with staging(_config(), root):
+            pass
+    assert outside.read_text() == "precious"
+    assert not (root / "x").exists()
+
+
+def test_a_build_run_from_inside_its_own_district_is_refused(tmp_path, monkeypatch):
+    from pipeline.build.staging import staging
+    from pipeline.errors import InputError
+
+    assert write(tmp_path, "A") == 0
+    monkeypatch.chdir(tmp_path / "x")
+    with pytest.raises(InputError, match="current directory is inside the district"):
+        with staging(_config(), tmp_path):
+            pass
+    assert version_of(tmp_path / "x") == "A"
