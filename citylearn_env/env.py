@@ -174,7 +174,13 @@ class CityLearnEnv(gym.Env):
     # ------------------------------------------------------------------ public accessors
     def advance(self, action: Any) -> int:
         """Validate ``action`` and advance the district one step (no reward); return the new time step."""
-        a = np.asarray(action, dtype=np.float64).reshape(-1)
+        try:
+            given = action if isinstance(action, np.ndarray) else np.asarray(action)
+        except (ValueError, TypeError):  # ragged nesting
+            raise SchemaError("action must be a flat sequence of numbers", column="action") from None
+        if given.dtype.kind not in "biuf":  # strings, objects: "0.5" is not an action
+            raise SchemaError(f"action must be numbers, got values of type {given.dtype}", column="action")
+        a = given.astype(np.float64, copy=False).reshape(-1)
         if a.shape != self.action_layout.low.shape:
             raise SchemaError(f"action has {a.size} values, the action space has {self.action_layout.low.size} "
                               f"({', '.join(f'{self.building_names[b]}.{n}' for n, b in self.action_pairs)})",

@@ -20,6 +20,8 @@ from pipeline.errors import InputError
 
 #: a district name: it becomes the folder ``<output root>/<name>``, so no separators, no hidden or dot names
 NAME_PATTERN = r"[A-Za-z0-9][A-Za-z0-9_.-]{0,63}"
+#: seeds are below 2**32: numpy's legacy RandomState and CityLearn's random_seed take 32 bits
+SEED_LIMIT = 2**32
 
 
 class _Frozen(BaseModel):
@@ -52,7 +54,7 @@ class Selection(_Frozen):
     clusters: int | Literal["auto"] = "auto"
     max_clusters: int | None = Field(None, ge=2)
     method: Literal["medoid", "draw"] = "medoid"
-    seed: int = 0
+    seed: int = Field(0, ge=0, lt=SEED_LIMIT)
 
     @field_validator("clusters")
     @classmethod
@@ -66,7 +68,8 @@ class Simulation(_Frozen):
     """EnergyPlus houses (inputs.characteristics): the one full-year pass that gives loads and ILV data."""
 
     partial_runs: int = Field(4, ge=0, description="partial-load ILV runs besides the ideal replay and free float")
-    seed: int = Field(2018, description="seed of the partial-load multipliers (combined with the bldg_id)")
+    seed: int = Field(2018, ge=0, lt=SEED_LIMIT,
+                      description="seed of the partial-load multipliers (combined with the bldg_id)")
     timesteps_per_hour: int = Field(1, ge=1, le=60)
     fuel_heating: Literal["heat_pump", "electric_heater"] = Field(
         "heat_pump", description="device for houses heated with a fuel (gas, oil, propane): electrified as")
@@ -96,7 +99,7 @@ class Sizing(_Frozen):
     dhw_heater_efficiency: float = Field(0.9, gt=0, le=1)
     dhw_tank_fraction: float = Field(0.5, ge=0)
     battery: str = "BYD LVS"
-    pv_zne_fraction: float = Field(0.215, ge=0)
+    pv_zne_fraction: float = Field(0.215, ge=0, le=10, description="PV yield / consumption over the period")
 
     @field_validator("battery")
     @classmethod
@@ -115,12 +118,12 @@ class Surrogate(_Frozen):
     fmu: Path | None = Field(None, description="FMI 2.0 co-simulation FMU of a building (source fmu)")
     fmu_variables: dict[str, str] = Field(default_factory=dict, description="our name -> FMU variable name")
     fmu_start_values: dict[str, float] = Field(default_factory=dict)
-    hidden_size: int = Field(32, ge=1)
-    num_layers: int = Field(2, ge=1)
-    lookback: int = Field(1, ge=1)
-    epochs: int = Field(32, ge=1, description="closed-loop epochs; the last 10 on 168-h chunks (TrainConfig)")
+    hidden_size: int = Field(32, ge=1, le=1024)
+    num_layers: int = Field(2, ge=1, le=8)
+    lookback: int = Field(1, ge=1, le=720)
+    epochs: int = Field(32, ge=1, le=10_000, description="closed-loop epochs; the last 10 on 168-h chunks (TrainConfig)")
     max_seconds: float | None = Field(None, gt=0, description="optional wall-clock cap (makes training machine-dependent)")
-    seed: int = 0
+    seed: int = Field(0, ge=0, lt=SEED_LIMIT)
     precision: Literal["auto", "float32", "bfloat16"] = Field(
         "auto", description="numeric mode of the updates: auto = bfloat16 only where the CPU multiplies it "
                             "natively and it measures faster (the mode that ran is in timings.json)")
@@ -137,7 +140,7 @@ class BuildConfig(_Frozen):
     simulation: Simulation = Simulation()
     layout: Literal["v2.1", "v2.2"] = "v2.2"
     forecast: Literal["perfect", "noisy"] = "perfect"
-    seed: int = 0
+    seed: int = Field(0, ge=0, lt=SEED_LIMIT)
     timezone: str = "America/Chicago"
     cache_dir: Path | None = Field(None, description="surrogate cache root (default: $DISTRICTGEN_CACHE_DIR, "
                                                      "else ~/.cache/districtgen); relative to the file")

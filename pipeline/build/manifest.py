@@ -279,12 +279,24 @@ def recorded_config_folder(folder: Path) -> Path | None:
     return Path(where) if where else None
 
 
+def inside(folder: Path, name: str) -> bool:
+    """Whether the relative POSIX path ``name`` stays inside ``folder`` (no absolute path, no ``..``, no
+    symlink that leads out)."""
+    if not isinstance(name, str) or not name or name.startswith("/") or ".." in name.split("/"):
+        return False
+    root = folder.resolve()
+    return (root / name).resolve().is_relative_to(root)
+
+
 def check_outputs(folder: Path, outputs: Mapping[str, Mapping[str, object]]) -> Verification:
-    """Every listed artifact present with its sha256 (problems); files not listed (warnings)."""
+    """Every listed artifact present with its sha256 (problems); files not listed (warnings). A listed name
+    that leaves the district (absolute, ``..``, a symlink out) is a problem and is never read."""
     problems = []
     for name, entry in outputs.items():
         path = folder / name
-        if not path.is_file():
+        if not inside(folder, name):
+            problems.append(f"{name}: names a file outside the district (not read)")
+        elif not path.is_file():
             problems.append(f"{name}: missing")
         elif sha256_file(path) != entry["sha256"]:
             problems.append(f"{name}: sha256 differs from the manifest")

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from citylearn_env import CityLearnEnv, SchemaError, load_schema
+from citylearn_env import CityLearnEnv, SchemaError, load_schema, make_example_env
 from citylearn_env.dynamics import read_pth_state_dict
 from citylearn_env.example import write_example_district
 from citylearn_env.ranges import ATTRIBUTE_RANGES, COLUMN_RANGES, markdown_table
@@ -320,3 +320,14 @@ def test_docs_print_the_table_of_ranges():
     from tests.conftest import ROOT
 
     assert markdown_table() in (ROOT / "docs" / "bad_input.md").read_text()
+
+
+@pytest.mark.parametrize("action", [["0.1", "0.2"], [None, 0.1], [[0.1], "x"]])
+def test_an_action_that_is_not_numbers_is_one_line(action):
+    env = make_example_env(n_buildings=1, hours=48)
+    env.reset(seed=0)
+    size = env.action_space.shape[0]
+    bad = (action * size)[:size] if size > 1 else action[:1]
+    with pytest.raises(SchemaError) as error:
+        env.step(bad)
+    assert "column/key 'action'" in str(error.value) and "\n" not in str(error.value)

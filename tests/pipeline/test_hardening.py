@@ -264,3 +264,14 @@ def _running(pid: int) -> bool:
         return Path(f"/proc/{pid}/stat").read_text().split()[2] != "Z"
     except OSError:
         return False
+
+
+@pytest.mark.parametrize(("update", "key"), [
+    ({"seed": -5}, "'seed'"), ({"seed": 2**128}, "'seed'"), ({"surrogate": {"seed": -1}}, "'surrogate.seed'"),
+    ({"sizing": {"pv_zne_fraction": 1e300}}, "'sizing.pv_zne_fraction'"),
+    ({"surrogate": {"hidden_size": 10**6}}, "'surrogate.hidden_size'"),
+])
+def test_absurd_config_numbers_name_their_key(update, key):
+    with pytest.raises(InputError) as error:
+        _config(**update)
+    assert f"column/key {key}" in str(error.value) and "\n" not in str(error.value)

@@ -216,3 +216,21 @@ def test_install_from_inside_the_district_is_one_line(district, monkeypatch, cap
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "current directory is inside the district" in err[0]
     assert not any(p.name.startswith(f".{district.name}.install-") for p in district.parent.iterdir())
+
+
+@pytest.mark.parametrize("name", ["../../etc/passwd", "/etc/passwd", "report/../../x"])
+def test_verify_never_reads_outside_the_district(district, name):
+    manifest = json.loads((district / "manifest.json").read_text())
+    manifest["outputs"][name] = {"sha256": "0" * 64, "bytes": 1}
+    (district / "manifest.json").write_text(json.dumps(manifest))
+    problems = check_district(district).problems
+    assert problems == [f"{name}: names a file outside the district (not read)"]
+
+
+def test_verify_refuses_a_link_out_of_the_district(district, tmp_path):
+    (tmp_path / "secret").write_text("x")
+    (district / "link.txt").symlink_to(tmp_path / "secret")
+    manifest = json.loads((district / "manifest.json").read_text())
+    manifest["outputs"]["link.txt"] = {"sha256": "0" * 64, "bytes": 1}
+    (district / "manifest.json").write_text(json.dumps(manifest))
+    assert check_district(district).problems == ["link.txt: names a file outside the district (not read)"]
