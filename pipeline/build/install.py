@@ -27,7 +27,7 @@ from pipeline.build.manifest import (
     split_metrics_timings,
     write_json_file,
 )
-from pipeline.build.staging import clean_leftovers, swap_in
+from pipeline.build.staging import check_not_inside, clean_leftovers, swap_in
 from pipeline.build.validate import validate_district
 from pipeline.errors import InputError
 from surrogates.export import load_surrogate
@@ -181,14 +181,6 @@ def write_install_timings(folder: Path, building: str, pth: Path, seconds: Mappi
                                                      "installed_utc": dt.datetime.now(dt.UTC)
                                                      .isoformat(timespec="seconds")}
     return write_json_file(folder / TIMINGS, record)
-
-
-def check_not_inside(folder: Path) -> None:
-    """Refuse (one line) to replace ``folder`` (resolved) while the current directory is inside it."""
-    here = Path.cwd().resolve()
-    if here == folder or folder in here.parents:
-        raise InputError("the current directory is inside the district, which install replaces: run it from "
-                         "outside the district", file=folder)
 
 
 def check_untampered(folder: Path, manifest: Mapping[str, Any]) -> None:

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import ctypes
 import errno
+import functools
 import glob
 import json
 import os
@@ -62,11 +63,7 @@ class staging:
         except OSError as error:
             raise InputError(f"cannot create the output folder: {error.strerror or error}", file=self.root,
                              column="output_root") from None
-        here = Path.cwd().resolve()
-        final = self.final.resolve()
-        if here == final or final in here.parents:
-            raise InputError("the current directory is inside the district the build replaces: run it from "
-                             "outside", file=self.final, column="output_root")
+        check_not_inside(self.final.resolve(), column="output_root")
         if (self.final.exists() or self.final.is_symlink()) and not is_build(self.final, self.name):
             raise InputError("exists and is not a districtgen build of this name: not replaced (move it away or "
                              "choose another name)", file=self.final, column="name")
@@ -94,6 +91,15 @@ class staging:
             if folder.is_dir() and not folder.is_symlink():
                 shutil.rmtree(folder, ignore_errors=True)
             mark.unlink(missing_ok=True)
+
+
+def check_not_inside(folder: Path, column: str | None = None) -> None:
+    """Refuse (one line) to replace ``folder`` (resolved) while the current directory is inside it: the swap
+    would pull the directory away from under the user (the build and ``surrogate install``)."""
+    here = Path.cwd().resolve()
+    if here == folder or folder in here.parents:
+        raise InputError("the current directory is inside the district, which this replaces: run it from "
+                         "outside the district", file=folder, column=column)
 
 
 def write_new_file(path: Path, text: str) -> None:
@@ -133,13 +139,21 @@ AT_FDCWD, RENAME_EXCHANGE = -100, 2
 LEFTOVER = r"\.{name}\.(building|install|old)-(\d+)"
 
 
+@functools.cache
+def _renameat2() -> Callable[..., int] | None:
+    """The C library's ``renameat2`` (looked up once), or None where it has none."""
+    rename = getattr(ctypes.CDLL(None, use_errno=True), "renameat2", None)
+    if rename is not None:
+        rename.argtypes = (ctypes.c_int, ctypes.c_char_p, ctypes.c_int, ctypes.c_char_p, ctypes.c_uint)
+    return rename
+
+
 def exchange(a: Path, b: Path) -> bool:
     """Swap the names of two existing paths in ONE atomic step (Linux ``renameat2`` with
     ``RENAME_EXCHANGE``); False, nothing changed, where the C library, kernel or file system lacks it."""
-    rename = getattr(ctypes.CDLL(None, use_errno=True), "renameat2", None)
+    rename = _renameat2()
     if rename is None:
         return False
-    rename.argtypes = (ctypes.c_int, ctypes.c_char_p, ctypes.c_int, ctypes.c_char_p, ctypes.c_uint)
     if rename(AT_FDCWD, os.fsencode(a), AT_FDCWD, os.fsencode(b), RENAME_EXCHANGE) == 0:
         return True
     code = ctypes.get_errno()
