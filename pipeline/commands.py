@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import re
 import tempfile
 from pathlib import Path
 
@@ -89,6 +90,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
     verify = subparsers.add_parser("verify", help="re-check a built district's manifest hashes and validate it")
     verify.add_argument("folder", type=Path)
+    verify.add_argument("--expect", metavar="DIGEST",
+                        help="the manifest digest the district must have (printed by build and verify; or a "
+                             "file holding it, e.g. a copy of manifest.sha256): pins the whole build for CI")
     verify.set_defaults(func=verify_command)
 
 
@@ -135,7 +139,9 @@ def build_command(args: argparse.Namespace) -> int:
     with progress.active(progress.make_reporter("quiet" if args.quiet else "auto")):
         folder = _build(config, args)
     if not args.quiet:
-        print(f"built {folder}")
+        from pipeline.build.manifest import manifest_digest
+
+        print(f"built {folder} (manifest digest {manifest_digest(folder)})")
         print((folder / "report" / "summary.md").read_text())
     return 0
 
@@ -178,13 +184,14 @@ def _quiet_orchestration() -> None:
 def verify_command(args: argparse.Namespace) -> int:
     """Re-hash every artifact and input of a district against its manifest (pipeline.build.manifest.check_district):
     one line per problem or warning, naming the file; exit 2 when anything differs, else a validation run."""
-    from pipeline.build.manifest import check_district
+    from pipeline.build.manifest import check_district, manifest_digest
     from pipeline.build.validate import validate_district
 
     if not args.folder.is_dir():
         raise InputError("not a folder (verify takes a built district's folder)", file=args.folder, column="folder")
+    expect = parse_expected_digest(args.expect)
     try:
-        result = check_district(args.folder)
+        result = check_district(args.folder, expect=expect)
     except (KeyError, TypeError, AttributeError, ValueError) as error:
         if isinstance(error, InputError):
             raise
@@ -202,7 +209,25 @@ def verify_command(args: argparse.Namespace) -> int:
         validate_district(args.folder / "schema.json", Path(scratch))
     print(f"{args.folder}: every artifact and input matches the manifest ({len(result.warnings)} warning(s)); "
           "the environment runs it")
+    print(f"manifest digest {manifest_digest(args.folder)}" + (" (as expected)" if expect else ""))
     return 0
+
+
+def parse_expected_digest(value: str | None) -> str | None:
+    """``verify --expect``: a 64-hex manifest digest, or a file whose ``manifest.json`` line (sha256sum format)
+    or only word is one; anything else is one :class:`InputError` naming the option."""
+    if value is None:
+        return None
+    text = value
+    if not re.fullmatch(r"[0-9a-fA-F]{64}", value) and Path(value).is_file():
+        lines = Path(value).read_text(errors="replace").split("\n")
+        named = [line.split()[0] for line in lines if line.split()[1:] in (["manifest.json"], ["*manifest.json"])]
+        words = [line.strip() for line in lines if line.strip()]
+        text = (named or words or [""])[0]
+    if not re.fullmatch(r"[0-9a-fA-F]{64}", text):
+        raise InputError(f"expected a manifest digest (64 hex digits) or a file holding one, got {value[:80]!r}",
+                         column="--expect")
+    return text.lower()
 
 
 def paper_command(args: argparse.Namespace) -> int:

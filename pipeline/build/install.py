@@ -26,6 +26,7 @@ from pipeline.build.manifest import (
     sha256_file,
     split_metrics_timings,
     write_json_file,
+    write_sidecar,
 )
 from pipeline.build.staging import check_not_inside, clean_leftovers, swap_in
 from pipeline.build.validate import validate_district
@@ -164,6 +165,7 @@ def install_surrogate(district: str | os.PathLike, building: str, model: str | o
                                                               "sha256": sha256_file(files.pth)}
         write_json_file(work / MANIFEST, manifest)
         write_install_timings(work, building, files.pth, seconds)
+        write_sidecar(work)
         make_world_readable(work)
         swap_in(work, folder)
     finally:

@@ -11,7 +11,12 @@ A district folder holds two record files:
   cache key. Two builds of the same configuration write the same bytes.
 * ``timings.json`` -- what only this run knows: seconds per stage, the surrogates' training seconds (taken
   out of their ``.metrics.json``), surrogate cache hits, where the configuration file and the cache were.
-  It is the one file that differs between two builds, and it is not hashed.
+  It differs between two builds, so the manifest does not hash it.
+
+A third record, ``manifest.sha256``, holds the sha256 of both in ``sha256sum`` format (``sha256sum -c
+manifest.sha256`` checks them too). The first line is the *manifest digest*: the district's whole identity
+(every artifact and input hash, the configuration, seeds and versions) in one value that two builds of the same
+configuration share; the build and ``verify`` print it, and ``verify --expect DIGEST`` pins it (for CI).
 
 Every file of a district is mode 0644 and every folder 0755 whatever the umask
 (:func:`make_world_readable`). Paths in the records are POSIX, relative (``Building_1.csv``,
@@ -25,6 +30,7 @@ import hashlib
 import json
 import os
 import platform
+import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from importlib import metadata as importlib_metadata
@@ -40,8 +46,10 @@ from surrogates.precision import capability
 
 MANIFEST = "manifest.json"
 TIMINGS = "timings.json"
+#: sha256sum-format digests of the two records above (the manifest's first: the pinnable manifest digest)
+SIDECAR = "manifest.sha256"
 #: record files: not listed among the outputs (the manifest cannot hash itself; the timings differ per run)
-RECORDS = (MANIFEST, TIMINGS)
+RECORDS = (MANIFEST, TIMINGS, SIDECAR)
 #: what a surrogate's metrics report holds that depends on the machine and the moment, not on the inputs: the
 #: training seconds and the measured reason for its precision (moved into timings.json, never hashed)
 TRAINING_SECONDS = ("train_seconds", "train_cpu_seconds", "precision_reason", "bf16_speedup")
@@ -183,8 +191,11 @@ def manifest_document(out: Path, config: BuildConfig,
 
 def write_manifest(out: Path, config: BuildConfig,
                    surrogate_keys: Mapping[str, str | None] | None = None) -> Path:
-    """Write ``out/manifest.json`` (:func:`manifest_document`); returns its path."""
-    return write_json_file(out / MANIFEST, manifest_document(out, config, surrogate_keys))
+    """Write ``out/manifest.json`` (:func:`manifest_document`) and the sidecar (:func:`write_sidecar`);
+    returns the manifest's path."""
+    path = write_json_file(out / MANIFEST, manifest_document(out, config, surrogate_keys))
+    write_sidecar(out)
+    return path
 
 
 def write_timings(out: Path, config: BuildConfig, seconds: Mapping[str, float],
@@ -192,14 +203,16 @@ def write_timings(out: Path, config: BuildConfig, seconds: Mapping[str, float],
     """Write ``out/timings.json``: the CPU (:func:`surrogates.precision.capability`), ``seconds`` per build
     stage [s, wall clock], per building the surrogate's training seconds, the precision its updates ran in
     (and why) and whether the cache had it, the configuration file's and the cache's locations and the
-    UTC time it was written. The one file of a district that is not reproducible (and not hashed)."""
+    UTC time it was written. Not reproducible, so the manifest does not hash it; the sidecar does."""
 
     record = {"finished_utc": dt.datetime.now(dt.UTC).isoformat(timespec="seconds"), "cpu": capability().describe(),
               "config_file": str(Path(config.source).resolve()) if Path(config.source).name != "<dict>" else None,
               "config_folder": str(config_folder(config)), "cache_root": str(cache_root(config.cache_dir)),
               "stages_s": {k: round(float(v), 3) for k, v in seconds.items()},
               "surrogates": {k: dict(v) for k, v in (surrogates or {}).items()}}
-    return write_json_file(out / TIMINGS, record)
+    path = write_json_file(out / TIMINGS, record)
+    write_sidecar(out)
+    return path
 
 
 def split_metrics_timings(metrics: Mapping[str, Any]) -> tuple[dict[str, Any], dict[str, Any]]:
@@ -231,6 +244,18 @@ def split_surrogate_timings(files: Mapping[str, bytes]) -> tuple[dict[str, bytes
             clean, timings = split_metrics_timings(json.loads(data))
             out[name] = (json.dumps(clean, indent=2) + "\n").encode()
     return out, timings
+
+
+def write_sidecar(out: Path) -> Path:
+    """Write ``out/manifest.sha256``: the sha256 of ``manifest.json`` and of ``timings.json`` (when present), one
+    ``<hex>  <name>`` line each (``sha256sum`` format). Written after both records, by every writer of them."""
+    lines = "".join(f"{sha256_file(out / name)}  {name}\n" for name in (MANIFEST, TIMINGS) if (out / name).is_file())
+    return write_atomically(out / SIDECAR, lambda stream: stream.write(lines))
+
+
+def manifest_digest(folder: str | os.PathLike) -> str:
+    """The manifest digest: sha256 of ``manifest.json``'s bytes (see the module docstring)."""
+    return sha256_file(Path(folder) / MANIFEST)
 
 
 def make_world_readable(folder: Path) -> None:
@@ -324,17 +349,67 @@ def check_inputs(inputs: Mapping[str, Mapping[str, object]], base: Path | None) 
     return Verification(problems, warnings)
 
 
-def check_district(folder: str | Path, config_folder: Path | None = None) -> Verification:
-    """Re-hash every artifact and every input of a district against its manifest.
+def read_sidecar(folder: Path) -> dict[str, str]:
+    """``manifest.sha256`` as record name -> sha256 (hex); lines that are not ``<64 hex>  <name>`` are left out."""
+    try:
+        text = (folder / SIDECAR).read_text()
+    except (OSError, UnicodeDecodeError):
+        return {}
+    found = (re.fullmatch(r"([0-9a-f]{64}) [ *](\S+)", line.strip()) for line in text.splitlines())
+    return {m.group(2): m.group(1) for m in found if m}
+
+
+def check_records(folder: Path, expect: str | None = None) -> Verification:
+    """The two records against ``manifest.sha256`` (a record that differs or is not listed is a problem: an
+    edited ``timings.json`` would move where the inputs are checked), and the manifest digest against ``expect``
+    (the pinned value of ``verify --expect``; None: not pinned)."""
+    recorded, problems = read_sidecar(folder), []
+    if MANIFEST not in recorded:
+        problems.append(f"{SIDECAR}: missing or without a line for {MANIFEST} (the records cannot be checked)")
+    for name, digest in recorded.items():
+        if name not in (MANIFEST, TIMINGS):
+            problems.append(f"{SIDECAR}: names {name!r}, not a record of the district")
+        elif not (folder / name).is_file():
+            problems.append(f"{name}: missing (listed in {SIDECAR})")
+        elif sha256_file(folder / name) != digest:
+            problems.append(f"{name}: sha256 differs from {SIDECAR} (edited after the build)")
+    if (folder / TIMINGS).is_file() and TIMINGS not in recorded and MANIFEST in recorded:
+        problems.append(f"{TIMINGS}: not listed in {SIDECAR} (added after the build)")
+    if expect is not None and manifest_digest(folder) != expect.lower():
+        problems.append(f"{MANIFEST}: manifest digest {manifest_digest(folder)} is not the expected {expect} "
+                        "(another build, configuration, input or package version)")
+    return Verification(problems, [])
+
+
+def check_manifest_fields(manifest: Mapping[str, Any]) -> Verification:
+    """The manifest's own fields agree with its configuration: the district name and both seeds."""
+    config = manifest.get("config") if isinstance(manifest.get("config"), dict) else {}
+    problems = []
+    if config and manifest.get("district") != config.get("name"):
+        problems.append(f"{MANIFEST}: district {manifest.get('district')!r} is not the configuration's name "
+                        f"{config.get('name')!r}")
+    surrogate = config.get("surrogate") if isinstance(config.get("surrogate"), dict) else {}
+    wanted = {"build": config.get("seed"), "surrogate": surrogate.get("seed")}
+    if config and manifest.get("seeds") != wanted:
+        problems.append(f"{MANIFEST}: seeds {manifest.get('seeds')} are not the configuration's {wanted}")
+    return Verification(problems, [])
+
+
+def check_district(folder: str | Path, config_folder: Path | None = None, expect: str | None = None
+                   ) -> Verification:
+    """Re-hash every file of a district against its records: the artifacts and inputs against the manifest
+    (:func:`check_outputs`, :func:`check_inputs`), the manifest's fields against its configuration, both
+    records against ``manifest.sha256`` and the manifest digest against ``expect`` (:func:`check_records`).
 
     ``config_folder``: where the inputs' relative paths resolve (default: the folder recorded in
     ``timings.json``). Raises :class:`InputError` when there is no readable manifest.
     """
     folder = Path(folder)
     manifest = read_manifest(folder)
-    outputs = check_outputs(folder, manifest["outputs"])
-    inputs = check_inputs(manifest.get("inputs") or {}, config_folder or recorded_config_folder(folder))
-    return Verification(outputs.problems + inputs.problems, outputs.warnings + inputs.warnings)
+    parts = (check_records(folder, expect), check_manifest_fields(manifest),
+             check_outputs(folder, manifest["outputs"]),
+             check_inputs(manifest.get("inputs") or {}, config_folder or recorded_config_folder(folder)))
+    return Verification([p for part in parts for p in part.problems], [w for part in parts for w in part.warnings])
 
 
 def verify_district(folder: str | Path) -> list[str]:

@@ -12,7 +12,13 @@ import pandas as pd
 import pytest
 
 from pipeline.build.driver import build_district_local
-from pipeline.build.manifest import check_district, verify_district, write_manifest, write_timings
+from pipeline.build.manifest import (
+    check_district,
+    verify_district,
+    write_manifest,
+    write_sidecar,
+    write_timings,
+)
 from pipeline.cli import main
 from pipeline.config import read_build_config
 
@@ -70,7 +76,7 @@ def district(built, tmp_path):
 def test_intact_build_verifies_with_exit_0(district, capsys):
     assert check_district(district).problems == [] and check_district(district).warnings == []
     status, lines = verify_lines(district, capsys)
-    assert status == 0 and "every artifact and input matches the manifest" in lines[-1]
+    assert status == 0 and "every artifact and input matches the manifest" in lines[-2]
     manifest = json.loads((district / "manifest.json").read_text())
     assert manifest["inputs"]["weather"]["path"] == "inputs/USA_FL_Tampa.Intl.AP.722110_TMY3.epw"
     assert {"eulp_metadata", "eulp_timeseries/900001", "eulp_timeseries/900002"} <= set(manifest["inputs"])
@@ -137,7 +143,8 @@ def test_a_district_moved_away_from_its_inputs_warns(district, tmp_path):
     shutil.copytree(district, moved)
     (moved / "timings.json").unlink()
     result = check_district(moved)
-    assert result.problems == [] and any("input weather" in w and "not checked" in w for w in result.warnings)
+    assert result.problems == ["timings.json: missing (listed in manifest.sha256)"]
+    assert any("input weather" in w and "not checked" in w for w in result.warnings)
 
 
 # ---------------------------------------------------------------------------------------------- install
@@ -223,6 +230,7 @@ def test_verify_never_reads_outside_the_district(district, name):
     manifest = json.loads((district / "manifest.json").read_text())
     manifest["outputs"][name] = {"sha256": "0" * 64, "bytes": 1}
     (district / "manifest.json").write_text(json.dumps(manifest))
+    write_sidecar(district)  # the editor rewrote the records consistently
     problems = check_district(district).problems
     assert problems == [f"{name}: names a file outside the district (not read)"]
 
@@ -233,4 +241,66 @@ def test_verify_refuses_a_link_out_of_the_district(district, tmp_path):
     manifest = json.loads((district / "manifest.json").read_text())
     manifest["outputs"]["link.txt"] = {"sha256": "0" * 64, "bytes": 1}
     (district / "manifest.json").write_text(json.dumps(manifest))
+    write_sidecar(district)
     assert check_district(district).problems == ["link.txt: names a file outside the district (not read)"]
+
+
+# ------------------------------------------------------------------ the records and the pinnable digest (issue 30.4)
+def test_sidecar_holds_the_sha256_of_both_records(district):
+    lines = (district / "manifest.sha256").read_text().splitlines()
+    expected = [f"{hashlib.sha256((district / n).read_bytes()).hexdigest()}  {n}" for n in ("manifest.json",
+                                                                                             "timings.json")]
+    assert lines == expected  # sha256sum format: `sha256sum -c manifest.sha256` checks it
+    assert "manifest.sha256" not in json.loads((district / "manifest.json").read_text())["outputs"]
+
+
+def test_edited_timings_is_a_problem(district, tmp_path, capsys):
+    """timings.json says where the inputs are checked: moved to an empty folder they would all be warnings."""
+    record = json.loads((district / "timings.json").read_text())
+    record["config_folder"] = str(tmp_path / "nowhere")
+    (district / "timings.json").write_text(json.dumps(record))
+    result = check_district(district)
+    assert result.problems == ["timings.json: sha256 differs from manifest.sha256 (edited after the build)"]
+    assert verify_lines(district, capsys)[0] == 2
+
+
+def test_missing_sidecar_is_a_problem(district):
+    (district / "manifest.sha256").unlink()
+    assert verify_district(district) == ["manifest.sha256: missing or without a line for manifest.json (the "
+                                         "records cannot be checked)"]
+
+
+def test_manifest_seed_edited_is_caught_by_sidecar_fields_and_pin(district, capsys):
+    """An edit of the manifest's seed is caught three ways: the sidecar, the configuration it records and,
+    when the editor rewrote all of them consistently, only the pinned digest."""
+    pinned = hashlib.sha256((district / "manifest.json").read_bytes()).hexdigest()
+    manifest = json.loads((district / "manifest.json").read_text())
+    manifest["seeds"]["build"] += 1
+    (district / "manifest.json").write_text(json.dumps(manifest, indent=2) + "\n")
+    assert verify_district(district) == [
+        "manifest.json: sha256 differs from manifest.sha256 (edited after the build)",
+        f"manifest.json: seeds {manifest['seeds']} are not the configuration's "
+        f"{{'build': {manifest['seeds']['build'] - 1}, 'surrogate': {manifest['seeds']['surrogate']}}}"]
+    manifest["config"]["seed"] = manifest["seeds"]["build"]  # a consistent rewrite of every record
+    (district / "manifest.json").write_text(json.dumps(manifest, indent=2) + "\n")
+    write_sidecar(district)
+    assert verify_district(district) == []
+    problems = check_district(district, expect=pinned).problems
+    assert len(problems) == 1 and problems[0].startswith("manifest.json: manifest digest ")
+    assert f"is not the expected {pinned}" in problems[0]
+    assert main(["verify", str(district), "--expect", pinned]) == 2
+    capsys.readouterr()
+
+
+def test_verify_expect_accepts_the_digest_or_a_sidecar_copy(district, tmp_path, capsys):
+    digest = hashlib.sha256((district / "manifest.json").read_bytes()).hexdigest()
+    status, lines = verify_lines(district, capsys)
+    assert status == 0 and lines[-1] == f"manifest digest {digest}"
+    assert main(["verify", str(district), "--expect", digest.upper()]) == 0
+    pin = tmp_path / "pinned.sha256"
+    shutil.copyfile(district / "manifest.sha256", pin)
+    assert main(["verify", str(district), "--expect", str(pin)]) == 0
+    capsys.readouterr()
+    assert main(["verify", str(district), "--expect", "abc"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--expect" in err[0] and "64 hex digits" in err[0]
