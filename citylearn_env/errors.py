@@ -1,6 +1,7 @@
 """Errors for bad input, shared by every part of districtgen (this package depends on nothing else).
 
-Each message says where: the file (or schema key path), the column or key, and the first bad row.
+Each message says where: the file (or schema key path), the column or key, and the first bad row, in one line
+(a message quoting a library's multi-line text is joined into one).
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ class LocatedError(ValueError):
         if row is not None:
             parts.append(f"row {row}")
         where = ", ".join(parts)
+        message = " ".join(line.strip() for line in str(message).splitlines() if line.strip())  # one line
         super().__init__(f"{where}: {message}" if where else message)
         self.file, self.column, self.row = file, column, row
 

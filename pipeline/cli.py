@@ -36,9 +36,24 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+#: the arguments that name where a command writes, in the order they are looked for
+OUTPUT_ARGUMENTS = ("output_root", "output", "out", "out_dir", "district", "folder")
+
+
+def output_of(args: argparse.Namespace | None) -> str:
+    """``"while writing under PATH: "`` for an error that names no file (a full disk: a stream's write names
+    none), PATH the command's output argument; empty when it has none."""
+    for name in OUTPUT_ARGUMENTS:
+        value = getattr(args, name, None)
+        if value is not None:
+            return f"while writing under {value}: "
+    return ""
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point; returns the process exit status, with a one-line message: 2 for bad input, 1 for a
     missing optional dependency (naming the extra to install)."""
+    args = None
     try:
         args = build_parser().parse_args(argv)
         return int(args.func(args) or 0)
@@ -46,8 +61,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"districtgen: error: {error}", file=sys.stderr)
         return 2
     except OSError as error:  # a file the user named cannot be read or written: one line, no traceback
-        where = f"{error.filename}: " if error.filename else ""
+        where = f"{error.filename}: " if error.filename else output_of(args)
         print(f"districtgen: error: {where}{error.strerror or error}", file=sys.stderr)
+        return 2
+    except MemoryError:
+        print(f"districtgen: error: {output_of(args)}out of memory (run fewer buildings or a shorter period)",
+              file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("districtgen: interrupted", file=sys.stderr)

@@ -26,7 +26,7 @@ from citylearn_env.dataset import DynamicsBlock
 from citylearn_env.errors import InputError, SchemaError
 from surrogates.config import TrainConfig
 from surrogates.evaluate import evaluate_segments, plot_predictions, write_json
-from surrogates.ilv import validate_ilv
+from surrogates.ilv import table_digest, validate_ilv
 from surrogates.model import LSTMModel, Normalization
 from surrogates.train import Trained, train_surrogate
 
@@ -108,14 +108,17 @@ def train_and_export(table, out_dir: str | os.PathLike, name: str, config=None,
     """Train on an ILV table, evaluate on its held-out test segments, and write ``<name>.pth``,
     ``<name>.dynamics.json``, ``<name>.metrics.json`` and ``<name>.png`` into ``out_dir``.
 
-    Returns the metrics dict (also in the JSON). Bad input fails before any training or writing.
+    Returns the metrics dict (also in the JSON): ``source`` (the table's name), ``table_sha256`` (its content,
+    :func:`surrogates.ilv.table_digest`: what ``surrogate install`` matches against the house's table), the
+    held-out ``test`` metrics and the ``training`` summary. Bad input fails before any training or writing.
     """
     trained = train_surrogate(table, config or TrainConfig(), source=source, progress=progress)
     clean = validate_ilv(table, source=source)
     metrics, hours = evaluate_segments(trained.model, trained.normalization, trained.inputs,
                                        trained.config.lookback, clean, trained.splits["test"])
     paths = export_surrogate(trained, out_dir, name)
-    report = {"building": name, "source": str(source), "test": metrics, "training": trained.summary(),
+    report = {"building": name, "source": str(source), "table_sha256": table_digest(clean),
+              "test": metrics, "training": trained.summary(),
               "files": {k: p.name for k, p in paths.items()}}
     write_json(report, Path(out_dir) / f"{name}.metrics.json")
     plot_predictions(hours, Path(out_dir) / f"{name}.png",

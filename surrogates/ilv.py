@@ -27,6 +27,7 @@ the file (``source``), the column and the first bad row; ``row`` is the 0-based 
 
 from __future__ import annotations
 
+import hashlib
 import os
 import tempfile
 from pathlib import Path
@@ -251,3 +252,30 @@ def calendar_columns(timestamps: pd.DatetimeIndex | pd.Series, holidays: set | N
     interval-beginning timestamps; ``holidays`` is a set of ``datetime.date``."""
     cal = calendar_of(pd.DatetimeIndex(timestamps).to_numpy(), holidays or ())
     return pd.DataFrame({name: cal[name].astype(np.int64) for name in ("month", "hour", "day_type")})
+
+
+def table_digest(frame: pd.DataFrame) -> str:
+    """sha256 of a table's content: column names, order and values (not of its file's bytes).
+
+    Integers hash as int64, floats as float64, datetimes as int64 nanoseconds, anything else as its text;
+    so the same table read from a .csv or a .parquet file hashes alike.
+    """
+    digest = hashlib.sha256()
+    digest.update(f"rows={len(frame)};".encode())
+    for name in frame.columns:
+        column = frame[name]
+        if pd.api.types.is_datetime64_any_dtype(column):
+            values = column.to_numpy().astype("datetime64[ns]").view(np.int64)
+            kind = "datetime64[ns]"
+        elif pd.api.types.is_bool_dtype(column) or pd.api.types.is_integer_dtype(column):
+            values, kind = column.to_numpy().astype(np.int64), "int64"
+        elif pd.api.types.is_float_dtype(column):
+            values, kind = column.to_numpy().astype(np.float64), "float64"
+        else:
+            values, kind = None, "text"
+        digest.update(f"column={name};{kind};".encode())
+        if values is None:
+            digest.update("\x1f".join(map(str, column.tolist())).encode())
+        else:
+            digest.update(np.ascontiguousarray(values).tobytes())
+    return digest.hexdigest()

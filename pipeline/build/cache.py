@@ -23,12 +23,9 @@ import json
 import os
 import shutil
 import uuid
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
-
-import numpy as np
-import pandas as pd
 
 CACHE_ENV = "DISTRICTGEN_CACHE_DIR"
 ENTRY = "entry.json"
@@ -50,33 +47,6 @@ def cache_key(parts: Mapping[str, object]) -> str:
     """sha256 (hex) of the canonical JSON of ``parts`` (sorted keys, no whitespace; values JSON-able)."""
     text = json.dumps(parts, sort_keys=True, separators=(",", ":"), default=str)
     return sha256_bytes(text.encode())
-
-
-def table_digest(frame: pd.DataFrame) -> str:
-    """sha256 of a table's content: column names, order and values (not of its file's bytes).
-
-    Integers hash as int64, floats as float64, datetimes as int64 nanoseconds, anything else as its text;
-    so the same table read from a .csv or a .parquet file hashes alike.
-    """
-    digest = hashlib.sha256()
-    digest.update(f"rows={len(frame)};".encode())
-    for name in frame.columns:
-        column = frame[name]
-        if pd.api.types.is_datetime64_any_dtype(column):
-            values = column.to_numpy().astype("datetime64[ns]").view(np.int64)
-            kind = "datetime64[ns]"
-        elif pd.api.types.is_bool_dtype(column) or pd.api.types.is_integer_dtype(column):
-            values, kind = column.to_numpy().astype(np.int64), "int64"
-        elif pd.api.types.is_float_dtype(column):
-            values, kind = column.to_numpy().astype(np.float64), "float64"
-        else:
-            values, kind = None, "text"
-        digest.update(f"column={name};{kind};".encode())
-        if values is None:
-            digest.update("\x1f".join(map(str, column.tolist())).encode())
-        else:
-            digest.update(np.ascontiguousarray(values).tobytes())
-    return digest.hexdigest()
 
 
 def files_digest(paths: Iterable[Path], base: Path) -> str:
@@ -103,8 +73,11 @@ class FileCache:
 
     folder: Path
 
-    def get(self, key: str) -> dict[str, bytes] | None:
-        """The verified files of entry ``key`` (relative path -> bytes), or None (absent or not intact)."""
+    def get(self, key: str, owns: Callable[[str], bool] | None = None) -> dict[str, bytes] | None:
+        """The verified files of entry ``key`` (relative path -> bytes), or None (absent or not intact).
+
+        ``owns(relative path)``: which files an entry of this kind may hold; an entry listing any other (a
+        district data file such as ``weather.csv``) is not intact, and is rebuilt."""
         entry = self.folder / key
         try:
             listing = json.loads((entry / ENTRY).read_text())
@@ -113,7 +86,7 @@ class FileCache:
                 return None
             out = {}
             for name, meta in files.items():
-                if not _safe_relative(name):
+                if not _safe_relative(name) or (owns is not None and not owns(name)):
                     return None
                 data = (entry / name).read_bytes()
                 if sha256_bytes(data) != meta["sha256"]:
@@ -141,7 +114,9 @@ class FileCache:
             for name, data in files.items():
                 path = tmp / name
                 path.parent.mkdir(parents=True, exist_ok=True)
-                path.write_bytes(data)
+                with open(os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_NOFOLLOW", 0),
+                                  0o644), "wb") as stream:  # a new file in our folder, never through a link
+                    stream.write(data)
                 listing["files"][name] = {"sha256": sha256_bytes(data), "bytes": len(data)}
             (tmp / ENTRY).write_text(json.dumps(listing, indent=2, sort_keys=True, default=str))
             if final.exists():  # damaged (we only put after a failed get): move it aside

@@ -56,7 +56,13 @@ from pipeline.build.steps import (
     size_buildings,
     write_tables,
 )
-from pipeline.build.surrogates import SurrogateFiles, fmu_ilv, surrogate_files, write_surrogate_files
+from pipeline.build.surrogates import (
+    SurrogateFiles,
+    check_cache_root,
+    fmu_ilv,
+    surrogate_files,
+    write_surrogate_files,
+)
 from pipeline.build.validate import validate_district
 from pipeline.config import BuildConfig
 from pipeline.runners import InProcessRunner, Runner
@@ -73,6 +79,7 @@ def run_build(config: BuildConfig, output_root: str | Path = "artifacts", runner
     """
 
     runner = runner or InProcessRunner()
+    check_cache_root(config)  # an unusable cache: one line now, not after the houses' simulation
     timings: dict[str, float] = {}
     started = time.perf_counter()
     config, selection = resolve_selection(config)

@@ -28,7 +28,7 @@ from pipeline.build.manifest import (
     write_json_file,
     write_sidecar,
 )
-from pipeline.build.staging import check_not_inside, clean_leftovers, swap_in
+from pipeline.build.staging import check_no_links, check_not_inside, clean_leftovers, swap_in, write_new_file
 from pipeline.build.validate import validate_district
 from pipeline.errors import InputError
 from surrogates.export import load_surrogate
@@ -83,6 +83,30 @@ def check_model_fits(block: Mapping[str, Any], current: Mapping[str, Any] | None
                          f"{old.get('input_size')}", file=model, column="input_size")
 
 
+def check_training_table(model: ModelFiles, recorded: Path, building: str) -> None:
+    """Refuse (one line) a model not trained on the house's own table: its ``.metrics.json`` must name the same
+    ``table_sha256`` (the ILV table's content) as the building's current surrogate record ``recorded``."""
+    def table_of(path: Path | None) -> str | None:
+        try:
+            return json.loads(path.read_text()).get("table_sha256") if path is not None else None
+        except (OSError, ValueError, AttributeError):
+            return None
+
+    house, trained = table_of(recorded), table_of(model.metrics)
+    if house is None:
+        raise InputError(f"the district records no training table for {building} ({recorded.name} without "
+                         "table_sha256): cannot check the model against it (--force to install anyway)",
+                         file=recorded, column="table_sha256")
+    if trained is None:
+        raise InputError(f"no training record beside the model ({model.pth.stem}.metrics.json with table_sha256): "
+                         f"cannot tell which table it was trained on (--force to install anyway)",
+                         file=model.pth, column="table_sha256")
+    if trained != house:
+        raise InputError(f"the model was trained on ILV table {trained[:12]}, {building}'s surrogate on "
+                         f"{house[:12]}: not this house's training table (--force to install anyway)",
+                         file=model.metrics, column="table_sha256")
+
+
 def place_model(folder: Path, building: str, files: ModelFiles, schema: dict, block: dict) -> dict[str, Any]:
     """Copy a checked model (its parsed dynamics ``block``) into a district folder as ``<building>.pth`` and
     ``surrogates/<building>.*`` (metrics without their seconds), point the schema's dynamics entry at it and
@@ -90,7 +114,7 @@ def place_model(folder: Path, building: str, files: ModelFiles, schema: dict, bl
     block = copy.deepcopy(block)
     block["attributes"]["filename"] = f"{building}.pth"
     (folder / "surrogates").mkdir(exist_ok=True)
-    shutil.copyfile(files.pth, folder / f"{building}.pth")
+    replace_file(folder / f"{building}.pth", files.pth.read_bytes())
     write_json_file(folder / "surrogates" / f"{building}.dynamics.json", block)
     seconds: dict[str, Any] = {}
     if files.metrics is not None:
@@ -99,10 +123,17 @@ def place_model(folder: Path, building: str, files: ModelFiles, schema: dict, bl
         write_json_file(folder / "surrogates" / f"{building}.metrics.json",
                         {**metrics, "building": building, "source": source})
     if files.plot is not None:
-        shutil.copyfile(files.plot, folder / "surrogates" / f"{building}.png")
+        replace_file(folder / "surrogates" / f"{building}.png", files.plot.read_bytes())
     schema["buildings"][building]["dynamics"] = block
     write_json_file(folder / "schema.json", schema)
     return seconds
+
+
+def replace_file(path: Path, data: bytes) -> None:
+    """Put ``data`` at ``path`` as a new regular file: what was there (a file, a planted link) is removed, never
+    written through (:func:`pipeline.build.staging.write_new_file`)."""
+    path.unlink(missing_ok=True)
+    write_new_file(path, data)
 
 
 def revalidate(folder: Path, name: str, schema: dict) -> None:
@@ -132,9 +163,10 @@ def install_surrogate(district: str | os.PathLike, building: str, model: str | o
     configuration as built; surrogate_cache of the building: the installed model's sha256) and ``timings.json``
     (the training seconds), all in a copy of the district that replaces it only when everything succeeded.
     Errors are one :class:`InputError` naming the district, the building or the model file. Refused before
-    anything is touched: a district whose artifacts no longer match its manifest (tampered or damaged; ``force``
-    installs anyway) and a district that holds the current directory (the swap would pull it away). Returns
-    the district folder (resolved).
+    anything is touched: a district whose artifacts no longer match its manifest (tampered or damaged), a model
+    not trained on the building's own ILV table (:func:`check_training_table`) -- ``force`` installs anyway --
+    and a district that holds the current directory (the swap would pull it away). Returns the district folder
+    (resolved).
     """
     folder = Path(district).resolve()
     check_not_inside(folder)
@@ -154,6 +186,8 @@ def install_surrogate(district: str | os.PathLike, building: str, model: str | o
     block = json.loads(files.dynamics.read_text())
     load_surrogate(files.pth, block)  # the weights match their block (else one InputError)
     check_model_fits(block, schema["buildings"][building].get("dynamics"), building=building, model=files.pth)
+    if not force:
+        check_training_table(files, folder / "surrogates" / f"{building}.metrics.json", building)
     work = folder.with_name(f".{folder.name}.install-{os.getpid()}")
     shutil.rmtree(work, ignore_errors=True)
     shutil.copytree(folder, work, symlinks=True)
@@ -167,6 +201,7 @@ def install_surrogate(district: str | os.PathLike, building: str, model: str | o
         write_install_timings(work, building, files.pth, seconds)
         write_sidecar(work)
         make_world_readable(work)
+        check_no_links(work)
         swap_in(work, folder)
     finally:
         shutil.rmtree(work, ignore_errors=True)

@@ -133,10 +133,18 @@ def surrogate_table(metrics: list[dict]) -> list[str]:
         best = training.get("best_epoch")
         rows.append([m["building"], f"{test['monthly_rmse_c']['median']:.2f} / {test['monthly_rmse_c']['max']:.2f}",
                      f"{test['closed_loop_rmse_c']:.2f}", f"{test['one_step_rmse_c']:.3f}", f"{test['hours']}",
-                     "-" if best is None else f"{best + 1} of {epochs}"])
+                     "-" if best is None else f"{best + 1} of {epochs}", trained_on(m)])
     return ["## Surrogates (held-out runs, closed loop)", "",
             *_table(["building", "monthly RMSE median / max degC", "closed-loop RMSE degC", "one-step RMSE degC",
-                     "held-out hours", "best epoch"], rows), ""]
+                     "held-out hours", "best epoch", "trained and scored on"], rows), ""]
+
+
+def trained_on(metrics: dict) -> str:
+    """The ILV table a surrogate was trained and scored on: its name and the first 12 hex of its content
+    sha256 (``-`` where the record has neither)."""
+    digest = metrics.get("table_sha256")
+    name = Path(str(metrics.get("source") or "")).name
+    return " ".join(filter(None, [name or None, f"`{digest[:12]}`" if digest else None])) or "-"
 
 
 def _change(new: float, old: float) -> str:

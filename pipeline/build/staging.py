@@ -24,6 +24,8 @@ class staging:
 
     * ``root`` must be a folder (created if missing); ``root/<name>`` may be replaced only when it is a
       districtgen build of the same name (a folder with a ``manifest.json`` naming it), never a symlink;
+    * the staging folder is created mode 0700 and must hold no symbolic link when it is put in place
+      (:func:`check_no_links`), so every file written into it stays inside it;
     * each staging folder has an ownership mark beside it (``.<name>.building-<pid>.districtgen``, JSON with the
       pid); a staging folder whose mark names a process that is gone (a killed build) is deleted on the next
       build of that name, as is every other leftover of a killed writer (:func:`clean_leftovers`);
@@ -47,7 +49,7 @@ class staging:
         self._clean_stale()
         try:
             write_new_file(self.mark, json.dumps({"pid": os.getpid(), "district": self.name}))
-            self.tmp.mkdir()
+            self.tmp.mkdir(mode=PRIVATE_MODE)  # nobody else can plant a link in it, whatever the umask
         except OSError as error:
             self.mark.unlink(missing_ok=True)
             raise InputError(f"cannot write into the output folder: {error.strerror or error}", file=self.root,
@@ -70,11 +72,15 @@ class staging:
 
     def __exit__(self, exc_type, exc, tb) -> None:
         try:
+            if exc_type is None:
+                check_no_links(self.tmp)
+                swap_in(self.tmp, self.final)
+        except InputError:
+            shutil.rmtree(self.tmp, ignore_errors=True)  # links are removed, never followed
+            raise
+        finally:
             if exc_type is not None:
                 shutil.rmtree(self.tmp, ignore_errors=True)
-                return
-            swap_in(self.tmp, self.final)
-        finally:
             self.mark.unlink(missing_ok=True)
 
     def _clean_stale(self) -> None:
@@ -102,11 +108,22 @@ def check_not_inside(folder: Path, column: str | None = None) -> None:
                          "outside the district", file=folder, column=column)
 
 
-def write_new_file(path: Path, text: str) -> None:
+def check_no_links(folder: Path) -> None:
+    """Refuse (one line) to put in place a district that holds a symbolic link: every file a writer creates is
+    a regular file inside the folder it created, so a link there was planted."""
+    for root, dirs, files in os.walk(folder):
+        for name in (*dirs, *files):
+            if os.path.islink(os.path.join(root, name)):
+                link = Path(root, name)
+                raise InputError(f"a symbolic link appeared in the new district ({link.relative_to(folder)}): "
+                                 "not put in place", file=link)
+
+
+def write_new_file(path: Path, text: str | bytes) -> None:
     """Create ``path`` with ``text``: never through a symlink and never over an existing file (O_EXCL |
     O_NOFOLLOW; a planted link or file is an OSError, nothing written elsewhere)."""
     handle = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_NOFOLLOW", 0), 0o644)
-    with os.fdopen(handle, "w") as stream:
+    with os.fdopen(handle, "wb" if isinstance(text, bytes) else "w") as stream:
         stream.write(text)
 
 
@@ -129,6 +146,8 @@ def process_alive(pid: int) -> bool:
     return True
 
 
+#: the mode of a staging folder while it is written (0755 once complete: manifest.make_world_readable)
+PRIVATE_MODE = 0o700
 #: called with the label of each step of :func:`swap_in` before it runs; None in use (the fault-injection
 #: tests set it to kill the process at one step)
 STEP_HOOK: Callable[[str], None] | None = None

@@ -5,26 +5,28 @@ through :mod:`surrogates` and the files written into the district.
 from __future__ import annotations
 
 import json
+import re
 import tempfile
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import pandas as pd
 
 import surrogates
-from pipeline.build.cache import FileCache, cache_key, cache_root, files_digest, table_digest
+from pipeline.build.cache import FileCache, cache_key, cache_root, files_digest
 from pipeline.build.manifest import (
     package_version,
     sha256_file,
 )
+from pipeline.build.staging import write_new_file
 from pipeline.build.steps import check_weather, eulp_metadata_row
 from pipeline.config import BuildConfig
 from pipeline.errors import InputError
 from pipeline.progress import epochs, report
 from surrogates.config import TrainConfig
 from surrogates.export import train_and_export
-from surrogates.ilv import read_ilv, validate_ilv
+from surrogates.ilv import read_ilv, table_digest, validate_ilv
 from surrogates.sources.energyplus import energyplus_ilv_table
 from surrogates.sources.fmu import simulate_ilv_fmu
 from surrogates.train import update_precision
@@ -53,6 +55,22 @@ def train_config(config: BuildConfig):
     s = config.surrogate
     return TrainConfig(hidden_size=s.hidden_size, num_layers=s.num_layers, lookback=s.lookback, epochs=s.epochs,
                        seed=s.seed, max_seconds=s.max_seconds, precision=s.precision, progress=False, threads=1)
+
+
+def check_cache_root(config: BuildConfig) -> None:
+    """Refuse (one line naming the folder and key ``cache_dir``) a surrogate cache that cannot be written, before
+    any work: creates ``<root>/surrogates`` and a scratch file in it. Nothing to check without surrogates."""
+    if config.surrogate.source == "none":
+        return
+    folder = cache_root(config.cache_dir) / "surrogates"
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        with tempfile.NamedTemporaryFile(dir=folder, prefix=".probe-"):
+            pass
+    except OSError as error:
+        raise InputError(f"the surrogate cache cannot be written ({error.strerror or error}): set cache_dir, "
+                         "--cache-dir or DISTRICTGEN_CACHE_DIR to a writable folder", file=folder,
+                         column="cache_dir") from None
 
 
 def csv_ilv_path(config: BuildConfig, bldg_id: int) -> Path:
@@ -162,7 +180,7 @@ def surrogate_files(config: BuildConfig, bldg_id: int, name: str, table: pd.Data
     parts, table = surrogate_cache_parts(config, bldg_id, name, table, weather)
     key = cache_key(parts)
     cache = FileCache(cache_root(config.cache_dir) / "surrogates")
-    files = cache.get(key)
+    files = cache.get(key, owns=surrogate_owns(name))
     if files is not None:
         report(name, "surrogate from the cache")
         return SurrogateFiles(files, key, True)
@@ -184,8 +202,12 @@ def write_surrogate_files(out: Path, files: Mapping[str, bytes]) -> dict:
     for relative, data in files.items():
         path = out / relative
         path.parent.mkdir(parents=True, exist_ok=True)
-        if relative == dynamics_name:
-            path.write_text(json.dumps(block, indent=2))
-        else:
-            path.write_bytes(data)
+        write_new_file(path, json.dumps(block, indent=2) if relative == dynamics_name else data)
     return block
+
+
+def surrogate_owns(name: str) -> Callable[[str], bool]:
+    """Which files a surrogate cache entry of building ``name`` may hold: ``<name>.pth`` and
+    ``surrogates/<name>.<kind>.json`` / ``surrogates/<name>.png``, never a district data file."""
+    pattern = re.compile(rf"{re.escape(name)}\.pth|surrogates/{re.escape(name)}(\.[a-z_]+\.json|\.png)")
+    return lambda relative: pattern.fullmatch(relative) is not None

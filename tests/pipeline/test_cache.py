@@ -9,11 +9,12 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from pipeline.build.cache import CACHE_ENV, FileCache, cache_key, cache_root, table_digest
+from pipeline.build.cache import CACHE_ENV, FileCache, cache_key, cache_root
 from pipeline.build.driver import build_district_local
 from pipeline.build.manifest import district_digest, verify_district
 from pipeline.build.surrogates import surrogate_cache_parts
 from pipeline.config import read_build_config
+from surrogates.ilv import table_digest
 
 ROOT = Path(__file__).resolve().parents[2]
 RAW_CONFIG = ROOT / "tests" / "fixtures" / "synthetic_district" / "district.toml"
@@ -154,3 +155,37 @@ def test_battery_change_reuses_ilv_change_and_tampering_retrain(one_building, tm
     fourth = build_district_local(tesla, tmp_path / "d")
     changed = _cache_use(fourth)
     assert changed["hit"] is False and changed["key"] != use["key"]
+
+
+def test_an_entry_may_hold_only_the_files_its_kind_owns(tmp_path):
+    """A surrogate entry of Building_1 holds its weights, JSON records and plot; one that also lists a district
+    data file (even self-consistent, every sha256 right) is not intact: a miss, rebuilt."""
+    from pipeline.build.surrogates import surrogate_owns
+
+    owns = surrogate_owns("Building_1")
+    assert all(owns(n) for n in ("Building_1.pth", "surrogates/Building_1.dynamics.json",
+                                 "surrogates/Building_1.metrics.json", "surrogates/Building_1.png"))
+    assert not any(owns(n) for n in ("weather.csv", "Building_1.csv", "schema.json", "Building_2.pth",
+                                     "surrogates/Building_10.png", "report/summary.md", "surrogates/Building_1.csv"))
+    cache = FileCache(tmp_path / "surrogates")
+    cache.put("k", {"Building_1.pth": b"w", "weather.csv": b"45.0"})
+    assert cache.get("k") == {"Building_1.pth": b"w", "weather.csv": b"45.0"}   # the cache itself is generic
+    assert cache.get("k", owns=owns) is None
+
+
+def test_a_cache_entry_that_lists_weather_cannot_change_the_district(one_building, tmp_path):
+    """The attack: an entry with the right key that adds a self-consistent weather.csv. The build ignores the
+    entry (it retrains) and weather.csv is the district's own."""
+    import hashlib
+
+    first = build_district_local(one_building, tmp_path / "a")
+    weather = (first / "weather.csv").read_bytes()
+    entry = one_building.cache_dir / "surrogates" / _cache_use(first)["key"]
+    planted = weather.replace(b"\n", b"\n45.0", 1)
+    (entry / "weather.csv").write_bytes(planted)
+    listing = json.loads((entry / "entry.json").read_text())
+    listing["files"]["weather.csv"] = {"sha256": hashlib.sha256(planted).hexdigest(), "bytes": len(planted)}
+    (entry / "entry.json").write_text(json.dumps(listing))
+    second = build_district_local(one_building, tmp_path / "b")
+    assert (second / "weather.csv").read_bytes() == weather
+    assert _cache_use(second)["hit"] is False and verify_district(second) == []

@@ -275,3 +275,57 @@ def test_absurd_config_numbers_name_their_key(update, key):
     with pytest.raises(InputError) as error:
         _config(**update)
     assert f"column/key {key}" in str(error.value) and "\n" not in str(error.value)
+
+
+# ------------------------------------------------------------------ issue 30, part 7: the smaller items
+FIXTURE_CONFIG = ROOT / "tests" / "fixtures" / "synthetic_district" / "district.toml"
+
+
+def test_a_full_disk_names_the_output_folder_and_leaves_nothing(tmp_path, capsys):
+    """A real ENOSPC (a 64 KiB tmpfs as the output root): one line naming where it wrote, nothing left there."""
+    disk = tmp_path / "disk"
+    disk.mkdir()
+    mounted = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=64k", "tmpfs", str(disk)], capture_output=True)
+    if mounted.returncode != 0:
+        pytest.skip("mounting a small tmpfs needs root and CAP_SYS_ADMIN (mount -t tmpfs refused here)")
+    try:
+        status, line = _cli(["build", str(FIXTURE_CONFIG), "-o", str(disk), "--no-prefect", "--quiet",
+                             "--surrogate-source", "none"], capsys)
+        assert status == 2 and "No space left on device" in line and str(disk) in line
+        assert list(disk.iterdir()) == []
+    finally:
+        subprocess.run(["umount", str(disk)], check=True)
+
+
+def test_an_unusable_cache_root_is_one_line_before_any_work(tmp_path, capsys):
+    (tmp_path / "afile").write_text("")
+    status, line = _cli(["build", str(FIXTURE_CONFIG), "-o", str(tmp_path / "out"), "--no-prefect", "--quiet",
+                         "--cache-dir", str(tmp_path / "afile")], capsys)
+    assert status == 2 and "column/key 'cache_dir'" in line and "afile" in line and "cannot be written" in line
+    assert list((tmp_path / "out").iterdir()) == []   # refused before the staging folder was made
+
+
+def test_a_schema_too_big_for_memory_is_one_line_before_loading(tmp_path, capsys):
+    """100,000 buildings x 8,760 steps need ~1.6 TiB: refused naming the sizes (the buildings are never read)."""
+    schema = tmp_path / "schema.json"
+    schema.write_text(json.dumps({"simulation_start_time_step": 0, "simulation_end_time_step": 8759,
+                                  "buildings": {f"Building_{i}": {} for i in range(100_000)}}))
+    status, line = _cli(["run", "--schema", str(schema)], capsys)
+    assert status == 2 and "100000 buildings x 8760 time steps need about" in line and "GiB are available" in line
+    from pipeline.commands import check_memory
+
+    check_memory(schema, available=2**50)   # enough memory: no error
+    with pytest.raises(InputError, match=r"need about 1670\.8 GiB of memory and 1\.0 GiB are available"):
+        check_memory(schema, available=2**30)
+
+
+def test_a_truncated_pth_is_one_line(tmp_path):
+    """torch's own message spans two lines; the error quoting it is one."""
+    torch = pytest.importorskip("torch")
+    whole = tmp_path / "whole.pth"
+    torch.save({"w": torch.zeros(3)}, whole)
+    cut = tmp_path / "cut.pth"
+    cut.write_bytes(whole.read_bytes()[:200])
+    with pytest.raises(SchemaError) as caught:
+        read_pth_state_dict(cut)
+    assert "\n" not in str(caught.value) and "cut.pth" in str(caught.value)

@@ -191,6 +191,48 @@ def test_install_a_retrained_surrogate_then_verify(tmp_path, capsys):
     assert len(err) == 1 and "LSTM inputs" in err[0] and "retrained.pth" in err[0]
     assert (district / "manifest.json").read_bytes() == before   # a refused model changes nothing
 
+    # trained on 900001's table: not Building_2's (900002) -- refused, then installed with --force
+    assert main(["surrogate", "install", str(district), "Building_2", str(model)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "not this house's training table" in err[0] and "--force" in err[0]
+    assert (district / "manifest.json").read_bytes() == before
+    # a link planted at the file install replaces: removed, never written through
+    outside = tmp_path / "precious.pth"
+    outside.write_bytes(b"precious")
+    (district / "Building_2.pth").unlink()
+    (district / "Building_2.pth").symlink_to(outside)
+    assert main(["surrogate", "install", str(district), "Building_2", str(model), "--force"]) == 0
+    capsys.readouterr()
+    assert outside.read_bytes() == b"precious" and not (district / "Building_2.pth").is_symlink()
+    assert (district / "Building_2.pth").read_bytes() == model.read_bytes()
+    summary = (district / "report" / "summary.md").read_text()
+    digest = json.loads((district / "surrogates/Building_1.metrics.json").read_text())["table_sha256"]
+    assert f"900001.parquet `{digest[:12]}`" in summary   # which table each model was trained and scored on
+
+
+def test_training_table_check_names_both_tables(tmp_path):
+    """The model's record must name the house's table content (table_sha256); else one line, --force hint."""
+    from pipeline.build.install import ModelFiles, check_training_table
+    from pipeline.errors import InputError
+
+    def record(name: str, **fields) -> Path:
+        path = tmp_path / name
+        path.write_text(json.dumps({"building": "B", **fields}))
+        return path
+
+    house = record("house.metrics.json", table_sha256="a" * 64)
+    model = ModelFiles(tmp_path / "m.pth", tmp_path / "m.dynamics.json", record("m.metrics.json",
+                                                                                table_sha256="a" * 64), None)
+    check_training_table(model, house, "Building_1")   # the same table: accepted
+    other = ModelFiles(model.pth, model.dynamics, record("o.metrics.json", table_sha256="b" * 64), None)
+    with pytest.raises(InputError, match=r"trained on ILV table bbbbbbbbbbbb, Building_1's surrogate on "
+                                         r"aaaaaaaaaaaa: not this house's training table \(--force"):
+        check_training_table(other, house, "Building_1")
+    with pytest.raises(InputError, match="no training record beside the model"):
+        check_training_table(ModelFiles(model.pth, model.dynamics, None, None), house, "Building_1")
+    with pytest.raises(InputError, match="records no training table for Building_1"):
+        check_training_table(model, record("old.metrics.json"), "Building_1")
+
 
 def test_install_refuses_a_folder_that_is_not_a_district(tmp_path):
     from pipeline.build.install import install_surrogate

@@ -160,3 +160,27 @@ def test_a_build_run_from_inside_its_own_district_is_refused(tmp_path, monkeypat
         with staging(_config(), tmp_path):
             pass
     assert version_of(tmp_path / "x") == "A"
+
+
+def test_the_staging_folder_is_private_whatever_the_umask_and_a_planted_link_is_never_put_in_place(tmp_path):
+    """Created mode 0700 (under umask 0 too), nobody else can plant a link in it; a link that appears anyway
+    (the same user) stops the swap: the final name keeps the old district, the staging folder is gone and the
+    link's target is untouched."""
+    from pipeline.build.staging import staging
+    from pipeline.errors import InputError
+
+    assert write(tmp_path, "A") == 0
+    outside = tmp_path / "outside.txt"
+    outside.write_text("precious")
+    previous = os.umask(0)
+    try:
+        with pytest.raises(InputError, match=r"symbolic link appeared in the new district \(report/x.csv\)"):
+            with staging(_config(), tmp_path) as out:
+                assert os.stat(out).st_mode & 0o777 == 0o700
+                (out / "report").mkdir()
+                (out / "report" / "x.csv").symlink_to(outside)
+                (out / "manifest.json").write_text(json.dumps({"district": "x", "version": "B"}))
+    finally:
+        os.umask(previous)
+    assert version_of(tmp_path / "x") == "A" and outside.read_text() == "precious"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["outside.txt", "x"]
