@@ -212,7 +212,7 @@ def _build(config, args: argparse.Namespace) -> Path:
 
 def _quiet_orchestration() -> None:
     """Prefect and Dask log failures with tracebacks on stderr; the CLI reports them itself in one line, so
-    Prefect's console handlers show only critical messages (its run logs still go to its API) and Dask's
+    Prefect's console handlers show only critical messages (run logs go to a configured API only) and Dask's
     console logs likewise, unless the user set these variables. Must run before Prefect is imported."""
     for name in ("PREFECT_LOGGING_HANDLERS_CONSOLE_LEVEL", "PREFECT_LOGGING_HANDLERS_DEBUG_LEVEL"):
         os.environ.setdefault(name, "CRITICAL")

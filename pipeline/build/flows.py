@@ -9,31 +9,30 @@ No Prefect caching or result persistence: trained surrogates are cached by :mod:
 files checked by sha256, keyed on what training uses), never pickled.
 
 Prefect's API: :func:`prefect_api` uses a configured server (``PREFECT_API_URL``), else starts Prefect's
-temporary local server itself and stops it when the build ends, fails, is interrupted (Ctrl-C, SIGTERM,
-SIGHUP) or is killed outright (a small watchdog process stops the server when this process is gone), so no
-server process outlives a build. ``districtgen build`` and :func:`build_district_on_dask` run inside it.
+API server itself on a free local port (:mod:`pipeline.build.prefect_server`) and stops it when the build ends, fails,
+is interrupted (Ctrl-C, SIGTERM, SIGHUP) or is killed outright, even while the server is still starting (the
+server watches this process from its first line, and a small watchdog process stops it from outside), so no
+server process outlives a build. A server that cannot start (no free port, its port taken, it exits) and an
+API lost mid-build are each one line (:class:`OrchestrationError`). ``districtgen build`` and
+:func:`build_district_on_dask` run inside it.
 """
 
 from __future__ import annotations
 
 import os
 import signal
-import subprocess
-import sys
 import threading
-import time
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Any
 
-import httpx
 from prefect import flow
 from prefect.task_runners import ThreadPoolTaskRunner
 
 from pipeline import progress
 from pipeline.build.driver import run_build
+from pipeline.build.prefect_server import PORTS, api_loss_in_one_line, start_server
 from pipeline.config import BuildConfig, read_build_config
 from pipeline.errors import InputError
 from pipeline.progress import forward_dask_events
@@ -90,29 +89,18 @@ def local_cluster(workers: int):
 STARTUP_TIMEOUT_S = 600.0
 
 
-class OrchestrationError(InputError):
-    """Prefect or Dask could not run the build (not the inputs' fault); the CLI prints it as one line, exit 2."""
-
-
-#: run by the watchdog: poll the parent (argv[1]) every 0.5 s; when it is gone, stop the server (argv[2])
-_WATCHDOG = """
-import os, signal, sys, time
-parent, server = int(sys.argv[1]), int(sys.argv[2])
-while os.getppid() == parent:
-    time.sleep(0.5)
-try:
-    os.kill(server, signal.SIGTERM)
-except ProcessLookupError:
-    pass
-"""
+#: Prefect client retries of a failed API request (back-off 2, 4, ..., 64 s: about 2 minutes; Prefect: 5)
+CLIENT_RETRIES = 6
 
 
 @contextmanager
-def prefect_api() -> Iterator[str]:
-    """Yield the Prefect API URL a build uses: ``PREFECT_API_URL`` if set, else a temporary local server owned
-    by this call (stopped on exit, on an error, on SIGINT/SIGTERM/SIGHUP, and by a watchdog process if this
-    process is killed with SIGKILL). The temporary server keeps its run records in memory unless a database
-    is configured (``PREFECT_SERVER_DATABASE_CONNECTION_URL``)."""
+def prefect_api(ports: Sequence[int] = PORTS) -> Iterator[str]:
+    """Yield the Prefect API URL a build uses: ``PREFECT_API_URL`` if set, else a temporary local server on a
+    free port of ``ports`` owned by this call (stopped on exit, on an error, on SIGINT/SIGTERM/SIGHUP; if this
+    process is killed with SIGKILL, even while the server starts, the server stops itself and a watchdog
+    process makes sure). The temporary server keeps its run records in memory unless a database is configured
+    (``PREFECT_SERVER_DATABASE_CONNECTION_URL``). A connection to the API lost mid-build (after Prefect's
+    retries) ends in one :class:`OrchestrationError` line saying that a rerun resumes from the cache."""
     from prefect.settings import (  # optional: Prefect (pipeline extra) loads only when a flow runs
         PREFECT_API_URL,
         temporary_settings,
@@ -120,42 +108,48 @@ def prefect_api() -> Iterator[str]:
 
     configured = PREFECT_API_URL.value()
     if configured:
-        yield configured
+        with temporary_settings(updates=patient_client()), api_loss_in_one_line(configured):
+            yield configured
         return
-    from prefect.server.api.server import (
-        SubprocessASGIServer,  # optional: Prefect (pipeline extra) loads only when a flow runs
-    )
-
-
-    server = SubprocessASGIServer()
     previous = _exit_on_signals()
-    watchdog = None
+    server = None
+    settings = {**server_database(), **patient_settings()}
     try:
-        from prefect.settings import (
-            PREFECT_SERVER_DATABASE_CONNECTION_URL,  # optional: Prefect (pipeline extra) loads only when a flow runs
-        )
-
-        own_database = any(name in os.environ for name in (
-            "PREFECT_SERVER_DATABASE_CONNECTION_URL", "PREFECT_API_DATABASE_CONNECTION_URL"))
-        memory = {} if own_database else {PREFECT_SERVER_DATABASE_CONNECTION_URL: "sqlite+aiosqlite:///:memory:"}
-        with temporary_settings(updates={**memory, **patient_settings()}):  # records in memory, patient
+        with temporary_settings(updates=settings):  # the server inherits them
             progress.stage("prefect api")
-            start_server(server, startup_timeout())
+            server = start_server(startup_timeout(), ports)
             progress.end("prefect api")
-        watchdog = subprocess.Popen([sys.executable, "-c", _WATCHDOG, str(os.getpid()), str(server.server_process.pid)],
-                                    stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-        with temporary_settings(updates={PREFECT_API_URL: server.api_url, **patient_settings()}):
+        with (temporary_settings(updates={**settings, PREFECT_API_URL: server.api_url}),
+              api_loss_in_one_line(server.api_url, server)):
             yield server.api_url
     finally:
-        if server.running:  # send the runs' queued logs while the server is still there
-            from prefect.logging.handlers import APILogWorker
+        if server is not None:
+            if server.process.poll() is None:  # send the runs' queued logs while the server is still there
+                from prefect.logging.handlers import APILogWorker
 
-            APILogWorker.drain_all(timeout=5)
-        server.stop()
-        if watchdog is not None:
-            watchdog.terminate()
-            watchdog.wait()
+                APILogWorker.drain_all(timeout=5)
+            server.stop()
         _restore_signals(previous)
+
+
+def server_database() -> dict:
+    """The temporary server's database: in memory, unless the user configured one. Run logs are then not sent
+    to the API (where nothing could read them: the server has no UI and forgets them when the build ends),
+    which spares a busy machine the traffic and the terminal Prefect's "Error logging to API" lines if the
+    API is lost; unless the user set ``PREFECT_LOGGING_TO_API_ENABLED``."""
+    from prefect.settings import (  # optional: Prefect (pipeline extra) loads only when a flow runs
+        PREFECT_LOGGING_TO_API_ENABLED,
+        PREFECT_SERVER_DATABASE_CONNECTION_URL,
+    )
+
+    own = any(name in os.environ for name in (
+        "PREFECT_SERVER_DATABASE_CONNECTION_URL", "PREFECT_API_DATABASE_CONNECTION_URL"))
+    if own:
+        return {}
+    quiet = {} if PREFECT_LOGGING_TO_API_ENABLED.name in os.environ else {PREFECT_LOGGING_TO_API_ENABLED: False}
+    return {PREFECT_SERVER_DATABASE_CONNECTION_URL: "sqlite+aiosqlite:///:memory:", **quiet}
+
+
 
 
 def startup_timeout() -> float:
@@ -171,50 +165,29 @@ def startup_timeout() -> float:
                          column="DISTRICTGEN_PREFECT_STARTUP_TIMEOUT") from None
 
 
-def patient_settings() -> dict:
-    """Prefect settings for a busy machine, where not set by the user: API requests may take 5 minutes, the
-    server's database statements and connections 1 minute (Prefect's defaults: 60, 10 and 5 s)."""
-    from prefect.settings import (
+def patient_client() -> dict:
+    """Prefect client settings for a busy machine, where not set by the user: API requests may take 5 minutes
+    (Prefect: 60 s) and a failed one is retried :data:`CLIENT_RETRIES` times, the waits doubling from 2 s."""
+    from prefect.settings import (  # optional: Prefect (pipeline extra) loads only when a flow runs
         PREFECT_API_REQUEST_TIMEOUT,
+        PREFECT_CLIENT_MAX_RETRIES,
+    )
+
+    wanted = {PREFECT_API_REQUEST_TIMEOUT: 300.0, PREFECT_CLIENT_MAX_RETRIES: CLIENT_RETRIES}
+    return {setting: value for setting, value in wanted.items() if setting.name not in os.environ}
+
+
+def patient_settings() -> dict:
+    """:func:`patient_client`, and the temporary server's database statements and connections may take
+    1 minute (Prefect's defaults: 10 and 5 s), where not set by the user."""
+    from prefect.settings import (
         PREFECT_SERVER_DATABASE_CONNECTION_TIMEOUT,
         PREFECT_SERVER_DATABASE_TIMEOUT,
     )  # optional: Prefect (pipeline extra) loads only when a flow runs
 
-    wanted = {PREFECT_API_REQUEST_TIMEOUT: 300.0, PREFECT_SERVER_DATABASE_TIMEOUT: 60.0,
-              PREFECT_SERVER_DATABASE_CONNECTION_TIMEOUT: 60.0}
-    return {setting: value for setting, value in wanted.items() if setting.name not in os.environ}
-
-
-def start_server(server: Any, timeout_s: float) -> None:
-    """Start Prefect's temporary server and wait until ``/health`` answers, by the wall clock, up to
-    ``timeout_s``; raise :class:`OrchestrationError` (one line) if it does not.
-
-    Prefect's own wait (``SubprocessASGIServer.start``) counts only its sleeps and gives up when a health
-    request is slow to answer (a loaded machine); its server process is still starting then, so this keeps
-    asking it (each request may take 30 s) until the deadline, and stops it only on giving up."""
-
-    deadline = time.monotonic() + timeout_s
-    try:
-        server.start(timeout=max(1, int(timeout_s)))
-        return
-    except Exception:  # noqa: BLE001 - Prefect's wait gave up; the process may still come up
-        pass
-    with httpx.Client(timeout=30.0) as client:
-        while time.monotonic() < deadline:
-            process = server.server_process
-            if process is None or process.poll() is not None:
-                break
-            try:
-                if client.get(f"{server.api_url}/health").status_code == 200:
-                    server.running = True
-                    return
-            except httpx.HTTPError:
-                pass
-            time.sleep(0.5)
-    server.stop()
-    raise OrchestrationError(f"Prefect's temporary API server did not answer within {timeout_s:.0f} s (a very "
-                             "busy machine?): retry, raise DISTRICTGEN_PREFECT_STARTUP_TIMEOUT, run a Prefect "
-                             "server and set PREFECT_API_URL, or build with --no-prefect")
+    wanted = {PREFECT_SERVER_DATABASE_TIMEOUT: 60.0, PREFECT_SERVER_DATABASE_CONNECTION_TIMEOUT: 60.0}
+    return {**patient_client(),
+            **{setting: value for setting, value in wanted.items() if setting.name not in os.environ}}
 
 
 def _exit_on_signals() -> dict:

@@ -28,7 +28,14 @@ from pipeline.build.manifest import (
     write_json_file,
     write_sidecar,
 )
-from pipeline.build.staging import check_no_links, check_not_inside, clean_leftovers, swap_in, write_new_file
+from pipeline.build.staging import (
+    at_step,
+    check_no_links,
+    check_not_inside,
+    clean_leftovers,
+    swap_in,
+    write_new_file,
+)
 from pipeline.build.validate import validate_district
 from pipeline.errors import InputError
 from surrogates.export import load_surrogate
@@ -190,13 +197,17 @@ def install_surrogate(district: str | os.PathLike, building: str, model: str | o
         check_training_table(files, folder / "surrogates" / f"{building}.metrics.json", building)
     work = folder.with_name(f".{folder.name}.install-{os.getpid()}")
     shutil.rmtree(work, ignore_errors=True)
+    at_step("copy")
     shutil.copytree(folder, work, symlinks=True)
     try:
+        at_step("place model")
         seconds = place_model(work, building, files, schema, block)
+        at_step("revalidate")
         revalidate(work, manifest.get("district") or folder.name, schema)
         manifest["outputs"] = output_hashes(work)
         manifest.setdefault("surrogate_cache", {})[building] = {"key": None, "installed": files.pth.name,
                                                               "sha256": sha256_file(files.pth)}
+        at_step("records")
         write_json_file(work / MANIFEST, manifest)
         write_install_timings(work, building, files.pth, seconds)
         write_sidecar(work)

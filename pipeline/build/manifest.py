@@ -349,21 +349,25 @@ def check_inputs(inputs: Mapping[str, Mapping[str, object]], base: Path | None) 
     return Verification(problems, warnings)
 
 
-def read_sidecar(folder: Path) -> dict[str, str]:
-    """``manifest.sha256`` as record name -> sha256 (hex); lines that are not ``<64 hex>  <name>`` are left out."""
+def read_sidecar(folder: Path) -> tuple[dict[str, str], list[int]]:
+    """``manifest.sha256`` as record name -> sha256 (hex), and the numbers (1-based) of its lines that are not
+    ``<64 hex>  <name>`` (an empty file or a missing one: nothing listed)."""
     try:
         text = (folder / SIDECAR).read_text()
     except (OSError, UnicodeDecodeError):
-        return {}
-    found = (re.fullmatch(r"([0-9a-f]{64}) [ *](\S+)", line.strip()) for line in text.splitlines())
-    return {m.group(2): m.group(1) for m in found if m}
+        return {}, []
+    lines = text.split("\n")
+    lines = lines[:-1] if lines and lines[-1] == "" else lines
+    found = [re.fullmatch(r"([0-9a-f]{64}) [ *]([^\s]+)", line) for line in lines]
+    return {m.group(2): m.group(1) for m in found if m}, [i + 1 for i, m in enumerate(found) if m is None]
 
 
 def check_records(folder: Path, expect: str | None = None) -> Verification:
     """The two records against ``manifest.sha256`` (a record that differs or is not listed is a problem: an
     edited ``timings.json`` would move where the inputs are checked), and the manifest digest against ``expect``
     (the pinned value of ``verify --expect``; None: not pinned)."""
-    recorded, problems = read_sidecar(folder), []
+    recorded, malformed = read_sidecar(folder)
+    problems = [f"{SIDECAR}: line {n} is not '<sha256>  <record>' (edited after the build)" for n in malformed]
     if MANIFEST not in recorded:
         problems.append(f"{SIDECAR}: missing or without a line for {MANIFEST} (the records cannot be checked)")
     for name, digest in recorded.items():

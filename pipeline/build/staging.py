@@ -46,7 +46,7 @@ class staging:
 
     def __enter__(self) -> Path:
         self.check()
-        self._clean_stale()
+        clean_leftovers(self.root, self.name, finished=os.getpid())  # a killed build's, or this process's own
         try:
             write_new_file(self.mark, json.dumps({"pid": os.getpid(), "district": self.name}))
             self.tmp.mkdir(mode=PRIVATE_MODE)  # nobody else can plant a link in it, whatever the umask
@@ -82,21 +82,6 @@ class staging:
             if exc_type is not None:
                 shutil.rmtree(self.tmp, ignore_errors=True)
             self.mark.unlink(missing_ok=True)
-
-    def _clean_stale(self) -> None:
-        """Delete what killed builds of this name left: marked staging folders of dead processes, old builds."""
-        clean_leftovers(self.root, self.name)  # first: puts a killed fallback swap's old version back
-        for mark in self.root.glob(f".{glob.escape(self.name)}.building-*.districtgen"):
-            folder = mark.with_name(mark.name[: -len(".districtgen")])
-            try:
-                pid = int(json.loads(mark.read_text())["pid"])
-            except (OSError, ValueError, KeyError, TypeError):
-                continue
-            if folder.name != f".{self.name}.building-{pid}" or (pid != os.getpid() and process_alive(pid)):
-                continue
-            if folder.is_dir() and not folder.is_symlink():
-                shutil.rmtree(folder, ignore_errors=True)
-            mark.unlink(missing_ok=True)
 
 
 def check_not_inside(folder: Path, column: str | None = None) -> None:
@@ -151,6 +136,12 @@ PRIVATE_MODE = 0o700
 #: called with the label of each step of :func:`swap_in` before it runs; None in use (the fault-injection
 #: tests set it to kill the process at one step)
 STEP_HOOK: Callable[[str], None] | None = None
+
+
+def at_step(label: str) -> None:
+    """Mark the start of one file-system step of a writer (calls :data:`STEP_HOOK` when set)."""
+    if STEP_HOOK is not None:
+        STEP_HOOK(label)
 #: Linux renameat2(2): relative paths from the current directory, swap both names in one step
 AT_FDCWD, RENAME_EXCHANGE = -100, 2
 #: what a killed writer of district ``<name>`` may leave beside it: its staging folder (a build), its working
@@ -195,7 +186,7 @@ def swap_in(new: Path, final: Path, step: Callable[[str], None] | None = None) -
 
     ``step(label)`` is called before each file-system step (``"rename"``, ``"exchange"``, ``"delete old"``,
     ``"rename aside"``; default :data:`STEP_HOOK`): the fault-injection tests kill the process there."""
-    step = step or STEP_HOOK or (lambda _: None)
+    step = step or at_step
     if not final.exists() and not final.is_symlink():
         step("rename")
         new.rename(final)
@@ -218,18 +209,26 @@ def swap_in(new: Path, final: Path, step: Callable[[str], None] | None = None) -
     shutil.rmtree(old, ignore_errors=True)
 
 
-def clean_leftovers(root: Path, name: str) -> list[Path]:
+def clean_leftovers(root: Path, name: str, finished: int | None = None) -> list[Path]:
     """Delete what killed writers of district ``name`` left in ``root``, recognised by name AND content: a
-    ``.<name>.(building|install|old)-<pid>`` folder of a process that is gone which holds a districtgen build
-    of ``name`` (a manifest naming it) or is a build's marked staging folder. When ``root/<name>`` is missing
-    (a kill between the fallback's two renames) the newest old version is put back first. Returns what was
-    deleted."""
+    ``.<name>.(building|install|old)-<pid>`` folder of a process that is gone (or of pid ``finished``, the
+    caller's own, done with it) which holds a districtgen build of ``name`` (a manifest naming it) or is a
+    build's marked staging folder; and ownership marks left without their folder. When ``root/<name>`` is
+    missing (a kill between the fallback's two renames) the newest old version is put back first. Returns
+    what was deleted."""
     pattern = re.compile(LEFTOVER.format(name=re.escape(name)))
     found = []
     for folder in root.glob(f".{glob.escape(name)}.*-*"):
         match = pattern.fullmatch(folder.name)
-        if match and not folder.is_symlink() and folder.is_dir() and not process_alive(int(match.group(2))):
+        gone = match is not None and (int(match.group(2)) == finished or not process_alive(int(match.group(2))))
+        if gone and not folder.is_symlink() and folder.is_dir():
             found.append((match.group(1), folder))
+    for mark in root.glob(f".{glob.escape(name)}.building-*.districtgen"):  # a mark without its folder
+        match = pattern.fullmatch(mark.name[: -len(".districtgen")])
+        folder = mark.with_name(mark.name[: -len(".districtgen")])
+        if match and not folder.exists() and not mark.is_symlink() and (
+                int(match.group(2)) == finished or not process_alive(int(match.group(2)))):
+            mark.unlink(missing_ok=True)
     final = root / name
     olds = sorted((f for kind, f in found if kind == "old" and is_build(f, name)), key=lambda f: f.stat().st_mtime)
     if olds and not final.exists() and not final.is_symlink():

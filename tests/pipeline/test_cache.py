@@ -174,18 +174,12 @@ def test_an_entry_may_hold_only_the_files_its_kind_owns(tmp_path):
 
 
 def test_a_cache_entry_that_lists_weather_cannot_change_the_district(one_building, tmp_path):
-    """The attack: an entry with the right key that adds a self-consistent weather.csv. The build ignores the
-    entry (it retrains) and weather.csv is the district's own."""
-    import hashlib
-
-    first = build_district_local(one_building, tmp_path / "a")
-    weather = (first / "weather.csv").read_bytes()
-    entry = one_building.cache_dir / "surrogates" / _cache_use(first)["key"]
-    planted = weather.replace(b"\n", b"\n45.0", 1)
-    (entry / "weather.csv").write_bytes(planted)
-    listing = json.loads((entry / "entry.json").read_text())
-    listing["files"]["weather.csv"] = {"sha256": hashlib.sha256(planted).hexdigest(), "bytes": len(planted)}
-    (entry / "entry.json").write_text(json.dumps(listing))
-    second = build_district_local(one_building, tmp_path / "b")
-    assert (second / "weather.csv").read_bytes() == weather
-    assert _cache_use(second)["hit"] is False and verify_district(second) == []
+    """The attack: an entry under the building's right key, every sha256 right, that also lists weather.csv.
+    The build refuses the entry (it trains) and weather.csv is the district's own."""
+    key = cache_key(surrogate_cache_parts(one_building, 900001, "Building_1")[0])
+    planted = b"timestamp,outdoor_dry_bulb_temperature\n2018-06-01 00:00,45.0\n"
+    FileCache(one_building.cache_dir / "surrogates").put(key, {
+        "Building_1.pth": b"not read", "surrogates/Building_1.dynamics.json": b"{}", "weather.csv": planted})
+    built = build_district_local(one_building, tmp_path / "a")
+    assert (built / "weather.csv").read_bytes() != planted
+    assert _cache_use(built) == {"key": key, "hit": False} and verify_district(built) == []

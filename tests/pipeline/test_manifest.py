@@ -346,3 +346,65 @@ def test_verify_expect_accepts_the_digest_or_a_sidecar_copy(district, tmp_path, 
     assert main(["verify", str(district), "--expect", "abc"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--expect" in err[0] and "64 hex digits" in err[0]
+
+
+INSTALLER = """
+import os, signal, sys
+from pipeline.build import staging
+from pipeline.build.install import install_surrogate
+
+label = sys.argv[3]
+staging.STEP_HOOK = lambda step: os.kill(os.getpid(), signal.SIGKILL) if step == label else None
+install_surrogate(sys.argv[1], "Building_1", sys.argv[2])
+"""
+
+
+def tree(folder: Path) -> dict[str, bytes]:
+    return {p.relative_to(folder).as_posix(): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+@pytest.mark.slow  # one build with surrogates, one tiny training and six killed installs: about two minutes
+def test_an_install_killed_at_any_step_leaves_the_old_or_the_new_district(tmp_path):
+    """SIGKILL of a real ``surrogate install`` before each of its steps (the working copy, each write into it,
+    the swap): the district verifies as the whole old one or the whole new one, and the next writer's cleaning
+    leaves nothing hidden beside it."""
+    import subprocess
+    import sys
+
+    from pipeline.build.staging import clean_leftovers
+
+    config = read_build_config(district_config(tmp_path, source="csv")).model_copy(
+        update={"cache_dir": tmp_path / "cache"})
+    built = build_district_local(config, tmp_path / "out")
+    model = tiny_model(tmp_path / "inputs" / "ilv" / "900001.parquet", tmp_path / "model")
+    old = tree(built)
+    for label in ("copy", "place model", "revalidate", "records", "exchange", "delete old"):
+        root = tmp_path / label.replace(" ", "_")
+        district = root / built.name
+        shutil.copytree(built, district)
+        done = subprocess.run([sys.executable, "-c", INSTALLER, str(district), str(model), label], cwd=ROOT,
+                              capture_output=True, text=True, timeout=300)
+        assert done.returncode == -9, (label, done.stderr[-2000:])
+        now = tree(district)
+        if label == "delete old":   # killed after the exchange: the new district is in place
+            assert now["Building_1.pth"] == model.read_bytes() and now != old, label
+        else:
+            assert now == old, label
+        assert verify_district(district) == [], label
+        clean_leftovers(root, built.name)
+        assert [p.name for p in root.iterdir()] == [built.name], label
+
+
+@pytest.mark.parametrize("name", ["Building_1.csv", "weather.csv", "pricing.csv", "carbon_intensity.csv",
+                                  "schema.json", "buildings.json", "report/summary.md", "report/district_net.png",
+                                  "manifest.json", "timings.json", "manifest.sha256"])
+def test_every_file_class_of_a_district_is_covered_by_verify(district, name):
+    """One byte of any file of the district changed: verify reports a problem naming that file."""
+    path = district / name
+    data = bytearray(path.read_bytes())
+    data[len(data) // 2] ^= 0x01
+    path.write_bytes(bytes(data))
+    problems = verify_district(district)
+    assert problems and any(p.startswith(f"{name}:") or p.startswith("manifest.sha256:") for p in problems), problems
+    if name != "manifest.sha256":
+        assert any(p.startswith(f"{name}:") for p in problems), problems
