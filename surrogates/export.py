@@ -69,16 +69,18 @@ def export_surrogate(trained: Trained, out_dir: str | os.PathLike, name: str) ->
 def load_surrogate(pth: str | os.PathLike, dynamics: dict | str | os.PathLike | None = None):
     """Load an exported model: ``(model, normalization, input names, lookback)``.
 
-    ``dynamics`` is the block (dict) or its JSON file; default ``<pth stem>.dynamics.json`` next to the .pth.
+    ``dynamics`` is the block (dict) or its JSON file; default ``<pth stem>.dynamics.json`` next to the .pth
+    (``surrogate train``'s layout), else in ``surrogates/`` beside it (a built district's).
     """
     pth = Path(pth)
     if not pth.is_file():
         raise InputError("model file not found", file=pth)
     if not isinstance(dynamics, dict):
-        block_path = Path(dynamics) if dynamics is not None else pth.with_name(f"{pth.stem}.dynamics.json")
+        beside = [pth.with_name(f"{pth.stem}.dynamics.json"), pth.parent / "surrogates" / f"{pth.stem}.dynamics.json"]
+        block_path = Path(dynamics) if dynamics is not None else next((p for p in beside if p.is_file()), beside[0])
         if not block_path.is_file():
-            raise InputError("dynamics block not found (written next to the .pth by 'surrogate train')",
-                             file=block_path)
+            raise InputError("dynamics block not found (written next to the .pth by 'surrogate train', or under "
+                             "surrogates/ in a built district)", file=block_path)
         try:
             dynamics = json.loads(block_path.read_text())
         except json.JSONDecodeError as error:

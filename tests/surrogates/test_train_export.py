@@ -180,3 +180,14 @@ def test_default_inputs_run_alike_in_citylearn_2_1(table, trained, tmp_path):
     assert np.max(np.abs(ours - upstream)) < 1e-3
     ours, upstream = both_semantics(train_surrogate(table, replace(TINY, inputs=INPUTS_WITH_DAY_TYPE)))
     assert np.max(np.abs(ours - upstream)) > 1e-2
+
+
+def test_a_model_in_a_built_districts_layout_loads(trained, tmp_path):
+    """A district keeps ``<b>.pth`` at its root and the dynamics block under ``surrogates/``: found there."""
+    paths = export_surrogate(trained, tmp_path / "surrogates", "Building_1")
+    (tmp_path / "surrogates" / "Building_1.pth").rename(tmp_path / "Building_1.pth")
+    model, norm, names, lookback = load_surrogate(tmp_path / "Building_1.pth")
+    assert names == trained.inputs and lookback == trained.config.lookback and paths["dynamics"].is_file()
+    (tmp_path / "surrogates" / "Building_1.dynamics.json").unlink()
+    with pytest.raises(InputError, match="under surrogates/ in a built district"):
+        load_surrogate(tmp_path / "Building_1.pth")
