@@ -3,24 +3,26 @@
     .venv/bin/python benchmarks/fidelity_2_5.py [--datasets NAME ...] [--json OUT] [--write]
 
 The upstream side is the stored reference run ``benchmarks/upstream_2_5_0/no_control.json`` (made by
-``benchmarks/ev_upstream.py`` with CityLearn 2.5.0; every action inactive, ideal loads). Ours: the same schema,
-every action inactive (the typed config's ``with_actions([])``), one episode, ``reset(seed=0)``, in two
+``benchmarks/ev_upstream.py`` with CityLearn 2.5.0; every action inactive, ideal loads). Ours: the same schema
+loaded with the preset (``load_schema(schema, settings=...)``: the 2.5 preset draws the device defaults 2.5.0
+draws), every action inactive (the typed config's ``with_actions([])``), one episode, ``reset(seed=0)``, in two
 behaviour presets:
 
 * the CityLearn 2.5 preset (``settings="citylearn-2.5"``; on a tree without that preset, its stand-in
   ``dataclasses.replace(CORRECTED, legacy_outage_draws=True)``, the one field that moves no-control energy);
 * the corrected default (``CORRECTED``).
 
-Compared: the district net electricity consumption summed over the episode [kWh] (signed relative difference,
-target |.| <= 0.5 % in the 2.5 preset; and, explaining the rest, ours summed with 2.5.0's bookkeeping: only the
-T - 1 step calls, the last time step never being simulated, plus twice the first step's cooling, heating, DHW and
-non-shiftable consumption, which 2.5.0 books three times), and every KPI both sides compute under the same name (district row and
-every building row; relative difference as in ``benchmarks/fidelity.py``: NaN on both sides or both below 1e-9
-count as equal). Three 2.5.0 KPIs have a 2.1-named counterpart in citylearn_env, compared too and listed as
-renamed: ``all_time_peak_average`` ~ ``annual_peak_average`` (2.5.0's window is the episode, 2.1's 8760 steps),
-``discomfort_cold_proportion`` ~ ``discomfort_too_cold_proportion``, ``discomfort_hot_proportion`` ~
-``discomfort_too_hot_proportion``. Prints Markdown tables; ``--write`` stores the comparison (district rows and
-each KPI's worst building) in ``benchmarks/upstream_2_5_0/kpi_fidelity.json``.
+Compared: the district net electricity consumption summed over the episode [kWh] (signed relative difference;
+the 2.5 preset books it as 2.5.0 does -- act-then-advance, the last time step never simulated, the first step's
+consumption booked three times -- target |.| <= 1e-6; and, for the corrected default, ours summed with 2.5.0's
+bookkeeping: only the first T - 1 time steps, plus twice the first step's cooling, heating, DHW and non-shiftable
+consumption), and every KPI of 2.5.0's table (district row and every building row; relative difference as in
+``benchmarks/fidelity.py``: NaN on both sides or both below 1e-9 count as equal). The 2.5 preset reports 2.5.0's
+names; the corrected default's 2.1 names are compared through :data:`RENAMED`: ``all_time_peak_average`` ~
+``annual_peak_average`` (2.5.0's window is the episode, 2.1's 8760 steps), ``discomfort_cold_proportion`` ~
+``discomfort_too_cold_proportion``, ``discomfort_hot_proportion`` ~ ``discomfort_too_hot_proportion``. Prints
+Markdown tables; ``--write`` stores the comparison (district rows and each KPI's worst building) in
+``benchmarks/upstream_2_5_0/kpi_fidelity.json``.
 """
 
 from __future__ import annotations
@@ -62,13 +64,15 @@ def preset_2_5() -> Behaviour | str:
 
 
 def run_ours(schema: Path, settings: Behaviour | str) -> dict:
-    """One episode with every action inactive: district energy [kWh] and the KPI rows ``[kpi, name, value]``."""
-    env, _ = no_control_episode(load_schema(schema).with_actions([]), settings)
+    """One episode with every action inactive: district energy [kWh], the same with 2.5.0's bookkeeping (the
+    energy itself where the preset books as 2.5.0 does: ``act_then_advance``) and the KPI rows
+    ``[kpi, name, value]``."""
+    env, _ = no_control_episode(load_schema(schema, settings=settings).with_actions([]), settings)
     series = env.series()
+    net = np.asarray(series["net_electricity_consumption"])
     first = sum(np.asarray(series[f"{k}_electricity_consumption"])[:, 0].sum() for k in END_USES)
-    return {"district_energy_kwh": float(series["net_electricity_consumption"].sum()),
-            "upstream_bookkeeping_kwh": float(np.asarray(series["net_electricity_consumption"])[:, :-1].sum()
-                                              + 2 * first),
+    booked = net.sum() if env.settings.act_then_advance else net[:, :-1].sum() + 2 * first
+    return {"district_energy_kwh": float(net.sum()), "upstream_bookkeeping_kwh": float(booked),
             "kpis": kpi_rows(env)}
 
 
@@ -90,13 +94,14 @@ def compare(upstream: dict, ours: dict) -> dict:
     mine = {(k, n): v for k, n, v in ours["kpis"]}
     kpis = {}
     for name in exact + renamed:
-        rows = [(r["name"], r["value"], mine.get((RENAMED.get(name, name), r["name"])))
+        ours_name = name if name in exact else RENAMED[name]
+        rows = [(r["name"], r["value"], mine.get((ours_name, r["name"])))
                 for r in upstream["kpis"] if r["cost_function"] == name]
         rel = {who: relative(o, u) if o is not None else math.inf for who, u, o in rows}
         district = next((u, o) for who, u, o in rows if who == "District")
         buildings = {who: r for who, r in rel.items() if who != "District"}
         worst = max(buildings, key=buildings.get) if buildings else None
-        kpis[name] = {"ours_name": RENAMED.get(name, name), "upstream": district[0], "ours": district[1],
+        kpis[name] = {"ours_name": ours_name, "upstream": district[0], "ours": district[1],
                       "relative": rel["District"], "worst_building": worst,
                       "worst_building_relative": buildings.get(worst, 0.0)}
     theirs = upstream["district_net_electricity_consumption_sum"]

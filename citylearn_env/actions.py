@@ -6,7 +6,8 @@ Storage actions are fractions of the storage's capacity (charge > 0, discharge <
 fractions of the device's nominal power. Entry bounds (CityLearn 2.1 unless ``settings`` says otherwise):
 
 * a thermal storage: +-min(peak demand [kWh] / capacity [kWh], 1) over the simulation range (+-1 without a
-  tank);
+  tank), or with ``settings.thermal_storage_bounds_from_device_power`` (CityLearn 2.5) +-min(device nominal
+  power [kW] / capacity [kWh], 1);
 * ``electrical_storage``: +-nominal power [kW] / capacity [kWh] (1 h steps), or +-1 without a battery or with
   ``settings.battery_action_fraction_of_nominal_power`` (CityLearn 2.5: a fraction of the nominal power);
 * ``cooling_device`` / ``heating_device``: 0..1; the combined ``cooling_or_heating_device``: -1..1;
@@ -28,6 +29,8 @@ from citylearn_env.settings import Behaviour
 from citylearn_env.state import END_USE_SLOTS, EndUseParams
 from citylearn_env.washing_machine import WashingMachines
 
+#: capacity [kWh] CityLearn 2.5 divides by in place of 0 (its ZERO_DIVISION_PLACEHOLDER)
+ZERO_CAPACITY_KWH = 1e-6
 #: storage actions, one per building: fractions of the storage's capacity
 STORAGE_ACTIONS = ("cooling_storage", "heating_storage", "dhw_storage", "electrical_storage")
 #: device actions, one per building: fractions of the device's nominal power
@@ -107,10 +110,17 @@ class ActionLayout:
             cap, power = self._battery.capacity[b], self._battery.nominal_power[b]
             bound = 1.0 if self._settings.battery_action_fraction_of_nominal_power or cap <= 0 else power / cap
         else:
-            params = self._tanks[name]
-            cap = params.tank.capacity[b]
-            bound = min(float(params.demand[b].max()) / cap, 1.0) if cap > 0 else 1.0
+            bound = self._tank_bound(self._tanks[name], b)
         return -bound, bound
+
+    def _tank_bound(self, params: EndUseParams, b: int) -> float:
+        """The bound of building ``b``'s storage action of ``params``' end use: min(peak demand [kWh] / capacity
+        [kWh], 1) (1 without a tank), or with ``settings.thermal_storage_bounds_from_device_power`` (CityLearn
+        2.5) min(device nominal power [kW] / max(capacity, 1e-6), 1)."""
+        cap = float(params.tank.capacity[b])
+        if self._settings.thermal_storage_bounds_from_device_power:
+            return min(float(params.nominal_power[b]) / max(cap, ZERO_CAPACITY_KWH), 1.0)
+        return min(float(params.demand[b].max()) / cap, 1.0) if cap > 0 else 1.0
 
     def _setup_table(self, devices: Mapping[str, tuple[str, int, int]]) -> None:
         """Index arrays from the action vector into the (6, B) table of storage and device actions."""

@@ -91,16 +91,23 @@ def pv_peak_power(pv_kw: float, solar_w_per_kw: np.ndarray, *, efficiency: float
     return float(np.max(generation / efficiency) * safety_factor)
 
 
-def safety_factor(autosize_attributes: Mapping[str, Any] | None, where: str) -> float:
+def safety_factor(autosize_attributes: Mapping[str, Any] | None, where: str, extra_keys: tuple[str, ...] = ()
+                  ) -> float:
     """The ``safety_factor`` of a device's ``autosize_attributes`` (1.0 when absent or null); a SchemaError
-    for an unknown key or a value that is not a finite number >= 0."""
+    for an unknown key or a value that is not a finite number >= 0. ``extra_keys``: further keys the device
+    class accepts (CityLearn 2.2+'s PV and battery attributes, :mod:`citylearn_env.pv_battery_autosize`, which
+    also reads a ``[low, high]`` safety factor)."""
+    if autosize_attributes is not None and not isinstance(autosize_attributes, Mapping):
+        raise SchemaError(f"expected an object or null, got {type(autosize_attributes).__name__}",
+                          column=f"{where}.autosize_attributes")
     attrs = dict(autosize_attributes or {})
-    unknown = sorted(set(attrs) - set(AUTOSIZE_KEYS))
+    known = (*AUTOSIZE_KEYS, *(k for k in extra_keys if k not in AUTOSIZE_KEYS))
+    unknown = sorted(set(attrs) - set(known))
     if unknown:
-        raise SchemaError(f"unknown autosize attribute(s) {unknown}; known: {', '.join(AUTOSIZE_KEYS)}",
+        raise SchemaError(f"unknown autosize attribute(s) {unknown}; known: {', '.join(known)}",
                           column=f"{where}.autosize_attributes")
     value = attrs.get("safety_factor")
-    if value is None:
+    if value is None or (extra_keys and isinstance(value, list)):
         return 1.0
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value < 0:
         raise SchemaError(f"expected a finite number >= 0, got {value!r}",

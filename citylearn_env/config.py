@@ -18,6 +18,7 @@ import numpy as np
 from citylearn_env.dataset import DynamicsBlock
 from citylearn_env.errors import SchemaError
 from citylearn_env.ev import EVSection, with_initial_soc
+from citylearn_env.occupant import OccupantConfig
 from citylearn_env.washing_machine import WashingMachines
 
 #: CityLearn v2.1 battery curves used when a schema gives none: [[x, y], ...]
@@ -134,7 +135,8 @@ class Outage:
 
 @dataclass(frozen=True)
 class BuildingConfig:
-    """One building: devices, the LSTM models (cooling, heating) if any, and its time series."""
+    """One building: devices, the LSTM models (cooling, heating) if any, its occupant model if any, and its
+    time series."""
 
     name: str
     series: Mapping[str, np.ndarray]
@@ -151,6 +153,8 @@ class BuildingConfig:
     heating_model: DynamicsBlock | None = None
     active_observations: tuple[str, ...] = ()
     active_actions: tuple[str, ...] = ()
+    #: the occupant who overrides the set points (CityLearn 2.4+'s occupant interaction building), if any
+    occupant: OccupantConfig | None = None
 
     @property
     def has_dynamics(self) -> bool:

@@ -20,7 +20,8 @@ Units: energies in kWh per time step (``non_shiftable_load``, ``dhw_demand``, ``
 in W of AC output per kW of installed PV; ``occupant_count`` in people; prices in $/kWh; carbon intensity in
 kg CO2e/kWh. Calendar: ``month`` 1..12; ``hour`` 1..24, hour-ending (row 0 is hour 1, the hour that ends at
 01:00); ``day_type`` 1 = Monday ... 7 = Sunday, 8 = holiday; ``daylight_savings_status`` 0/1;
-``hvac_mode`` 0 off, 1 cooling, 2 heating; ``power_outage`` 0/1.
+``hvac_mode`` 0 off, 1 cooling, 2 heating, 3 auto (CityLearn 2.4+: both devices available, see
+:mod:`citylearn_env.thermal`); ``power_outage`` 0/1.
 
 Reading returns float64 arrays rounded through float32 (as CityLearn 2.1 holds its data series).
 """
@@ -166,6 +167,8 @@ NAMED_OPTIONAL = ("daylight_savings_status", "average_unmet_cooling_setpoint_dif
 #: all three empty); see docs/environment.md "Empty and missing optional columns".
 MAY_BE_EMPTY = ("indoor_dry_bulb_temperature", "average_unmet_cooling_setpoint_difference",
                 "indoor_relative_humidity")
+#: the accepted ``hvac_mode`` values: 0 off, 1 cooling, 2 heating, 3 auto (CityLearn 2.4+)
+HVAC_MODES = (0, 1, 2, 3)
 #: columns (internal names) that must not be negative
 NON_NEGATIVE = ("non_shiftable_load", "dhw_demand", "cooling_demand", "heating_demand", "solar_generation",
                 "occupant_count")
@@ -314,7 +317,7 @@ def parse_table(frame: pd.DataFrame, kind: str, path: object, n_rows: int | None
 
     Checks: the column rules of :func:`columns_of`; at least ``n_rows`` data rows (``None``: all rows);
     every cell a number, no NaN; loads, PV and occupants not negative; cooling and heating demand never both
-    > 0 in a row; ``hvac_mode`` in {0, 1, 2}; ``power_outage`` in {0, 1}; outdoor relative humidity within
+    > 0 in a row; ``hvac_mode`` in {0, 1, 2, 3}; ``power_outage`` in {0, 1}; outdoor relative humidity within
     0..100 %. Building defaults: ``daylight_savings_status``, ``average_unmet_cooling_setpoint_difference``,
     ``indoor_relative_humidity``, ``occupant_count``, ``indoor_dry_bulb_temperature_set_point`` and
     ``power_outage`` 0; ``hvac_mode`` 1 (cooling; the documented meaning), or 0 (off) with
@@ -377,7 +380,7 @@ def _building_defaults(out: dict[str, np.ndarray], mapping: Mapping[str, str], n
     out.setdefault("hvac_mode", np.full(n, 0.0 if missing_hvac_mode_is_off else 1.0))
     _set_points(out, n, given="indoor_dry_bulb_temperature_set_point" in mapping)
     for name in ("hvac_mode", "power_outage"):
-        bad = ~np.isin(out[name], (0, 1, 2) if name == "hvac_mode" else (0, 1))
+        bad = ~np.isin(out[name], HVAC_MODES if name == "hvac_mode" else (0, 1))
         if bad.any():
             i = int(bad.argmax())
             raise SchemaError(f"invalid value {out[name][i]:g}", file=path, column=mapping.get(name, name),
@@ -388,8 +391,8 @@ def _set_points(out: dict[str, np.ndarray], n: int, *, given: bool) -> None:
     """The three set-point columns of a building [degC]. A v2.1 file has one set point, which then serves as
     cooling and heating set point too. A v2.2+ file has ``..._cooling_set_point`` and
     ``..._heating_set_point``; the single ``indoor_dry_bulb_temperature_set_point`` that comfort is measured
-    against is then the heating set point in heating mode (hvac_mode 2) and the cooling one otherwise (unless
-    the file gives it, ``given``). A missing one defaults to the other. ``comfort_band`` defaults to 2 degC."""
+    against is then the heating set point in heating mode (hvac_mode 2) and the cooling one otherwise, auto mode
+    3 included (unless the file gives it, ``given``). A missing one defaults to the other. ``comfort_band`` defaults to 2 degC."""
     single = out["indoor_dry_bulb_temperature_set_point"]
     cooling = out.get("indoor_dry_bulb_temperature_cooling_set_point")
     heating = out.get("indoor_dry_bulb_temperature_heating_set_point")
@@ -602,6 +605,7 @@ class DynamicsBlock:
         if "type" in entry:
             resolve_type("dynamics", entry.get("type"), where=f"{where}.type")
         a = entry.get("attributes", entry) or {}
+        _refuse_nulls(a, where)
         try:
             names = tuple(str(n) for n in a["input_observation_names"])
             lo = tuple(float(x) for x in a["input_normalization_minimum"])
@@ -615,9 +619,31 @@ class DynamicsBlock:
             raise SchemaError("missing attribute", column=f"{where}.attributes.{error.args[0]}") from error
         except (TypeError, ValueError) as error:
             raise SchemaError(f"bad attribute value: {error}", column=f"{where}.attributes") from error
-        if not (len(names) == len(lo) == len(hi)) or len(names) != int(a.get("input_size", len(names))):
+        size = a.get("input_size")
+        if not (len(names) == len(lo) == len(hi)) or (size is not None and len(names) != size):
             raise SchemaError("input names, bounds and input_size disagree in length", column=f"{where}.attributes")
         return block
+
+
+#: LSTM attributes that must be given (not null): the sizes the weights cannot tell and the input contract
+#: (``input_size`` may be null: it is the number of input names; ``hidden_size`` and ``num_layers`` null are
+#: read from the weights by the schema loader before this parse)
+_REQUIRED_DYNAMICS = {
+    "input_observation_names": "the model's input names, in input order",
+    "input_normalization_minimum": "one minimum per input name",
+    "input_normalization_maximum": "one maximum per input name",
+    "hidden_size": "the LSTM hidden size (read from the weights when the schema loader can)",
+    "num_layers": "the number of LSTM layers (read from the weights when the schema loader can)",
+    "lookback": "the number of past time steps the model was trained on (upstream's data sets: 13); the "
+                "weights do not tell it",
+}
+
+
+def _refuse_nulls(attributes: Mapping[str, Any], where: str) -> None:
+    """One SchemaError naming the first required LSTM attribute that is null."""
+    for key, what in _REQUIRED_DYNAMICS.items():
+        if key in attributes and attributes[key] is None:
+            raise SchemaError(f"is null; expected {what}", column=f"{where}.attributes.{key}")
 
 
 def parse_dynamics(spec: Mapping[str, Any] | None, root: str | Path | None = None, *,

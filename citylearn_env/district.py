@@ -1,5 +1,9 @@
 """The district: typed state of all buildings and the per-step order of operations (CityLearn 2.1).
 
+:meth:`District.step` advances to t + 1 and acts there (CityLearn 2.1's timing); with ``settings.act_then_advance``
+the env calls :meth:`District.act` at t and then :meth:`District.advance` (CityLearn 2.5's), and row 0, acted on
+then, starts from the reset's state.
+
 Every quantity is a numpy array with one element per building; a step advances all buildings together.
 Order inside a step (per building, expressed with masks): the thermal model turns device actions into demands
 (LSTM buildings) -> battery if it discharges -> for cooling, heating, DHW: device then storage (storage first if
@@ -23,12 +27,14 @@ from citylearn_env import devices, ev, washing_machine
 from citylearn_env.actions import Actions
 from citylearn_env.config import DistrictConfig
 from citylearn_env.dataset import NAME_ALIASES
+from citylearn_env.occupant import OccupantModel
 from citylearn_env.settings import CORRECTED, Behaviour
 from citylearn_env.state import (
     COP_OBSERVATIONS,
     DELIVERED_OBSERVATIONS,
     END_USE_SLOTS,
     END_USES,
+    OCCUPANT_DELTA,
     SET_POINT_DELTAS,
     STATIC_ALIASES,
     BatteryRecord,
@@ -51,6 +57,12 @@ DriftDraw = Callable[[int], Sequence[float]]
 
 def _stack(values) -> np.ndarray:
     return np.asarray(list(values), dtype=np.float64)
+
+
+def _previous(t: int) -> int:
+    """The column holding the state before step ``t``: t - 1, or the reset's column 0 when t = 0 is acted on
+    (``settings.act_then_advance``)."""
+    return t - 1 if t > 0 else 0
 
 
 class District:
@@ -77,6 +89,9 @@ class District:
         #: kWh per unit of battery action: capacity (CityLearn 2.1) or nominal power x step hours (2.5)
         self._battery_scale = self.battery.nominal_power * self.step_hours \
             if settings.battery_action_fraction_of_nominal_power else self.battery.capacity
+        #: kWh per unit of each end use's storage action: its own tank's capacity, or CityLearn 2.5's mix-up
+        #: (``settings.storage_action_scaled_by_other_tank``: DHW by the heating tank, heating by the cooling tank)
+        self._storage_scale = self._storage_scales(settings.storage_action_scaled_by_other_tank)
         self.dynamics = np.array([x.has_dynamics for x in b])
         self.thermal = ThermalModel(b, self.dynamics, settings) if self.dynamics.any() else None
         self.inf = np.full(self.n, np.inf)
@@ -86,6 +101,9 @@ class District:
         self.ev = config.electric_vehicles if config.electric_vehicles is not None and \
             config.electric_vehicles.chargers.names else None
         self.machines = config.washing_machines
+        occupants = [(i, x.occupant) for i, x in enumerate(b) if x.occupant is not None]
+        #: the occupants' set-point overrides (None: no occupant building, nothing runs per step)
+        self.occupants = OccupantModel(occupants, self.n) if occupants else None
 
     # ------------------------------------------------------------------ construction
     def _end_use_params(self, k: str) -> EndUseParams:
@@ -131,6 +149,14 @@ class District:
             power_efficiency=devices.Curve.from_points([x.power_efficiency_curve for x in bat]),
             capacity_power=devices.Curve.from_points([x.capacity_power_curve for x in bat]))
 
+    def _storage_scales(self, other_tank: bool) -> dict[str, np.ndarray]:
+        """End use -> (B,) kWh per unit of its storage action: its tank's capacity [kWh], or with ``other_tank``
+        CityLearn 2.5's: cooling by the cooling tank, heating by the cooling tank, DHW by the heating tank."""
+        capacity = {p.name: p.tank.capacity for p in self.end_use_params}
+        if not other_tank:
+            return capacity
+        return {"cooling": capacity["cooling"], "heating": capacity["cooling"], "dhw": capacity["heating"]}
+
     def end_use(self, name: str) -> EndUseState:
         """The episode state of end use ``name`` (cooling, heating or dhw)."""
         return self.end_uses[END_USES.index(name)]
@@ -148,6 +174,10 @@ class District:
         column = SET_POINT_DELTAS.get(name)
         if column is not None:
             return self.building_record.indoor_dry_bulb_temperature[:, t] - self.episode[column][:, t]
+        if name == OCCUPANT_DELTA:
+            return self.occupants.delta[:, t] if self.occupants is not None else self.zeros
+        if name in OccupantModel.SET_POINTS:  # dynamic only where occupants override them
+            return self.episode[name][:, t]
         return self.recorded[name][:, t]
 
     def static_series(self, name: str, *, full_range: bool = False) -> np.ndarray | None:
@@ -165,9 +195,11 @@ class District:
         return columns.get(STATIC_ALIASES.get(name) or NAME_ALIASES.get(name, name))
 
     # ------------------------------------------------------------------ episode
-    def reset(self, start: int, length: int, outage: np.ndarray, drift: DriftDraw | None = None) -> None:
+    def reset(self, start: int, length: int, outage: np.ndarray, drift: DriftDraw | None = None,
+              occupant_seed: int = 0) -> None:
         """Start an episode over simulation rows ``start .. start+length-1``; ``outage`` is (B, length) 0/1;
-        ``drift`` draws the SOC drift of away EVs (needed when the district has EVs).
+        ``drift`` draws the SOC drift of away EVs (needed when the district has EVs); ``occupant_seed`` seeds the
+        occupants' draws (:mod:`citylearn_env.occupant`).
 
         At t = 0 nothing is controlled: devices serve the data-set demands and storages hold their initial SOC;
         EVs hold their initial SOC, or their arrival SOC when plugged in at t = 0.
@@ -175,6 +207,10 @@ class District:
         n = self.n
         self.t, self.length = 0, length
         self.episode = self.signals.window(start, length, outage.astype(np.float64))
+        if self.occupants is not None:  # set points the occupants override: writable copies
+            columns = self.occupants.reset(self.episode.columns, start, length, occupant_seed)
+            self.episode = Signals(MappingProxyType({**self.episode.columns, **columns}),
+                                   self.episode.pv_generation, self.episode.outage)
         e = self.episode
         self._outage_steps = (outage > 0).any(axis=0)  # (T,): some building is out at that step
         self.end_uses = tuple(
@@ -183,10 +219,14 @@ class District:
         self.battery_record = BatteryRecord.zeros(n, length)
         self.building_record = BuildingRecord.zeros(n, length)
         self.building_record.indoor_dry_bulb_temperature[:] = e["indoor_dry_bulb_temperature"]
+        if self.settings.act_then_advance:  # a row not acted on yet serves its ideal load (CityLearn 2.5)
+            self.building_record.non_shiftable_load_served[:] = e["non_shiftable_load"]
         total = e["non_shiftable_load"][:, 0].copy()
         for u in self.end_uses:
             r = u.record
             r.demand[:] = u.demand_data
+            if self.settings.act_then_advance:  # a row not acted on yet delivers its ideal load (CityLearn 2.5)
+                r.energy_from_device[:] = u.demand_data
             r.storage_soc[:, 0] = u.params.tank.initial_soc
             r.energy_from_device[:, 0] = u.demand_data[:, 0]
             r.electricity_consumption[:, 0] = u.demand_data[:, 0] / u.cop[:, 0]
@@ -204,7 +244,8 @@ class District:
         if with_ev:
             self._reset_ev(start, length, drift)
         if self.thermal is not None:
-            self.thermal.reset(e["hvac_mode"], self.static_series)
+            self.thermal.reset(e["hvac_mode"], self.static_series,
+                               OccupantModel.SET_POINTS if self.occupants is not None else ())
 
     def _reset_ev(self, start: int, length: int, drift: DriftDraw | None) -> None:
         """Episode state of chargers, EVs and washing machines. Their rows start at the episode's first
@@ -227,8 +268,19 @@ class District:
                 self.config.simulation_start_time_step + start
 
     def step(self, actions: Actions) -> None:
-        """Advance to t + 1 and apply ``actions`` there."""
+        """CityLearn 2.1's step: advance to t + 1 and apply ``actions`` there."""
         self.t += 1
+        self.act(actions)
+
+    def advance(self) -> None:
+        """Move to the next time step without acting (``settings.act_then_advance``: after :meth:`act`)."""
+        self.t += 1
+
+    def act(self, actions: Actions) -> None:
+        """Apply ``actions`` at the current step t: devices, storages and loads book their consumption, then the
+        thermal model predicts the indoor temperature. At t = 0 (only with ``settings.act_then_advance``) the
+        previous state is the reset's, and ``settings.first_step_booked_three_times`` adds the reset's and
+        update's bookings."""
         t, e = self.t, self.episode
         in_outage = bool(self._outage_steps[t])
         total = np.zeros(self.n)  # electricity booked so far this step [kWh]; updated in place only
@@ -249,11 +301,23 @@ class District:
         else:
             total += self._battery(t, battery_action, self.inf, None)
         self._book_devices(t, actions, total)
+        if t == 0 and self.settings.first_step_booked_three_times:
+            total += self._first_row_again()
         net = total - e.pv_generation[:, t]
         self.building_record.net_electricity_consumption[:, t] = \
             np.where(e.outage[:, t] > 0, 0.0, net) if in_outage else net
         if self.thermal is not None:
             self.thermal.update(t, self.dynamic_value, self.building_record.indoor_dry_bulb_temperature)
+        if self.occupants is not None:
+            self.occupants.update(t, self.building_record.indoor_dry_bulb_temperature, self.thermal.warm_now())
+
+    def _first_row_again(self) -> np.ndarray:
+        """What CityLearn 2.5 books on row 0 besides its devices' own draw (``settings.first_step_booked_three_times``;
+        the end uses add theirs in :meth:`_end_use`): the non-shiftable load at reset and once more at the update,
+        and the battery's balance once more [kWh], (B,)."""
+        served = self.building_record.non_shiftable_load_served[:, 0]
+        again = self.episode["non_shiftable_load"][:, 0] + served
+        return again + self.battery_record.energy_balance[:, 0]
 
     def _supply(self, t: int, total: np.ndarray) -> Callable[[], np.ndarray]:
         """Electricity each building may still draw at step ``t`` [kWh], evaluated when called: inf, or during
@@ -290,19 +354,21 @@ class District:
         """
         p, r = u.params, u.record
         cop = u.cop[:, t]
-        nominal = p.nominal_power
+        again = t == 0 and self.settings.first_step_booked_three_times
+        reset_booked = r.electricity_consumption[:, 0].copy() if again else None
+        nominal = p.nominal_power - reset_booked if again else p.nominal_power
         s0 = supply()
         q_dev, booked = devices.device_output(demand, nominal, cop, s0)
         if p.has_storage:
             tank = p.tank
-            request = action * tank.capacity
+            request = action * self._storage_scale[p.name]
             discharge = action < 0
             s1 = s0 if s0 is self.inf else np.where(s0 == np.inf, np.inf, s0 - booked)
             charge = np.minimum(np.minimum(s1, nominal - booked) * cop, request)
             ask = np.where(discharge, np.maximum(-demand, request), np.minimum(charge, tank.max_input_power))
             ask = np.maximum(ask, -tank.max_output_power)
-            soc, bal = devices.storage_charge(r.storage_soc[:, t - 1], ask, tank.capacity, tank.loss_coefficient,
-                                              tank.one_way_efficiency)
+            soc, bal = devices.storage_charge(r.storage_soc[:, _previous(t)], ask, tank.capacity,
+                                              tank.loss_coefficient, tank.one_way_efficiency)
             from_storage = -np.minimum(bal, 0.0)
             if discharge.any():
                 q_dev, booked = devices.device_output(demand - from_storage, nominal, cop, s0)
@@ -314,15 +380,18 @@ class District:
             r.energy_from_storage[:, t] = from_storage
             r.energy_from_device_to_storage[:, t] = to_storage
         r.energy_from_device[:, t] = q_dev
+        if again:  # CityLearn 2.5 books row 0 at reset, at the first call and once more at its update
+            booked = reset_booked + booked + (q_dev + r.storage_energy_balance[:, 0]) / cop
         r.electricity_consumption[:, t] = booked
         return booked
 
     def _battery(self, t: int, action: np.ndarray, supply: np.ndarray, mask: np.ndarray | None) -> np.ndarray:
         """Charge/discharge the batteries (only where ``mask``); return the electricity booked (B,)."""
         r = self.battery_record
+        p = _previous(t)
         request = np.minimum(action * self._battery_scale, supply)
         soc, bal, eff, cap = devices.battery_charge(
-            request, r.soc[:, t - 1], self.zeros, self.battery, r.efficiency[:, t - 1], r.capacity[:, t - 1],
+            request, r.soc[:, p], self.zeros, self.battery, r.efficiency[:, p], r.capacity[:, p],
             extrapolate_first_segment=self.settings.battery_curve_extrapolates_first_segment,
             efficiency_from_request=self.settings.battery_efficiency_from_request)
         if mask is not None:
@@ -342,12 +411,16 @@ class District:
         ``ev_unwritten_soc_is_zero`` / ``ev_step_starts_from_previous_soc``. Not capped during an outage."""
         s, section, data, r = self.settings, self.ev, self.ev_data, self.ev_record
         battery = section.vehicles.battery
-        prev = r.soc[:, t - 1]
-        now = ev.advance_soc(prev, r.soc[:, t] if s.ev_unwritten_soc_is_zero else prev, data, t, self._drift)
+        if t == 0:  # acted on only with act_then_advance: the reset applied row 0's rules
+            prev = now = r.soc[:, 0].copy()
+        else:
+            prev = r.soc[:, t - 1]
+            now = ev.advance_soc(prev, r.soc[:, t] if s.ev_unwritten_soc_is_zero else prev, data, t, self._drift)
         start = prev if s.ev_step_starts_from_previous_soc else now
         action = np.zeros(len(section.chargers.names)) if action is None else action
+        p = _previous(t)
         soc, eff, cap, consumption, stepped = ev.charge_plugged_evs(
-            action, start, r.efficiency[:, t - 1], r.capacity[:, t - 1], data, t, section.chargers, section.vehicles,
+            action, start, r.efficiency[:, p], r.capacity[:, p], data, t, section.chargers, section.vehicles,
             self.step_hours, efficiency_from_request=s.battery_efficiency_from_request)
         if not s.ev_unwritten_soc_is_zero:  # an idle plugged EV keeps its SOC less the standby loss
             idle = np.zeros_like(stepped)
@@ -368,7 +441,7 @@ class District:
         consumption at t summed per building (B,) [kWh]."""
         m, r = self.machines, self.machine_record
         row = self.ev_first_row + t
-        running = r.running[:, t - 1] > 0
+        running = r.running[:, t - 1] > 0 if t > 0 else np.zeros(len(m.names), dtype=bool)
         if row > 0:
             running &= ~washing_machine.window_changed(m.start, m.end, row)
         if action is not None:

@@ -16,6 +16,7 @@ import zipfile
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -233,6 +234,21 @@ def read_pth_state_dict(path: str | Path) -> dict[str, np.ndarray]:
     return dict(state)
 
 
+def lstm_sizes(state_dict: Mapping[str, np.ndarray]) -> dict[str, int]:
+    """``input_size``, ``hidden_size`` and ``num_layers`` of the LSTM in a state dict, read from its weight
+    shapes: ``*weight_ih_l0`` is (4 hidden, inputs), one ``*weight_ih_l{k}`` per layer. Empty when the dict
+    holds no LSTM of that shape (the weights' own check then names what is wrong)."""
+    first = [k for k in state_dict if k.endswith("weight_ih_l0")]
+    if len(first) != 1 or np.ndim(state_dict[first[0]]) != 2:
+        return {}
+    prefix = first[0][: -len("weight_ih_l0")]
+    rows, inputs = np.shape(state_dict[first[0]])
+    layers = 0
+    while f"{prefix}weight_ih_l{layers}" in state_dict:
+        layers += 1
+    return {"input_size": int(inputs), "hidden_size": int(rows) // 4, "num_layers": layers}
+
+
 # ------------------------------------------------------------------------------------------ model specs
 @dataclass(frozen=True, eq=False)
 class LSTMSpec:
@@ -401,7 +417,8 @@ class LSTMBank:
     """The LSTM temperature models of B buildings, advanced together once per environment step.
 
     ``cooling[b]`` / ``heating[b]`` are building b's models; the heating model serves hvac_mode 2, the cooling
-    model every other mode (0 off, 1 cooling). ``heating[b] = None`` uses the cooling model for all modes.
+    model every other mode (0 off, 1 cooling, 3 auto). ``heating[b] = None`` uses the cooling model for all modes
+    (:func:`build_bank` gives a v2.2+ schema's one model that way with ``settings.lstm_one_model_across_modes``).
     When the selected model of a building changes between steps, the newly selected model starts again from
     an empty buffer and zero state (a new warm-up of ``lookback + 1`` steps).
     ``settings`` fields read here: ``lstm_day_type_period`` (period of day_type_sin/cos, days: 8 in CityLearn
@@ -477,7 +494,7 @@ class LSTMBank:
         self._warm_flags = np.zeros(self.n_buildings, dtype=bool)
 
     def _instances(self, hvac_mode: ArrayLike) -> np.ndarray:
-        heating = np.asarray(hvac_mode).reshape(self.n_buildings) > 1
+        heating = np.asarray(hvac_mode).reshape(self.n_buildings) == 2
         return np.where(heating, self._table[:, 1], self._table[:, 0])
 
     @property
@@ -538,12 +555,21 @@ class LSTMBank:
         return out
 
 
+def separate_heating_model(building: Any, settings: Behaviour) -> bool:
+    """Whether ``building`` (with ``cooling_model`` / ``heating_model``) runs a heating model of its own: it has
+    both, and they are not one v2.2+ ``dynamics`` model that ``settings.lstm_one_model_across_modes`` keeps as one
+    (the schema loader hands that model in as the same block twice)."""
+    if building.heating_model is None or building.cooling_model is None:
+        return False
+    return not (settings.lstm_one_model_across_modes and building.heating_model is building.cooling_model)
+
+
 def build_bank(buildings: Sequence, *, settings: Behaviour = CORRECTED, backend: str = "auto") -> LSTMBank:
     """An :class:`LSTMBank` for buildings with ``cooling_model`` / ``heating_model`` config attributes, with
     the ``lstm_*`` quirks that ``settings`` selects."""
     cache: dict = {}
     cooling = [spec_from_model(b.cooling_model or b.heating_model, state_cache=cache) for b in buildings]
-    heating = [spec_from_model(b.heating_model, state_cache=cache) if b.heating_model is not None
-               and b.cooling_model is not None else None for b in buildings]
+    heating = [spec_from_model(b.heating_model, state_cache=cache) if separate_heating_model(b, settings) else None
+               for b in buildings]
     return LSTMBank(cooling, heating, settings=settings, backend=backend)
 

@@ -3,12 +3,13 @@
 Step timing follows CityLearn 2.1: ``reset`` puts the district at t = 0 (nothing controlled; devices serve
 the data-set demands) and returns the observation at t = 0; ``step(a)`` advances to t + 1, applies ``a``
 there, books consumption, runs the temperature model, computes the reward at t + 1 and returns its
-observation. An episode of T time steps has T - 1 step calls; ``terminated`` is true on the last.
+observation. With ``settings.act_then_advance`` (CityLearn 2.5) ``step(a)`` applies ``a`` at t, computes the
+reward there, then advances and returns the observation of t + 1 before control. Either way an episode of T
+time steps has T - 1 step calls; ``terminated`` is true on the last.
 """
 
 from __future__ import annotations
 
-import functools
 from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -82,7 +83,7 @@ class CityLearnEnv(gym.Env):
         self.action_space = gym.spaces.Box(low.astype(np.float32), high.astype(np.float32),
                                            dtype=np.float32)
         self.episode = -1
-        self.t = 0
+        self.t = self._acted = 0
 
     # ------------------------------------------------------------------ setup
     def _setup_actions(self) -> None:
@@ -122,7 +123,7 @@ class CityLearnEnv(gym.Env):
             initial_soc={END_USE_SLOTS[p.name][1]: p.tank.initial_soc for p in d.end_use_params}
             | {"electrical_storage": d.battery.initial_soc},
             active_actions={name: self.action_layout.active(name) for name in (*STORAGE_ACTIONS, *DEVICE_ACTIONS)},
-            chargers=functools.partial(rewards.charger_step, d) if d.ev is not None else None,
+            chargers=(lambda: rewards.charger_step(d, self._acted)) if d.ev is not None else None,
         )
         self._reward_context = context
         if spec is None:
@@ -149,9 +150,10 @@ class CityLearnEnv(gym.Env):
             start, length = self.splits[int(self.np_random.integers(len(self.splits)))]
         else:
             start, length = self.splits[self.episode % len(self.splits)]
-        self.t = 0
+        self.t = self._acted = 0
         self.episode_start = start
-        self.district.reset(start, length, self._outage_signal(start, length), self._drift_draw(seed))
+        self.district.reset(start, length, self._outage_signal(start, length), self._drift_draw(seed),
+                            occupant_seed=self._occupant_seed(seed))
         self._static = self.layout.episode_matrix()
         self.reward_function.reset(self._reward_context)
         self.rewards = np.full(length, np.nan)
@@ -159,12 +161,14 @@ class CityLearnEnv(gym.Env):
         return self._observation(), {"time_step": 0}
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
-        """Apply ``action`` (the Box action vector) at the next time step; ``info`` holds the reward's
-        named terms (``reward_terms``: name -> (B,) per building) and per-building rewards when not central."""
+        """Apply ``action`` (the Box action vector) at the next time step (at the current one with
+        ``settings.act_then_advance``); ``info`` holds the reward's named terms (``reward_terms``: name -> (B,)
+        per building) and per-building rewards when not central; ``rewards[k]`` is the reward of the step
+        acted on."""
         t = self.advance(action)
         value, terms = self.reward_function(self._view)
         reward = float(np.sum(value))
-        self.rewards[t] = reward
+        self.rewards[self._acted] = reward
         terminated = t == self.district.length - 1
         info = {"time_step": t, "reward_terms": terms}
         if not np.isscalar(value):
@@ -173,7 +177,9 @@ class CityLearnEnv(gym.Env):
 
     # ------------------------------------------------------------------ public accessors
     def advance(self, action: Any) -> int:
-        """Validate ``action`` and advance the district one step (no reward); return the new time step."""
+        """Validate ``action``, apply it and advance the district one step (no reward); return the new time
+        step. :meth:`step_observations` is then the step acted on, :meth:`flat_observations` the new one (the
+        same step but with ``settings.act_then_advance``)."""
         try:
             given = action if isinstance(action, np.ndarray) else np.asarray(action)
         except (ValueError, TypeError):  # ragged nesting
@@ -192,13 +198,21 @@ class CityLearnEnv(gym.Env):
                               row=i)
         if self.t >= self.district.length - 1:
             raise RuntimeError("episode is over: call reset()")
-        self.district.step(self.action_layout.actions(a))
-        self.t = t = self.district.t
-        self._refresh(t)
+        d = self.district
+        if self.settings.act_then_advance:
+            d.act(self.action_layout.actions(a))
+            self._acted = d.t
+            d.advance()
+        else:
+            d.step(self.action_layout.actions(a))
+            self._acted = d.t
+        self.t = t = d.t
+        self._refresh(t, self._acted)
         return t
 
     def step_observations(self) -> Mapping[str, np.ndarray]:
-        """Every observation of every building at the current step: name -> (B,) raw values (what rewards see)."""
+        """Every observation of every building at the step last acted on (the current step, except with
+        ``settings.act_then_advance``, where it is the one before): name -> (B,) raw values (what rewards see)."""
         return self._view
 
     def flat_observations(self) -> np.ndarray:
@@ -217,8 +231,19 @@ class CityLearnEnv(gym.Env):
 
     @property
     def episode_length(self) -> int:
-        """Time steps of the current episode (the episode has ``episode_length - 1`` step calls)."""
-        return self.district.length
+        """Time steps of the current episode (the episode has ``episode_length - 1`` step calls). Before the first
+        ``reset()``: the length of the episode that reset starts where it is known (sequential splits, or random
+        ones of one length), so ``SAC.learn(total_timesteps=k * env.episode_length)`` trains k episodes; random
+        splits of different lengths are a :class:`SchemaError` until then."""
+        if self.episode >= 0:
+            return self.district.length
+        lengths = {length for _, length in self.splits}
+        if not self.config.random_episode_split:
+            return self.splits[0][1]
+        if len(lengths) == 1:
+            return lengths.pop()
+        raise SchemaError("random episode splits of different lengths: the episode length is known after reset()",
+                          column="episode_time_steps")
 
     @property
     def observation_bounds(self) -> tuple[np.ndarray, np.ndarray]:
@@ -231,8 +256,9 @@ class CityLearnEnv(gym.Env):
         return self._reward_context
 
     # ------------------------------------------------------------------ helpers
-    def _refresh(self, t: int) -> None:
-        self._view = obs_mod.StepObservations(self.district, t)
+    def _refresh(self, t: int, acted: int | None = None) -> None:
+        """The observations of step ``t`` and the reward view of step ``acted`` (default ``t``)."""
+        self._view = obs_mod.StepObservations(self.district, t if acted is None else acted)
         self._flat = self.layout.vector(self._static[t], t)
 
     def _observation(self) -> np.ndarray:
@@ -250,6 +276,17 @@ class CityLearnEnv(gym.Env):
             self._legacy_drift = np.random.RandomState(seed if seed is not None
                                                        else int(self.np_random.integers(2**31 - 1)))
         return lambda k, rs=self._legacy_drift: rs.normal(1.0, 0.2, k)
+
+    def _occupant_seed(self, seed: int | None) -> int:
+        """The seed of the occupants' draws (:mod:`citylearn_env.occupant`): ``reset(seed=...)``'s, else the
+        schema's ``random_seed`` (upstream's), else one drawn from the env's generator; 0 without occupants."""
+        if self.district.occupants is None:
+            return 0
+        if seed is not None:
+            return int(seed)
+        if self.config.random_seed is not None:
+            return int(self.config.random_seed)
+        return int(self.np_random.integers(2**31 - 1))
 
     def _outage_signal(self, start: int, length: int) -> np.ndarray:
         d = self.district

@@ -27,6 +27,8 @@ DATA_COLUMNS = {
     "heating_demand_without_partial_load": "heating_demand",
     "indoor_dry_bulb_temperature_without_partial_load": "indoor_dry_bulb_temperature",
     "indoor_dry_bulb_temperature_set_point": "indoor_dry_bulb_temperature_set_point",
+    "indoor_dry_bulb_temperature_cooling_set_point": "indoor_dry_bulb_temperature_cooling_set_point",
+    "indoor_dry_bulb_temperature_heating_set_point": "indoor_dry_bulb_temperature_heating_set_point",
     "occupant_count": "occupant_count",
     "hvac_mode": "hvac_mode",
     "outdoor_dry_bulb_temperature": "outdoor_dry_bulb_temperature",
@@ -68,15 +70,16 @@ def episode_series(district: District, t_end: int, window: slice | None = None) 
         out[column] = district.end_use(end_use).cop[:, :n]
     out["solar_generation"] = -e.pv_generation[:, :n]
     out["pv_nominal_power"] = np.repeat(district.pv_nominal_power[:, None], n, axis=1)
+    if district.settings.first_step_booked_three_times:  # CityLearn 2.5 books row 0's battery balance twice
+        doubled = out["electrical_storage_electricity_consumption"].copy()
+        doubled[:, 0] *= 2.0
+        out["electrical_storage_electricity_consumption"] = doubled
     price, carbon = out["electricity_pricing"], out["carbon_intensity"]
     net = out["net_electricity_consumption"]
     storage = sum(out[k] for k in STORAGE_CONSUMPTION)
     if "chargers_electricity_consumption" in out:  # EV charging counts as storage (CityLearn 2.5); machines not
         storage = storage + out["chargers_electricity_consumption"]
-    partial = np.zeros_like(net)
-    for end_use, (served, ideal) in PARTIAL_LOAD.items():
-        saved = (out[ideal] - out[served]) / district.end_use(end_use).cop[:, :n]
-        partial += np.where(district.dynamics[:, None], saved, 0.0)
+    partial = partial_load_saving(out, district, n)
     for suffix, (no_storage, add_partial, no_pv) in BASELINES.items():
         values = net - storage if no_storage else net
         if add_partial:
@@ -89,6 +92,21 @@ def episode_series(district: District, t_end: int, window: slice | None = None) 
     if window is not None:
         out = {k: v[:, window] for k, v in out.items()}
     return out
+
+
+def partial_load_saving(out: dict[str, np.ndarray], district: District, n: int) -> np.ndarray:
+    """(B, n) heat-pump electricity [kWh] each LSTM building saved by serving less than its ideal load:
+    (ideal - served demand) / COP for cooling and heating (0 for the other buildings). With
+    ``settings.kpi_partial_load_heating_cop_of_last_step`` the heating difference is divided by the heating COP
+    of the last of the n steps at every step, as CityLearn 2.1 and 2.5 do."""
+    partial = np.zeros((district.n, n))
+    for end_use, (served, ideal) in PARTIAL_LOAD.items():
+        cop = district.end_use(end_use).cop[:, :n]
+        if end_use == "heating" and district.settings.kpi_partial_load_heating_cop_of_last_step:
+            cop = cop[:, n - 1:n]
+        saved = (out[ideal] - out[served]) / cop
+        partial += np.where(district.dynamics[:, None], saved, 0.0)
+    return partial
 
 
 def history_frame(district: District, t_end: int, *, include_district: bool = True) -> pd.DataFrame:

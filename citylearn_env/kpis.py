@@ -45,6 +45,21 @@ CHALLENGE_WEIGHTS = {
     "one_minus_thermal_resilience_proportion": ("Thermal resilience", 0.15),
     "power_outage_normalized_unserved_energy_total": ("Unserved energy", 0.15),
 }
+#: CityLearn 2.5's building KPIs in its order (``settings.kpi_names_2_5``); its district table adds
+#: :data:`DISTRICT_KPIS_2_5` and the building means
+BUILDING_KPIS_2_5 = (
+    "electricity_consumption_total", "zero_net_energy", "carbon_emissions_total", "cost_total",
+    "discomfort_proportion", "discomfort_cold_proportion", "discomfort_hot_proportion",
+    "discomfort_cold_delta_minimum", "discomfort_cold_delta_maximum", "discomfort_cold_delta_average",
+    "discomfort_hot_delta_minimum", "discomfort_hot_delta_maximum", "discomfort_hot_delta_average",
+    "one_minus_thermal_resilience_proportion", "power_outage_normalized_unserved_energy_total",
+    "annual_normalized_unserved_energy_total")
+DISTRICT_KPIS_2_5 = ("ramping_average", "daily_one_minus_load_factor_average",
+                     "monthly_one_minus_load_factor_average", "daily_peak_average", "all_time_peak_average")
+#: the 2.1 name of a KPI under the 2.5 name of the same quantity
+NAMES_2_1 = {"all_time_peak_average": "annual_peak_average"}
+COOLING_SET_POINT = "indoor_dry_bulb_temperature_cooling_set_point"
+HEATING_SET_POINT = "indoor_dry_bulb_temperature_heating_set_point"
 DELIVERED = ("energy_from_cooling_device", "energy_from_cooling_storage", "energy_from_heating_device",
              "energy_from_heating_storage", "energy_from_dhw_device", "energy_from_dhw_storage",
              "energy_to_non_shiftable_load")
@@ -126,6 +141,42 @@ def discomfort(temperature: np.ndarray, set_point: np.ndarray, band: float, occu
     }
 
 
+def discomfort_2_5(temperature: np.ndarray, cooling_set_point: np.ndarray, heating_set_point: np.ndarray,
+                   band: float, occupants: np.ndarray) -> dict[str, float]:
+    """CityLearn 2.5's comfort statistics of one building (degC, proportions dimensionless): too hot where
+    T - S_cooling > band, too cold where T - S_heating < -band, both deltas 0 on unoccupied steps; proportions
+    over the occupied steps (NaN with none); the cold deltas' minimum / maximum / average are those of
+    |min(T - S_heating, 0)| over every step, the hot ones of max(T - S_cooling, 0)."""
+    occupied = np.asarray(occupants, dtype=float)
+    temperature = np.asarray(temperature, dtype=float)
+    hot_delta = np.where(occupied == 0.0, 0.0, temperature - np.asarray(cooling_set_point, dtype=float))
+    cold_delta = np.where(occupied == 0.0, 0.0, temperature - np.asarray(heating_set_point, dtype=float))
+    n = int((occupied > 0.0).sum())
+    hot, cold = hot_delta > band, cold_delta < -band
+    cold_size, hot_size = np.abs(np.minimum(cold_delta, 0.0)), np.maximum(hot_delta, 0.0)
+    out = {"discomfort_proportion": _share(int((hot | cold).sum()), n),
+           "discomfort_cold_proportion": _share(int(cold.sum()), n),
+           "discomfort_hot_proportion": _share(int(hot.sum()), n)}
+    for side, size in (("cold", cold_size), ("hot", hot_size)):
+        out |= {f"discomfort_{side}_delta_minimum": float(size.min()), f"discomfort_{side}_delta_maximum":
+                float(size.max()), f"discomfort_{side}_delta_average": float(size.mean())}
+    return out
+
+
+def divide_2_5(numerator: float, denominator: float) -> float:
+    """CityLearn 2.5's KPI ratio: a part that is not a finite number reads as 0; x/0 is NaN, 0/0 is 1."""
+    numerator = float(numerator) if np.isfinite(numerator) else 0.0
+    denominator = float(denominator) if np.isfinite(denominator) else 0.0
+    if denominator == 0.0:
+        return 1.0 if numerator == 0.0 else float("nan")
+    return numerator / denominator
+
+
+def ramping_up(net: np.ndarray) -> float:
+    """Sum of the step-to-step increases of ``net`` (kWh per step; decreases count 0, CityLearn 2.5)."""
+    return float(np.clip(np.diff(np.asarray(net, dtype=float)), 0.0, None).sum())
+
+
 def _share(count: int, total: int) -> float:
     return count / total if total else float("nan")
 
@@ -176,9 +227,11 @@ def evaluate(series: Mapping[str, np.ndarray], building_names: Sequence[str], *,
     """
     import pandas as pd  # lazy: importing citylearn_env does not import pandas (package docstring)
 
-    rows = building_kpis(series, building_names, dynamics=dynamics, comfort_band=comfort_band,
-                         window=window, settings=settings)
-    district = district_kpis(series, dynamics=dynamics, window=window, settings=settings)
+    table_2_5 = settings.kpi_names_2_5
+    rows = (building_kpis_2_5 if table_2_5 else building_kpis)(
+        series, building_names, dynamics=dynamics, comfort_band=comfort_band, window=window, settings=settings)
+    district = (district_kpis_2_5 if table_2_5 else district_kpis)(series, dynamics=dynamics, window=window,
+                                                                     settings=settings)
     names = sorted({k for r in rows for k in r} | set(district))
     district_rows = [{"cost_function": k, "value": district[k] if k in district else _nanmean([r[k] for r in rows]),
                       "name": "District", "level": "district"} for k in names]
@@ -237,6 +290,71 @@ def building_kpis(series: Mapping[str, np.ndarray], building_names: Sequence[str
     return out
 
 
+def building_kpis_2_5(series: Mapping[str, np.ndarray], building_names: Sequence[str], *,
+                      dynamics: Sequence[bool], comfort_band: float = 2.0, window: slice | None = None,
+                      settings: Behaviour = CORRECTED) -> list[dict]:
+    """One dict of CityLearn 2.5's building KPIs per building (:data:`BUILDING_KPIS_2_5`, its definitions:
+    :func:`discomfort_2_5` against the cooling and heating set points, :func:`divide_2_5`, unserved energy by
+    plain division); ``settings.kpi_baseline_from_first_building`` as in :func:`building_kpis`."""
+    n = len(building_names)
+    if len(dynamics) != n:
+        raise SchemaError(f"dynamics has {len(dynamics)} entries for {n} buildings", column="dynamics")
+    get = _prepare(series, window, n)
+    net, cost, emission = get(NET), get(f"{NET}_cost"), get(f"{NET}_emission")
+    pricing, carbon = get("electricity_pricing"), get("carbon_intensity")
+    temperature, cooling, heating = get("indoor_dry_bulb_temperature"), get(COOLING_SET_POINT), get(HEATING_SET_POINT)
+    occupants, outage = get("occupant_count"), get("power_outage")
+    expected, served = sum(get(k) for k in DEMANDS), sum(get(k) for k in DELIVERED)
+    out = []
+    for b, suffix in enumerate(_conditions(dynamics, settings.kpi_baseline_from_first_building)):
+        base = {k: get(f"{NET}{k}{suffix}")[b] for k in ("", "_cost", "_emission")}
+        comfort = discomfort_2_5(temperature[b], cooling[b], heating[b], comfort_band, occupants[b])
+        resilience = discomfort_2_5(temperature[b], cooling[b], heating[b], comfort_band,
+                                    np.where(outage[b] == 0.0, 0.0, occupants[b]))
+        kpi = {
+            "electricity_consumption_total": divide_2_5(positive_sum(net[b]), positive_sum(base[""])),
+            "zero_net_energy": divide_2_5(net[b].sum(), base[""].sum()),
+            "carbon_emissions_total": divide_2_5(positive_sum(emission[b]), positive_sum(base["_emission"])
+                                                 if carbon[b].sum() != 0 else 0.0),
+            "cost_total": divide_2_5(positive_sum(cost[b]), positive_sum(base["_cost"]) if pricing[b].sum() != 0
+                                     else 0.0),
+            **comfort,
+            "one_minus_thermal_resilience_proportion": resilience["discomfort_proportion"],
+            "power_outage_normalized_unserved_energy_total":
+                normalized_unserved_energy(expected[b], served[b], outage[b], plain_division=True),
+            "annual_normalized_unserved_energy_total":
+                normalized_unserved_energy(expected[b], served[b], plain_division=True),
+        }
+        out.append({k: kpi[k] for k in BUILDING_KPIS_2_5})
+    return out
+
+
+def district_kpis_2_5(series: Mapping[str, np.ndarray], *, dynamics: Sequence[bool], window: slice | None = None,
+                      settings: Behaviour = CORRECTED) -> dict[str, float]:
+    """CityLearn 2.5's district KPIs (:data:`DISTRICT_KPIS_2_5`) on the district sums: ramping of increases
+    only, ``all_time_peak_average`` over the whole series (one block), ratios by :func:`divide_2_5`; the
+    baseline as in :func:`district_kpis`. The control series leaves out the last step: 2.5 sums its district
+    consumption only for the steps it acted on, one fewer than its buildings' series (the current step, which
+    ``settings.act_then_advance`` has not acted on yet)."""
+    get = _prepare(series, window)
+    first = settings.kpi_baseline_from_first_building
+    suffix = _conditions(dynamics, True)[0] if first else BASELINE[True]
+    control, base = get(NET).sum(axis=0)[:-1], get(f"{NET}{suffix}").sum(axis=0)
+
+    def load_factor_ratio(window_steps: int) -> float:
+        return divide_2_5(one_minus_load_factor(control, window_steps, plain_division=True),
+                          one_minus_load_factor(base, window_steps, plain_division=True))
+
+    everything = max(base.size, 1)
+    return {
+        "ramping_average": divide_2_5(ramping_up(control), ramping_up(base)),
+        "daily_one_minus_load_factor_average": load_factor_ratio(DAY_STEPS),
+        "monthly_one_minus_load_factor_average": load_factor_ratio(MONTH_STEPS),
+        "daily_peak_average": divide_2_5(peak(control, DAY_STEPS), peak(base, DAY_STEPS)),
+        "all_time_peak_average": divide_2_5(peak(control, everything), peak(base, everything)),
+    }
+
+
 def district_kpis(series: Mapping[str, np.ndarray], *, dynamics: Sequence[bool], window: slice | None = None,
                   settings: Behaviour = CORRECTED) -> dict[str, float]:
     """District-level KPIs on the district sums of the control and baseline net consumption (ratios).
@@ -276,7 +394,8 @@ def evaluate_challenge(series: Mapping[str, np.ndarray], building_names: Sequenc
     table = evaluate(series, building_names, dynamics=dynamics, comfort_band=1.0, window=window,
                      settings=settings)
     district = table[table["level"] == "district"].set_index("cost_function")["value"]
-    rows = [{"kpi": k, "display_name": name, "weight": weight, "value": float(district[k])}
+    names_2_1 = {v: k for k, v in NAMES_2_1.items()} if settings.kpi_names_2_5 else {}
+    rows = [{"kpi": k, "display_name": name, "weight": weight, "value": float(district[names_2_1.get(k, k)])}
             for k, (name, weight) in CHALLENGE_WEIGHTS.items()]
     weights = np.array([r["weight"] for r in rows])
     weighted = weights * np.array([r["value"] for r in rows])

@@ -16,10 +16,12 @@ import numpy as np
 
 from citylearn_env.district import District
 from citylearn_env.errors import SchemaError
+from citylearn_env.occupant import OccupantModel
 from citylearn_env.state import (
     COP_OBSERVATIONS,
     DELIVERED_OBSERVATIONS,
     DYNAMIC,
+    OCCUPANT_DELTA,
     SET_POINT_DELTAS,
     STATIC_ALIASES,
 )
@@ -171,7 +173,9 @@ class ObservationLayout:
             if i not in device_positions:
                 groups.setdefault(name, []).append(i)
         self.groups = {n: (np.array(ix), np.array([self.pairs[i][1] for i in ix])) for n, ix in groups.items()}
-        self.dynamic = [(n, pos, bidx) for n, (pos, bidx) in self.groups.items() if n in DYNAMIC]
+        # set points are data, except where occupants override them during the episode
+        changing = (*DYNAMIC, *(OccupantModel.SET_POINTS if district.occupants is not None else ()))
+        self.dynamic = [(n, pos, bidx) for n, (pos, bidx) in self.groups.items() if n in changing]
         by_key: dict[str, list[tuple[int, int]]] = {}
         for pos, key, _, index in self.device_pairs:
             by_key.setdefault(key, []).append((pos, index))
@@ -256,6 +260,10 @@ def _bound(d: District, name: str, b: int) -> tuple[float, float]:
         return 0.0, 10.0
     if name in SET_POINT_DELTAS:
         return -10.0, 10.0
+    if name == OCCUPANT_DELTA:
+        occupant = d.config.buildings[b].occupant
+        largest = occupant.largest_delta if occupant is not None else 0.0
+        return -largest, largest
     bound = _energy_bound(d, name, b)
     if bound is not None:
         return bound

@@ -77,7 +77,7 @@ COLUMN_RANGES: dict[str, Range] = {
     "solar_generation": Range(0.0, 2000.0, "W per kW of PV", note="AC yield; about 1000 at most in sunlight"),
     "occupant_count": Range(0.0, 1e5, "people"),
     "indoor_dry_bulb_temperature_set_point": Range(-50.0, 80.0, "degC", note="0 where a data set has none"),
-    "hvac_mode": Range(0, 2, "0 off, 1 cooling, 2 heating", integer=True),
+    "hvac_mode": Range(0, 3, "0 off, 1 cooling, 2 heating, 3 auto (CityLearn 2.4+)", integer=True),
     "power_outage": Range(0, 1, integer=True),
     **_same(("indoor_dry_bulb_temperature_cooling_set_point", "indoor_dry_bulb_temperature_heating_set_point"),
             Range(-50.0, 80.0, "degC")),

@@ -10,11 +10,14 @@ from __future__ import annotations
 from citylearn_env.errors import SchemaError
 
 _UPSTREAM = {
-    # building classes -> does the building run LSTM temperature dynamics?
+    # building classes (those with LSTM temperature dynamics: DYNAMICS_BUILDINGS)
     "building": {
         "citylearn.building.Building": "Building",
         "citylearn.building.DynamicsBuilding": "LSTMDynamicsBuilding",
         "citylearn.building.LSTMDynamicsBuilding": "LSTMDynamicsBuilding",
+        # CityLearn 2.4+: an LSTM building whose occupant overrides its set points (citylearn_env.occupant)
+        "citylearn.building.LogisticRegressionOccupantInteractionBuilding":
+            "LogisticRegressionOccupantInteractionBuilding",
     },
     "device": {
         "citylearn.energy_model.HeatPump": "HeatPump",
@@ -29,7 +32,15 @@ _UPSTREAM = {
     "power_outage": {
         "citylearn.power_outage.ReliabilityMetricsPowerOutage": "ReliabilityMetricsPowerOutage",
     },
+    "occupant": {
+        "citylearn.occupant.LogisticRegressionOccupant": "LogisticRegressionOccupant",
+    },
 }
+
+#: the building class whose occupant overrides its set points (it runs LSTM dynamics too)
+OCCUPANT_BUILDING = "LogisticRegressionOccupantInteractionBuilding"
+#: building classes that run LSTM temperature dynamics
+DYNAMICS_BUILDINGS = ("LSTMDynamicsBuilding", OCCUPANT_BUILDING)
 
 #: which device classes may sit in which building slot
 SLOT_CLASSES: dict[str, tuple[str, ...]] = {
@@ -45,7 +56,7 @@ SLOT_CLASSES: dict[str, tuple[str, ...]] = {
 
 
 def known_types(kind: str) -> list[str]:
-    """All accepted ``type`` strings of ``kind`` (building, device, dynamics, power_outage)."""
+    """All accepted ``type`` strings of ``kind`` (building, device, dynamics, power_outage, occupant)."""
     table = _UPSTREAM[kind]
     return sorted(set(table) | set(table.values()))
 

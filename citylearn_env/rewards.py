@@ -64,10 +64,12 @@ class ChargerStep:
     max_discharging_power: np.ndarray
 
 
-def charger_step(district: District) -> ChargerStep:
-    """The chargers of ``district`` at its current step ``district.t`` (after that step's actions), read from
-    its typed state (``ev_data``, ``ev_record``, ``charger_record``)."""
-    t, section, data = district.t, district.ev, district.ev_data
+def charger_step(district: District, t: int | None = None) -> ChargerStep:
+    """The chargers of ``district`` at step ``t`` (default its current step ``district.t``; the step acted on
+    with ``settings.act_then_advance``), after that step's actions, read from its typed state (``ev_data``,
+    ``ev_record``, ``charger_record``)."""
+    t = district.t if t is None else t
+    section, data = district.ev, district.ev_data
     battery = section.vehicles.battery
     ev = plugged_ev(data, t)
     connected = ev != NO_EV

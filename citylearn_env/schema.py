@@ -10,13 +10,14 @@ from __future__ import annotations
 import copy
 import json
 from collections.abc import Mapping
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from citylearn_env import autosize, dataset, paths, ranges
+from citylearn_env import pv_battery_autosize as pvb
 from citylearn_env.config import (
     ACTION_NAMES,
     Battery,
@@ -28,6 +29,7 @@ from citylearn_env.config import (
     expand_actions,
     frozen_series,
 )
+from citylearn_env.dynamics import lstm_sizes, read_pth_state_dict
 from citylearn_env.errors import SchemaError
 from citylearn_env.ev import (
     EVSection,
@@ -37,7 +39,8 @@ from citylearn_env.ev import (
     upstream_device_seed,
     upstream_uniform,
 )
-from citylearn_env.registry import SLOT_CLASSES, resolve_type
+from citylearn_env.occupant import OccupantConfig, parse_occupant
+from citylearn_env.registry import DYNAMICS_BUILDINGS, OCCUPANT_BUILDING, SLOT_CLASSES, resolve_type
 from citylearn_env.settings import Behaviour, resolve
 from citylearn_env.state import COP_OBSERVATIONS, DYNAMIC, STATIC_ALIASES
 from citylearn_env.washing_machine import WashingMachines, parse_washing_machines
@@ -75,7 +78,7 @@ def load_schema(schema: str | Path | Mapping[str, Any], *,
     try:  # --- hardening hook (citylearn_env.ranges / citylearn_env.paths): shape, keys, confined root
         ranges.check_schema_shape(raw)
         root = paths.dataset_folder(raw.get("root_directory"), schema_folder, allow_outside=allow_outside_paths)
-        return _parse(raw, root, source, settings.missing_hvac_mode_is_off, settings.battery_defaults_drawn)
+        return _parse(raw, root, source, settings)
     except SchemaError as error:  # name the schema file in key errors
         if error.file is None and schema_folder is not None:
             where = str(SchemaError("", column=error.column, row=error.row))   # "column/key 'x': "
@@ -84,8 +87,7 @@ def load_schema(schema: str | Path | Mapping[str, Any], *,
         raise
 
 
-def _parse(raw: dict[str, Any], root: paths.DatasetFolder, source: str,
-           missing_hvac_mode_is_off: bool, battery_defaults_drawn: bool = False) -> DistrictConfig:
+def _parse(raw: dict[str, Any], root: paths.DatasetFolder, source: str, settings: Behaviour) -> DistrictConfig:
     start, end = _simulation_range(raw)
     observations, active_obs, active_actions = _active_names(raw)
     buildings_raw = raw.get("buildings")
@@ -95,13 +97,17 @@ def _parse(raw: dict[str, Any], root: paths.DatasetFolder, source: str,
     machines = parse_washing_machines(raw, root.root)
     if any(spec.get("charging_constraints") for spec in buildings_raw.values() if isinstance(spec, Mapping)):
         raise SchemaError("charging constraints (CityLearn 2.5) are not supported", column="charging_constraints")
-    drawn_seed = int(raw.get("random_seed") or 0) if battery_defaults_drawn else None
+    drawn_seed = int(raw.get("random_seed") or 0) if settings.battery_defaults_drawn else None
     cache: dict[tuple[str, str], dict[str, np.ndarray]] = {}
     buildings: list[BuildingConfig] = []
     for name, spec in buildings_raw.items():
         if spec.get("include", True):
-            building = _building(name, spec, root, start, end, cache, active_obs, active_actions,
-                                 missing_hvac_mode_is_off)
+            sizing = _Sizing(name, spec.get("type") or "citylearn.citylearn.Building", int(raw.get("random_seed") or 0),
+                             settings.battery_autosize_from_placeholder_pv, ranges.check_key(
+                                 raw, "seconds_per_time_step", 3600.0, where="seconds_per_time_step") / 3600.0, root,
+                             settings.thermal_device_defaults_drawn)
+            building = _building(name, spec, root, (start, end), cache, (active_obs, active_actions),
+                                 settings.missing_hvac_mode_is_off, sizing)
             buildings.append(_with_devices(building, spec, len(buildings), ev, machines, drawn_seed))
     if not buildings:
         raise SchemaError("no building has include = true", column="buildings")
@@ -197,9 +203,50 @@ def drawn_battery_defaults(battery: Battery, building: str, spec: Mapping[str, A
     return replace(battery, **changes)
 
 
-def _device(slot: str, spec: Mapping[str, Any] | None, where: str, series: Mapping[str, np.ndarray]) -> Any:
+#: CityLearn 2.5's drawn defaults of the tank, heat-pump and heater attributes a schema leaves out:
+#: class -> attribute -> (low, high) (efficiencies [-], standby loss [1/step], temperatures [degC])
+DRAWN_DEFAULTS: dict[str, dict[str, tuple[float, float]]] = {
+    "StorageTank": {"efficiency": (0.9, 0.98), "loss_coefficient": (0.001, 0.009)},
+    "HeatPump": {"efficiency": (0.2, 0.3), "target_heating_temperature": (45.0, 50.0),
+                 "target_cooling_temperature": (7.0, 10.0)},
+    "ElectricHeater": {"efficiency": (0.9, 0.99)},
+}
+
+
+def drawn_thermal_defaults(device: Any, cls: str, given: Mapping[str, Any], u: float) -> Any:
+    """``device`` (a :class:`Tank` or :class:`ConversionDevice` of class ``cls``) with ``low + (high - low) u``
+    for each attribute of :data:`DRAWN_DEFAULTS` that ``given`` (the schema's attributes) leaves out or nulls;
+    ``u`` in [0, 1) is the device's one uniform number (:meth:`_Sizing.uniform`)."""
+    drawn = {k: low + (high - low) * u for k, (low, high) in DRAWN_DEFAULTS[cls].items() if given.get(k) is None}
+    return replace(device, **drawn) if drawn else device
+
+
+@dataclass(frozen=True)
+class _Sizing:
+    """What autosizing a building's devices needs besides its data: names and the schema's random seed for
+    upstream's device seed (:func:`ev.upstream_device_seed`), the battery rule
+    (``settings.battery_autosize_from_placeholder_pv``), the step length [h] and the dataset folder (EPW files)."""
+
+    building: str
+    building_type: str
+    random_seed: int
+    battery_2_1_rule: bool
+    step_hours: float
+    root: paths.DatasetFolder
+    #: ``settings.thermal_device_defaults_drawn``: draw what a tank, heat pump or heater leaves out
+    thermal_defaults_drawn: bool = False
+
+    def uniform(self, slot: str, device_type: str) -> float:
+        """The first uniform number of the device's upstream seed (its drawn attributes' ``u``)."""
+        return upstream_uniform(upstream_device_seed(self.building, self.building_type, slot, device_type,
+                                                     self.random_seed))
+
+
+def _device(slot: str, spec: Mapping[str, Any] | None, where: str, series: Mapping[str, np.ndarray],
+            sized: Mapping[str, Any], sizing: _Sizing) -> Any:
     """The typed device of ``slot`` (None if absent), autosized from ``series`` (the building's data over the
-    simulation range) when the spec asks for it (:mod:`citylearn_env.autosize`)."""
+    simulation range) when the spec asks for it (:mod:`citylearn_env.autosize`; PV and battery with CityLearn
+    2.2+'s attributes: :mod:`citylearn_env.pv_battery_autosize`). ``sized``: the building's devices so far."""
     if spec is None:
         return None
     cls = resolve_type("device", spec.get("type"), where=f"{where}.type")
@@ -207,13 +254,65 @@ def _device(slot: str, spec: Mapping[str, Any] | None, where: str, series: Mappi
         raise SchemaError(f"a {cls} cannot be used as {slot}; allowed: {', '.join(SLOT_CLASSES[slot])}",
                           column=f"{where}.type")
     device = _device_attributes(cls, spec, where)
+    if sizing.thermal_defaults_drawn and cls in DRAWN_DEFAULTS:
+        device = drawn_thermal_defaults(device, cls, spec.get("attributes") or {},
+                                        sizing.uniform(slot, str(spec.get("type"))))
     if not spec.get("autosize", False):
         return device
-    sf = autosize.safety_factor(spec.get("autosize_attributes"), where)
+    attributes = spec.get("autosize_attributes")
+    later = {"PV": pvb.PV_KEYS, "Battery": pvb.BATTERY_KEYS}.get(cls, ())
+    sf = autosize.safety_factor(attributes, where, extra_keys=later)
+    if cls == "PV" and (set(attributes or {}) - {"safety_factor"} or isinstance(attributes.get("safety_factor"), list)):
+        return _pv_2_2(attributes, where, series, sized, sizing, str(spec.get("type")))
     if cls == "PV":
         efficiency = (spec.get("attributes") or {}).get("efficiency") or 1.0
         return autosize.pv_peak_power(device, series["solar_generation"], efficiency=efficiency, safety_factor=sf)
+    if cls == "Battery" and not sizing.battery_2_1_rule:
+        return _battery_2_2(device, attributes, where, series, sized, sizing, str(spec.get("type")))
     return autosize.autosize_device(slot, device, series, sf)
+
+
+def _consumption(series: Mapping[str, np.ndarray], sized: Mapping[str, Any]) -> np.ndarray:
+    """The building's baseline consumption [kWh per step] with its (already sized) conversion devices."""
+    return pvb.baseline_consumption(series, *(sized.get(s) or ConversionDevice()
+                                              for s in ("cooling_device", "heating_device", "dhw_device")))
+
+
+def _pv_2_2(attributes: Mapping[str, Any], where: str, series: Mapping[str, np.ndarray], sized: Mapping[str, Any],
+            sizing: _Sizing, device_type: str) -> float:
+    """PV nominal power [kW] by CityLearn 2.2+'s rule, offline (:func:`pv_battery_autosize.pv_power`)."""
+    at = f"{where}.autosize_attributes"
+    epw = attributes.get("epw_filepath")
+    if epw is not None:
+        sizing.root.file(epw, where=f"{at}.epw_filepath")  # upstream reads it: inside the folder, present
+    if attributes.get("use_sample_target"):
+        raise SchemaError("sizes the PV as a system drawn from upstream's downloaded PV sizing table "
+                          f"'{pvb.PV_SIZING_TABLE}', which is not available offline; set it false to size for "
+                          "zero_net_energy_proportion", column=f"{at}.use_sample_target")
+    u = sizing.uniform("pv", device_type)
+    zne = pvb.draw_attribute(attributes.get("zero_net_energy_proportion"), (0.7, 1.0),
+                             f"{at}.zero_net_energy_proportion").value(u)
+    sf = pvb.draw_attribute(attributes.get("safety_factor"), 1.0, f"{at}.safety_factor").value(u)
+    roof = attributes.get("roof_area")
+    if roof is not None:
+        roof = pvb.draw_attribute(roof, 0.0, f"{at}.roof_area").low
+    return pvb.pv_power(_consumption(series, sized), series["solar_generation"], zne_proportion=zne,
+                        safety_factor=sf, roof_area_m2=roof, steps_per_year=8760, where=f"{where}.autosize")
+
+
+def _battery_2_2(device: Battery, attributes: Mapping[str, Any] | None, where: str, series: Mapping[str, np.ndarray],
+                 sized: Mapping[str, Any], sizing: _Sizing, device_type: str) -> Battery:
+    """The battery with capacity and nominal power by CityLearn 2.2+'s rule, offline
+    (:func:`pv_battery_autosize.battery_size`)."""
+    attributes, at = attributes or {}, f"{where}.autosize_attributes"
+    u = sizing.uniform("electrical_storage", device_type)
+    duration = pvb.draw_attribute(attributes.get("duration"), (1.5, 3.5), f"{at}.duration").value(u)
+    sf = pvb.draw_attribute(attributes.get("safety_factor"), 1.0, f"{at}.safety_factor").value(u)
+    if not isinstance(attributes.get("parallel", False), bool | type(None)):
+        raise SchemaError(f"expected true, false or null, got {attributes['parallel']!r}", column=f"{at}.parallel")
+    capacity, power = pvb.battery_size(_consumption(series, sized), duration_h=duration, safety_factor=sf,
+                                       step_hours=sizing.step_hours)
+    return replace(device, capacity=capacity, nominal_power=power)
 
 
 def _device_attributes(cls: str, spec: Mapping[str, Any], where: str) -> Any:
@@ -264,16 +363,16 @@ def _outage(spec: Mapping[str, Any] | None, where: str) -> Outage:
     )
 
 
-def _building(name, spec, root, start, end, cache, active_obs, active_actions,
-              missing_hvac_mode_is_off: bool) -> BuildingConfig:
-    where = f"buildings.{name}"
-    btype = resolve_type("building", spec.get("type", "citylearn.building.Building"), where=f"{where}.type")
+def _building_series(spec: Mapping[str, Any], root: paths.DatasetFolder, where: str, span: tuple[int, int],
+                     cache: dict, hvac_off: bool) -> dict[str, np.ndarray]:
+    """The building's data columns (building file, weather, prices, carbon intensity) over the simulation range
+    ``span`` (start, end) [time steps]."""
+    start, end = span
     for key in ("energy_simulation", "weather"):
         if not spec.get(key):
             raise SchemaError("missing data file name", column=f"{where}.{key}")
     n = end + 1
     series: dict[str, np.ndarray] = {}
-    hvac_off = missing_hvac_mode_is_off
     series.update(_read(root.file(spec["energy_simulation"], where=f"{where}.energy_simulation"), "building", n,
                         cache, hvac_off))
     series.update(_read(root.file(spec["weather"], where=f"{where}.weather"), "weather", n, cache, hvac_off))
@@ -283,24 +382,53 @@ def _building(name, spec, root, start, end, cache, active_obs, active_actions,
             series.update(_read(root.file(spec[key], where=f"{where}.{key}"), kind, n, cache, hvac_off))
         else:
             series.update({c: np.zeros(n) for c in cols})
-    series = {k: v[start : end + 1] for k, v in series.items()}
-    devices = {slot: _device(slot, spec.get(slot), f"{where}.{slot}", series) for slot in SLOT_CLASSES}
+    return {k: v[start : end + 1] for k, v in series.items()}
+
+
+def _building(name: str, spec: Mapping[str, Any], root: paths.DatasetFolder, span: tuple[int, int], cache: dict,
+              active: tuple[list[str], list[str]], missing_hvac_mode_is_off: bool, sizing: _Sizing) -> BuildingConfig:
+    """One building of the schema: its data over the simulation range ``span``, devices (autosized where asked),
+    LSTM models, occupant model, and its active observations and actions (``active``: the schema's)."""
+    where = f"buildings.{name}"
+    btype = resolve_type("building", spec.get("type", "citylearn.building.Building"), where=f"{where}.type")
+    series = _building_series(spec, root, where, span, cache, missing_hvac_mode_is_off)
+    devices: dict[str, Any] = {}
+    for slot in SLOT_CLASSES:  # conversion devices first: the PV and battery rules read them
+        devices[slot] = _device(slot, spec.get(slot), f"{where}.{slot}", series, devices, sizing)
     cooling_model, heating_model = (None, None)
-    if btype == "LSTMDynamicsBuilding":
+    if btype in DYNAMICS_BUILDINGS:
         cooling_model, heating_model = _dynamics(spec.get("dynamics"), root, series, f"{where}.dynamics")
+    active_obs, active_actions = active
     inactive_obs = set(spec.get("inactive_observations") or [])
     inactive_act = set(spec.get("inactive_actions") or [])
     _refuse_used_empty_columns(series, [o for o in active_obs if o not in inactive_obs],
-                               btype == "LSTMDynamicsBuilding", root.root / spec["energy_simulation"], start)
+                               btype in DYNAMICS_BUILDINGS, root.root / spec["energy_simulation"], span[0])
     kwargs = {slot: dev for slot, dev in devices.items() if dev is not None and slot != "pv"}
     return BuildingConfig(
         name=name, series=frozen_series(series), **kwargs,
         pv_nominal_power=devices["pv"] or 0.0,
         outage=_outage(spec.get("power_outage"), f"{where}.power_outage"),
         cooling_model=cooling_model, heating_model=heating_model,
+        occupant=_occupant(spec, btype, root, span, where),
         active_observations=tuple(o for o in active_obs if o not in inactive_obs),
         active_actions=tuple(a for a in active_actions if a not in inactive_act),
     )
+
+
+def _occupant(spec: Mapping[str, Any], btype: str, root: paths.DatasetFolder, span: tuple[int, int],
+              where: str) -> OccupantConfig | None:
+    """The building's occupant (:mod:`citylearn_env.occupant`): required by, and only allowed on, the occupant
+    interaction building type."""
+    entry = spec.get("occupant")
+    if btype != OCCUPANT_BUILDING:
+        if entry is not None:
+            raise SchemaError(f"an occupant needs building type {OCCUPANT_BUILDING} (this one is {btype})",
+                              column=f"{where}.occupant")
+        return None
+    if entry is None:
+        raise SchemaError(f"missing: a {OCCUPANT_BUILDING} needs an occupant (type, parameters_filename, attributes)",
+                          column=f"{where}.occupant")
+    return parse_occupant(entry, root, span, f"{where}.occupant", hold=spec.get("set_point_hold_time_steps"))
 
 
 # --- hardening hook (citylearn_env.ranges / citylearn_env.paths): LSTM attributes, weights file, input names
@@ -313,6 +441,7 @@ def _dynamics(spec: Any, root: paths.DatasetFolder, series: Mapping[str, np.ndar
     for at, entry in entries.items():
         if isinstance(entry, Mapping):
             ranges.check_dynamics_attributes(entry.get("attributes", entry), where=f"{at}.attributes")
+            _sizes_from_weights(entry.get("attributes", entry), root, at)
     blocks = dataset.parse_dynamics(spec, root.root, where=where, check_files=False)
     for at, block in zip((where,) if single else (f"{where}.cooling", f"{where}.heating"), blocks, strict=False):
         if block is None:
@@ -325,6 +454,24 @@ def _dynamics(spec: Any, root: paths.DatasetFolder, series: Mapping[str, np.ndar
                 raise SchemaError(f"unknown LSTM input {name!r}{ranges.closest_key(name, known)}",
                                   column=f"{at}.attributes.input_observation_names[{i}]")
     return blocks
+
+
+def _sizes_from_weights(attributes: Any, root: paths.DatasetFolder, where: str) -> None:
+    """Fill a null or missing ``hidden_size`` / ``num_layers`` of an LSTM entry (this loader's own copy of the
+    schema) from its weights file, as upstream's neighbourhood builder leaves them to the ``.pth``; an
+    ``input_size`` of null is the number of input names (:meth:`DynamicsBlock.from_schema`)."""
+    if not isinstance(attributes, dict) or all(attributes.get(k) is not None for k in ("hidden_size", "num_layers")):
+        return
+    name = attributes.get("filename")
+    if not isinstance(name, str):
+        return  # the block parse names the missing file name
+    path = root.check(str(root.root / name), where=f"{where}.attributes.filename")
+    if not path.is_file():
+        raise SchemaError("LSTM weights file not found", file=path, column=f"{where}.attributes.filename")
+    sizes = lstm_sizes(read_pth_state_dict(path))
+    for key in ("hidden_size", "num_layers"):
+        if attributes.get(key) is None and key in sizes:
+            attributes[key] = sizes[key]
 
 
 def _refuse_used_empty_columns(series: Mapping[str, np.ndarray], observed: list[str], dynamics: bool,

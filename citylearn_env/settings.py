@@ -6,9 +6,10 @@ Presets:
 
 * :data:`CORRECTED` -- the default: every quirk corrected;
 * :data:`CITYLEARN_2_1` -- CityLearn 2.1.2 number for number, bugs included (golden-trace parity);
-* :data:`CITYLEARN_2_5` -- CityLearn 2.5.0's physics where it differs from the corrected default (legacy
+* :data:`CITYLEARN_2_5` -- CityLearn 2.5.0 where it differs from the corrected default: its physics (legacy
   outage draws, battery efficiency read at the request, the EV state-of-charge bookkeeping of docs/ev.md
-  section 4, the two bugs of its EV reward); every other field corrected.
+  section 4, the two bugs of its EV reward), its dynamics (one LSTM across hvac_mode switches, act-then-advance
+  step timing, float32 LSTM, drawn device defaults) and its KPI table; every other field corrected.
 
 ``CityLearnEnv(schema, compat=True)`` is shorthand for ``settings=CITYLEARN_2_1``. Change one field with
 ``dataclasses.replace(CORRECTED, lstm_day_type_period=8.0)``. Each field's effect is in its comment; the
@@ -47,6 +48,23 @@ class Behaviour:
     #: CityLearn 2.5's drawn defaults (a fresh ``RandomState`` of the device's seed per draw, docs/ev.md
     #: section 1) instead of CityLearn 2.1's fixed ones (the corrected default)
     battery_defaults_drawn: bool = False
+    #: an autosized building battery gets CityLearn 2.1's size: capacity = peak PV output x SF of the zero-size PV
+    #: placeholder the building holds when its battery is sized (always 0). False: CityLearn 2.2+'s rule on the
+    #: baseline consumption (offline, :mod:`citylearn_env.pv_battery_autosize`)
+    battery_autosize_from_placeholder_pv: bool = False
+    #: a storage tank, heat pump or electric heater whose schema leaves out an attribute CityLearn 2.5 draws gets
+    #: 2.5's drawn value ``low + (high - low) u``, ``u`` the first uniform number of the device's seed
+    #: (:func:`citylearn_env.ev.upstream_device_seed`): tank efficiency 0.90..0.98 and standby loss 0.001..0.009,
+    #: heat-pump efficiency 0.2..0.3, target heating 45..50 degC and cooling 7..10 degC temperatures, heater
+    #: efficiency 0.90..0.99. False: CityLearn 2.1's fixed defaults (tank efficiency 1, heat pump 0.2 / 45 / 8 degC)
+    thermal_device_defaults_drawn: bool = False
+    #: the ``dhw_storage`` action is a fraction of the *heating* storage's capacity and ``heating_storage`` of the
+    #: *cooling* storage's (CityLearn 2.4+'s copy-paste bug: a DHW tank in a building without heating storage never
+    #: charges nor discharges). False: each action is a fraction of its own tank's capacity
+    storage_action_scaled_by_other_tank: bool = False
+    #: a thermal storage action is bounded by +-min(device nominal power [kW] / capacity [kWh], 1) (CityLearn 2.5)
+    #: instead of +-min(peak demand over the simulation [kWh] / capacity, 1) (CityLearn 2.1)
+    thermal_storage_bounds_from_device_power: bool = False
 
     # ---------------------------------------------------------------- electric vehicles (docs/ev.md section 4)
     #: an EV's SOC at a step that nothing writes (no charger action, no arrival, no drift) is 0, as CityLearn
@@ -71,8 +89,27 @@ class Behaviour:
     #: de-normalise the predicted temperature with the *last* input's min-max bounds (CityLearn 2.1) instead
     #: of the indoor temperature's own bounds
     lstm_output_uses_last_input_bounds: bool = False
-    #: round the input window and the prediction to float32, as CityLearn 2.1's torch model does
+    #: round the input window and the prediction to float32, as CityLearn 2.1's and 2.5's torch models do
     lstm_float32: bool = False
+    #: a v2.2+ schema's single ``dynamics`` model runs as one model with one state whatever the hvac_mode
+    #: (CityLearn 2.5). False: it serves as two copies, one for heating (mode 2), one for the other modes, and
+    #: the copy a cooling<->heating switch selects starts again from an empty window (a new warm-up of
+    #: ``lookback + 1`` steps serving the ideal load), as a v2.1 schema's two models do in every preset
+    lstm_one_model_across_modes: bool = False
+
+    # ---------------------------------------------------------------- step timing
+    #: CityLearn 2.5's step timing: ``reset`` books row 0 uncontrolled as before, then step call k acts on row k
+    #: (row 0 included), computes the reward there and then advances: the observation returned is row k + 1's
+    #: before control (its consumption and storage state 0, its temperature the data set's) and row T - 1 is
+    #: never acted on. False: CityLearn 2.1's timing, call k advances to row k + 1 and acts there (row 0 is never
+    #: controlled)
+    act_then_advance: bool = False
+    #: with ``act_then_advance``, row 0's consumption is booked three times, as CityLearn 2.5's reset, first step
+    #: call and update each add it: the uncontrolled loads at reset, then what the first call's devices draw (their
+    #: power already reduced by the reset's booking), then once more the delivered energy plus storage balance over
+    #: the COP; the non-shiftable load three times, the battery's balance twice. False: row 0 holds what the
+    #: first call draws
+    first_step_booked_three_times: bool = False
 
     # ---------------------------------------------------------------- episodes and outages
     #: random episode split drawn with legacy ``RandomState(random_seed * (episode + 1))``, never the last
@@ -107,6 +144,19 @@ class Behaviour:
     kpi_baseline_from_first_building: bool = False
     #: the 2023 challenge score summed in float32
     kpi_float32_score: bool = False
+    #: the partial-load baseline of an LSTM building converts every step's heating difference with the heating
+    #: COP of the last step of the series (CityLearn 2.1.2 and 2.5 read the current outdoor temperature only;
+    #: the 2.1 golden data sets have no heating partial load, so it moves none of their numbers); False: each
+    #: step's own COP
+    kpi_partial_load_heating_cop_of_last_step: bool = False
+    #: ``evaluate()`` returns CityLearn 2.5's table (docs/environment.md, "The CityLearn 2.5 preset"): its names
+    #: (``all_time_peak_average`` over the episode, ``discomfort_cold_*`` / ``discomfort_hot_*``), cold discomfort
+    #: below the *heating* set point - band and hot above the *cooling* set point + band, their delta minimum /
+    #: maximum / average as
+    #: |negative part| / positive part over every step (unoccupied as 0), ramping of increases only, the district
+    #: control series without its last step (2.5 sums it only over acted steps), a ratio whose parts are not
+    #: finite read as 0 (x/0 NaN, 0/0 1). False: CityLearn 2.1's table against the one set point
+    kpi_names_2_5: bool = False
 
     # ---------------------------------------------------------------- observation wrapper
     #: period of day_type in NormalizedObservationWrapper's cos/sin encoding [days]: 8 or 7
@@ -125,8 +175,10 @@ ONLY_BEFORE_2_1_2 = ("missing_hvac_mode_is_off",)
 #: the boolean quirks CityLearn 2.1.2 has
 QUIRKS_2_1 = ("battery_curve_extrapolates_first_segment", "lstm_output_uses_last_input_bounds", "lstm_float32",
               "legacy_random_episode_split", "legacy_outage_draws", "independent_sac_reward_precedence_bug",
+              "battery_autosize_from_placeholder_pv",
               "comfort_reward_float32", "storage_signal_reward_multiplies_by_delta", "kpi_plain_division",
-              "kpi_discomfort_over_all_steps", "kpi_baseline_from_first_building", "kpi_float32_score")
+              "kpi_discomfort_over_all_steps", "kpi_baseline_from_first_building", "kpi_float32_score",
+              "kpi_partial_load_heating_cop_of_last_step")
 #: CityLearn 2.1.2 exactly, bugs included: its quirks, and day_type with period 8 [days] (holidays as day 8)
 CITYLEARN_2_1 = Behaviour(**dict.fromkeys(QUIRKS_2_1, True), lstm_day_type_period=8.0, wrapper_day_type_period=8.0)
 
@@ -134,10 +186,16 @@ CITYLEARN_2_1 = Behaviour(**dict.fromkeys(QUIRKS_2_1, True), lstm_day_type_perio
 ONLY_IN_2_5 = ("battery_efficiency_from_request", "battery_action_fraction_of_nominal_power",
                "battery_defaults_drawn", "ev_unwritten_soc_is_zero", "ev_step_starts_from_previous_soc",
                "ev_data_from_range_start", "legacy_ev_drift_draws", "ev_reward_skips_unplugged_chargers",
-               "ev_reward_squares_soc_under_weight")
-#: CityLearn 2.5.0's physics (the v2.4.2 data sets and their EVs): its own quirks and 2.1's legacy outage
-#: draws; step timing stays the 2.1 one (docs/ev.md)
-CITYLEARN_2_5 = Behaviour(**dict.fromkeys((*ONLY_IN_2_5, "legacy_outage_draws"), True))
+               "ev_reward_squares_soc_under_weight", "thermal_device_defaults_drawn",
+               "storage_action_scaled_by_other_tank", "thermal_storage_bounds_from_device_power",
+               "lstm_one_model_across_modes", "act_then_advance", "first_step_booked_three_times",
+               "kpi_names_2_5")
+#: CityLearn 2.1 quirks CityLearn 2.5.0 still has
+SHARED_2_1_2_5 = ("legacy_outage_draws", "lstm_float32", "kpi_baseline_from_first_building",
+                  "kpi_partial_load_heating_cop_of_last_step")
+#: CityLearn 2.5.0 (the v2.4.2 data sets and their EVs): its own quirks, the 2.1 quirks it kept, its step
+#: timing and KPI table (docs/environment.md, "The CityLearn 2.5 preset")
+CITYLEARN_2_5 = Behaviour(**dict.fromkeys((*ONLY_IN_2_5, *SHARED_2_1_2_5), True))
 
 PRESETS: dict[str, Behaviour] = {"corrected": CORRECTED, "citylearn-2.1": CITYLEARN_2_1,
                                  "citylearn-2.5": CITYLEARN_2_5}

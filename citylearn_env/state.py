@@ -242,8 +242,11 @@ SET_POINT_DELTAS = {"indoor_dry_bulb_temperature_cooling_delta": "indoor_dry_bul
                     "indoor_dry_bulb_temperature_heating_delta": "indoor_dry_bulb_temperature_heating_set_point"}
 #: thermal energy delivered (device + storage) observed as a demand
 DELIVERED_OBSERVATIONS = {"cooling_demand": "cooling", "heating_demand": "heating", "dhw_demand": "dhw"}
+#: the set-point change an occupant made at the step [K] (0 where none; CityLearn 2.4+'s occupant buildings)
+OCCUPANT_DELTA = "occupant_interaction_indoor_dry_bulb_temperature_set_point_delta"
 #: observations of the simulation state (recorded or derived each step); every other one is data
 DYNAMIC = (
+    OCCUPANT_DELTA,
     "indoor_dry_bulb_temperature",
     "indoor_dry_bulb_temperature_delta",
     *SET_POINT_DELTAS,

@@ -4,9 +4,15 @@ Owned and stepped by :class:`citylearn_env.district.District` (CityLearn 2.1 sem
 
 * before the devices run at step t, :meth:`ThermalModel.demands` turns each warm LSTM building's device action a
   into the thermal demand its heat pump serves: ``min(max(a, 0) * P, P) * COP(t)`` [kWh] in the mode that
-  ``hvac_mode(t)`` selects (cooling 1, heating 2; 0 in the other mode). A building whose model is still warming
-  up (fewer than ``lookback + 1`` steps since the episode start or the last cooling<->heating switch) keeps the
-  data set's demand;
+  ``hvac_mode(t)`` selects (cooling 1, heating 2; 0 in the other mode). In auto mode 3 (CityLearn 2.4+) both
+  devices are available and the actions decide: the cooling action drives the cooling demand and the heating
+  action the heating demand (with the combined ``cooling_or_heating_device`` action its sign picks one, the
+  other gets 0), as upstream's ``LSTMDynamicsBuilding.update_cooling_demand`` / ``update_heating_demand``
+  (intelligent-environments-lab/CityLearn, citylearn/building.py: cooling in modes 1 and 3, heating in 2 and 3)
+  do; there is no thermostat logic in the environment itself -- the data set's own demands, which a building
+  simulation with both set points produced (cooling above the cooling set point, heating below the heating
+  one), stand wherever no action applies. A building whose model is still warming up (fewer than
+  ``lookback + 1`` steps since the episode start or the last switch of model) keeps the data set's demand;
 * after the devices ran, :meth:`ThermalModel.update` feeds the step's inputs (weather, calendar, the energy
   delivered, the indoor temperature held so far) to the LSTM bank and writes the predicted indoor temperature;
   a prediction outside :data:`INDOOR_RANGE_C` stops the episode with one :class:`DynamicsError`.
@@ -25,8 +31,8 @@ from citylearn_env.errors import DynamicsError
 from citylearn_env.settings import Behaviour
 from citylearn_env.state import DYNAMIC, EndUseState
 
-#: end use, hvac_mode value that selects it, device action
-MODES = (("cooling", 1.0, "cooling_device"), ("heating", 2.0, "heating_device"))
+#: end use, the hvac_mode values that make its device available (3 = auto: both), device action
+MODES = (("cooling", (1.0, 3.0), "cooling_device"), ("heating", (2.0, 3.0), "heating_device"))
 #: indoor temperatures [degC] a building can have; a prediction outside stops the episode (DynamicsError)
 INDOOR_RANGE_C = (-50.0, 80.0)
 
@@ -59,19 +65,23 @@ class ThermalModel:
         self.bank = build_bank([buildings[i] for i in self.index], settings=settings)
         self._warm = np.zeros(len(buildings), dtype=bool)
 
-    def reset(self, hvac_mode: np.ndarray, data_series: Callable[[str], np.ndarray]) -> None:
+    def reset(self, hvac_mode: np.ndarray, data_series: Callable[[str], np.ndarray],
+              changing: tuple[str, ...] = ()) -> None:
         """Episode start: empty every model's window and state; find where each model input comes from.
-        ``hvac_mode`` (B, T) of the episode; ``data_series(name)`` the (B, T) episode series of a data input."""
+        ``hvac_mode`` (B, T) of the episode; ``data_series(name)`` the (B, T) episode series of a data input;
+        ``changing``: data inputs that change during the episode (set points occupants override), read each
+        step like the simulated ones."""
         self.bank.reset()
         self.hvac_mode = hvac_mode
         # data inputs: the dynamics buildings' rows of the episode series, stacked once as (T, n_data, k);
         # the simulated ones (delivered energy, indoor temperature) are read each step
         names = self.bank.input_names
-        data = [j for j, name in enumerate(names) if name not in DYNAMIC]
+        stepped = (*DYNAMIC, *changing)
+        data = [j for j, name in enumerate(names) if name not in stepped]
         self._data_rows = np.array(data, dtype=np.intp)
         self._data = np.ascontiguousarray(np.stack([data_series(names[j])[self.index].T for j in data],
                                                    axis=1)) if data else None
-        self._simulated = [(j, name) for j, name in enumerate(names) if name in DYNAMIC]
+        self._simulated = [(j, name) for j, name in enumerate(names) if name in stepped]
         self._raw = np.zeros((len(names), len(self.index)))
 
     def demands(self, t: int, actions: Actions, end_use: Callable[[str], EndUseState]
@@ -84,16 +94,22 @@ class ThermalModel:
         warm[:] = False
         warm[self.index] = self.bank.warm(hvac[self.index])
         out = {}
-        for name, mode, action_name in MODES:
+        for name, modes, action_name in MODES:
             a = getattr(actions, action_name)
             use = warm & np.isfinite(a)
             if not use.any():
                 continue
             state = end_use(name)
             power = state.params.nominal_power
-            q = np.where(hvac == mode, np.minimum(np.maximum(a, 0.0) * power, power), 0.0)
+            q = np.where((hvac == modes[0]) | (hvac == modes[1]), np.minimum(np.maximum(a, 0.0) * power, power), 0.0)
             out[name] = np.where(use, q * state.cop[:, t], np.nan)
         return out or None
+
+    def warm_now(self) -> np.ndarray:
+        """(B,) bool over the district: the building's model predicted at the last :meth:`update`."""
+        out = np.zeros(len(self._warm), dtype=bool)
+        out[self.index] = self.bank.is_warm
+        return out
 
     def update(self, t: int, observed: Callable[[str, int], np.ndarray], temperature: np.ndarray) -> None:
         """Predict the indoor temperature [degC] at step ``t`` and write it into ``temperature`` (B, T) where

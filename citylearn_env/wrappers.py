@@ -14,13 +14,22 @@ from citylearn_env.env import CityLearnEnv
 class NormalizedObservationWrapper(gym.ObservationWrapper):
     """Periodic hour/day_type/month as (cos, sin) pairs, then min-max scaling of everything to [0, 1].
 
-    The bounds are the environment's observation bounds (estimated over the simulation range); values
-    outside them are not clipped (as upstream) unless ``clip=True``, which clips every value to [0, 1]. The
-    day_type period is the environment's
-    ``settings.wrapper_day_type_period`` (8 in CityLearn 2.1, 7 corrected) unless ``day_type_period`` is given.
+    The bounds are the environment's observation bounds, *estimated* over the simulation range (upstream's
+    estimates: a net consumption, a delivered demand or an LSTM temperature can leave them -- on upstream's
+    2023 LSTM data sets a random-action week goes up to 1.36 of the range beyond [0, 1]). So that every
+    observation lies in the declared space:
+
+    * ``clip=True`` (the default): every scaled value is clipped to [0, 1] and the space is ``Box(0, 1)``;
+    * ``clip=False``: the values are upstream's, unclipped (``NormalizedObservationWrapper`` of CityLearn), and
+      the space is declared ``Box(-inf, inf)`` -- most values lie in [0, 1], but the space says no more than
+      is true (a ``Box(0, 1)`` that the values leave would mislead agents that trust it; gymnasium's
+      ``check_env`` does not look at the values of a whole episode).
+
+    The day_type period is the environment's ``settings.wrapper_day_type_period`` (8 in CityLearn 2.1, 7
+    corrected) unless ``day_type_period`` is given.
     """
 
-    def __init__(self, env: gym.Env, *, day_type_period: float | None = None, clip: bool = False):
+    def __init__(self, env: gym.Env, *, day_type_period: float | None = None, clip: bool = True):
         super().__init__(env)
         self.clip = bool(clip)
         base = env.unwrapped
@@ -47,7 +56,8 @@ class NormalizedObservationWrapper(gym.ObservationWrapper):
         self._lo = np.array(lo)
         span = np.array(hi) - self._lo
         self._span = np.where(span > 0, span, 1.0)
-        self.observation_space = gym.spaces.Box(0.0, 1.0, shape=(len(out_names),), dtype=np.float32)
+        low, high = (0.0, 1.0) if self.clip else (-np.inf, np.inf)
+        self.observation_space = gym.spaces.Box(low, high, shape=(len(out_names),), dtype=np.float32)
 
     def observation(self, observation: np.ndarray) -> np.ndarray:
         values = []

@@ -277,7 +277,8 @@ def sac_policy(env, episodes: int, seed: int, backend: str, threads: int = 1, pr
     returns (raw observation -> environment action, training wall seconds, training CPU seconds, the
     precision the updates ran in)."""
 
-    wrapped = NormalizedActionWrapper(NormalizedObservationWrapper(env))
+    # the paper's (upstream's) scaling: unclipped, so its SAC numbers stay comparable
+    wrapped = NormalizedActionWrapper(NormalizedObservationWrapper(env, clip=False))
     trained = train_sac(wrapped, episodes, seed, backend, threads, precision)
     obs_wrapper = wrapped.env
     low, span = wrapped.low, wrapped.span

@@ -54,6 +54,16 @@ def test_episode_length_and_termination(schema):
         env.step(env.action_space.sample())
 
 
+def test_episode_length_is_known_before_the_first_reset(schema):
+    """``SAC.learn(total_timesteps=2 * env.episode_length)`` on a fresh env must not train 0 steps."""
+    env = CityLearnEnv(schema)
+    assert env.episode_length == 96
+    env.reset(seed=0)
+    assert env.episode_length == 96
+    split = CityLearnEnv(citylearn_env.load_schema(schema).replace(episode_time_steps=24))
+    assert split.episode_length == 24
+
+
 def test_seeded_determinism(schema):
     a = _episode(CityLearnEnv(schema), seed=7)
     b = _episode(CityLearnEnv(schema), seed=7)

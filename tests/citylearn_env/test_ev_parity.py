@@ -5,18 +5,12 @@ citylearn==2.5.0 on citylearn_challenge_2022_phase_all_plus_evs, central agent, 
 ``numpy.random.default_rng(20250).uniform(low, high, (8760, 26))``, global ``numpy.random`` seeded 20250).
 It is an independent run of upstream's code, not our output.
 
-Step timing. CityLearn 2.5 acts at t and then advances (step call k acts on row k); this environment keeps
-CityLearn 2.1's timing in every preset (call k advances to row k + 1 and acts there; row 0 is uncontrolled).
-So call k here gets the table's row k + 1, and every row 1..8758 sees the same action as upstream's row.
-What differs is the start: upstream's row 0 is controlled by table row 0 (its batteries and plugged EVs move),
-ours is not; and upstream never acts on row 8759. Batteries forget the start once they hit a limit and an EV
-once it arrives again, so the comparison runs from row ``SETTLED`` = 500 on. What remains there is
-float32 storage (upstream keeps SOC and consumption in float32) and the capacity fade of the one step that
-differs: <= 1e-5 in SOC, <= 1e-3 kWh per charger step, <= 1e-2 kWh per building step (measured 4.4e-3,
-Building_17). KPIs include the start and the two unmatched rows (upstream's row 0 also books the
-uncontrolled and the controlled consumption together): 0.5 % relative, for the 94 KPI rows both tables
-have (measured: at most 0.45 %, Building_1's zero_net_energy, whose net sum is small; the district rows
-within 0.06 %).
+Step timing. The 2.5 preset has CityLearn 2.5's (``settings.act_then_advance``): step call k acts on row k, row 0
+included, and row T - 1 is never acted on; row 0 is booked as 2.5.0 books it (``first_step_booked_three_times``).
+So call k plays the table's row k, as upstream's call k does, and every acted row compares from the first: what
+remains is float32 storage (upstream keeps SOC and consumption in float32): <= 1e-6 in SOC, <= 1e-4 kWh per
+charger and per building step (measured 4.9e-7, 1.9e-5 and 2.0e-5 kWh). KPIs: every row of upstream's table,
+by its names, within 1e-4 relative (measured: all 293).
 """
 
 from __future__ import annotations
@@ -31,7 +25,8 @@ from tests.conftest import ROOT, SHARED, need_shared
 
 EV_DATASET = SHARED / "data" / "citylearn" / "upstream" / "v2.4.2" / "citylearn_challenge_2022_phase_all_plus_evs"
 REFERENCE = ROOT / "benchmarks" / "upstream_2_5_0" / "ev_actions.json"
-SETTLED = 500
+#: rows compared: every row upstream acted on (0 .. T - 2)
+SETTLED = 0
 
 
 @pytest.fixture(scope="module")
@@ -49,7 +44,7 @@ def run():
                                                        size=(steps, len(ref["action_names"])))
     env.reset(seed=ref["seed"])  # the 2.5 preset draws EV drift from RandomState(seed), as upstream's global numpy
     for k in range(steps - 1):
-        env.step(table[k + 1])
+        env.step(table[k])
     return env, ref
 
 
@@ -65,10 +60,11 @@ def test_district_and_building_net_consumption(run):
     rows = slice(SETTLED, ref["time_steps"] - 1)
     net = env.series()["net_electricity_consumption"]
     np.testing.assert_allclose(net.sum(axis=0)[rows], np.array(ref["district_net_electricity_consumption"])[rows],
-                               atol=2e-2)
+                               atol=1e-4)
     for b, name in enumerate(env.building_names):
         np.testing.assert_allclose(net[b, rows], np.array(ref["building_net_electricity_consumption"][name])[rows],
-                                   atol=1e-2, err_msg=name)
+                                   atol=1e-4, err_msg=name)
+    assert net.sum() == pytest.approx(ref["district_net_electricity_consumption_sum"], rel=1e-8)
 
 
 def test_ev_soc_and_charger_consumption(run):
@@ -77,38 +73,27 @@ def test_ev_soc_and_charger_consumption(run):
     district = env.district
     for v, name in enumerate(district.ev.vehicles.names):
         np.testing.assert_allclose(district.ev_record.soc[v, rows], np.array(ref["ev_soc"][name])[rows],
-                                   atol=1e-5, err_msg=name)
+                                   atol=1e-6, err_msg=name)
     for c, name in enumerate(district.ev.chargers.names):
         np.testing.assert_allclose(district.charger_record.electricity_consumption[c, rows],
-                                   np.array(ref["charger_electricity_consumption"][name])[rows], atol=1e-3,
+                                   np.array(ref["charger_electricity_consumption"][name])[rows], atol=1e-4,
                                    err_msg=name)
-
-
-#: not comparable: upstream's all-time peak (its ``annual_peak_average`` here) is its row 0, where CityLearn 2.5
-#: books the uncontrolled and the controlled consumption together (99.7 kWh; our row 0 is uncontrolled)
-NOT_COMPARABLE = ("all_time_peak_average",)
 
 
 def test_kpi_rows(run):
     env, ref = run
-    ours = {(r.cost_function, r.name): r.value for r in env.evaluate().itertuples()}
-    compared = 0
+    ours = {(r.cost_function, r.name): float(r.value) for r in env.evaluate().itertuples()}
+    assert len(ours) == len(ref["kpis"])
     for row in ref["kpis"]:
-        if row["cost_function"] in NOT_COMPARABLE:
-            continue
-        theirs, mine = row["value"], ours.get((row["cost_function"], row["name"]))
-        if theirs is None or mine is None or not np.isfinite(theirs):
-            continue
-        assert mine == pytest.approx(theirs, rel=5e-3, abs=1e-6), (row["cost_function"], row["name"])
-        compared += 1
-    assert compared >= 90  # 17 buildings x 5 energy KPIs, plus the district's
+        theirs = np.nan if row["value"] is None else row["value"]
+        mine = ours[(row["cost_function"], row["name"])]
+        assert mine == pytest.approx(theirs, rel=1e-4, abs=1e-9, nan_ok=True), (row["cost_function"], row["name"])
 
 
 def test_no_control_energy_of_the_ev_dataset():
     """Every action inactive: no charger acts and no machine starts, so the energy is the buildings' alone;
-    CityLearn 2.5.0 gives 24,232.6 kWh (benchmarks/upstream_2_5_0/no_control.json, docs/ev.md section 8).
-    Measured -0.045 % (24,221.7 kWh), the size of the v2.4.2 no-control differences of the EV-free sets
-    (benchmarks/README.md, CityLearn 2.5.0 section); upstream's last row also stays 0: tolerance 0.1 %."""
+    CityLearn 2.5.0 gives 24,232.6 kWh (benchmarks/upstream_2_5_0/no_control.json, docs/ev.md section 8); the
+    2.5 preset books it as 2.5.0 does (its first and last rows included): 1e-6 relative."""
     reference = ROOT / "benchmarks" / "upstream_2_5_0" / "no_control.json"
     if not reference.exists():
         pytest.skip(f"{reference} absent: run benchmarks/ev_upstream.py --only no-control")
@@ -120,4 +105,4 @@ def test_no_control_energy_of_the_ev_dataset():
     for _ in range(env.episode_length - 1):
         env.step(np.zeros(0))
     assert env.series()["chargers_electricity_consumption"].sum() == 0.0
-    assert float(env.series()["net_electricity_consumption"].sum()) == pytest.approx(theirs, rel=1e-3)
+    assert float(env.series()["net_electricity_consumption"].sum()) == pytest.approx(theirs, rel=1e-6)

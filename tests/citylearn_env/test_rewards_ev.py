@@ -3,13 +3,10 @@
 The parity reference is ``benchmarks/upstream_2_5_0/ev_rewards.json`` (``benchmarks/ev_reward_upstream.py``:
 citylearn==2.5.0 on citylearn_challenge_2022_phase_all_plus_evs with the schema's own reward, central agent and
 one agent per building, the seeded action table of ``ev_actions.json``, first 600 step calls), an independent run
-of upstream's code. Alignment as tests/citylearn_env/test_ev_parity.py: upstream's step call k acts on row k,
-ours acts on row k + 1, so call k here gets table row k + 1 and our reward at row t is compared with upstream's
-reward of call t. Rows 1..23 differ by up to 12 score points: upstream's row 0 is controlled (plugged EVs and
-batteries move), ours is not, and the discrete terms see different SOCs until every EV has reconnected. From row
-``SETTLED`` = 24 on, no term flips; what remains is the multiplier 1 / (1 + |MARL|), whose MARL value follows the
-buildings' net consumption (float32 storage upstream, <= 1e-2 kWh per building; docs/ev.md section 10): measured
-at most 7.4e-5 relative (1.4e-3 points on a central reward of 26), tolerance 2e-4 relative to max(|r|, 1).
+of upstream's code. The 2.5 preset has upstream's step timing (``settings.act_then_advance``): step call k acts on
+row k and scores it, so call k here plays table row k and its reward is compared with upstream's call k, from the
+first call (``SETTLED`` = 0). What remains is float32 storage upstream: measured at most 2.0e-6 (central) and 3.5e-6
+(per building) relative to max(|r|, 1), tolerance 2e-4.
 """
 
 from __future__ import annotations
@@ -29,7 +26,7 @@ EV_DATASET = SHARED / "data" / "citylearn" / "upstream" / "v2.4.2" / "citylearn_
 REFERENCE = ROOT / "benchmarks" / "upstream_2_5_0" / "ev_rewards.json"
 ACTIONS = ROOT / "benchmarks" / "upstream_2_5_0" / "ev_actions.json"
 TYPE = "citylearn.reward_function.Electric_Vehicles_Reward_Function"
-SETTLED = 24
+SETTLED = 0
 
 
 # ------------------------------------------------------------------------------------------ by hand
@@ -123,8 +120,8 @@ def our_rewards(ref: dict, actions: dict, central: bool) -> tuple[list[str], np.
                                                        size=(ref["time_steps"], len(ref["action_low"])))
     env.reset(seed=ref["seed"])
     out = []
-    for k in range(ref["steps"] - 1):
-        _, reward, _, _, info = env.step(table[k + 1])
+    for k in range(ref["steps"]):
+        _, reward, _, _, info = env.step(table[k])
         out.append(reward if central else info["building_rewards"].copy())
     return env.building_names, np.array(out)
 
@@ -132,8 +129,8 @@ def our_rewards(ref: dict, actions: dict, central: bool) -> tuple[list[str], np.
 def test_central_rewards_match_upstream(reference):
     ref, actions = reference
     _, ours = our_rewards(ref, actions, central=True)
-    theirs = np.array(ref["central"])[1:]
-    rows = slice(SETTLED - 1, None)
+    theirs = np.array(ref["central"])
+    rows = slice(SETTLED, None)
     np.testing.assert_allclose(ours[rows], theirs[rows], rtol=2e-4, atol=2e-4)
     assert np.abs(theirs[rows]).max() > 10.0  # the comparison sees real scores
 
@@ -141,8 +138,8 @@ def test_central_rewards_match_upstream(reference):
 def test_per_building_rewards_match_upstream(reference):
     ref, actions = reference
     names, ours = our_rewards(ref, actions, central=False)
-    theirs = np.array([ref["decentral"][name] for name in names]).T[1:]
-    rows = slice(SETTLED - 1, None)
+    theirs = np.array([ref["decentral"][name] for name in names]).T
+    rows = slice(SETTLED, None)
     np.testing.assert_allclose(ours[rows], theirs[rows], rtol=2e-4, atol=2e-4)
     without_chargers = [b for b, name in enumerate(names) if not any(theirs[:, b])]
     assert len(without_chargers) == 10  # 8 chargers in 7 of the 17 buildings; the rest score 0 upstream too

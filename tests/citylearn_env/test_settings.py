@@ -522,6 +522,24 @@ def test_battery_action_fraction_of_nominal_power(tmp_path):
     assert balance == pytest.approx(25.0) and high == 1.0
 
 
+def test_battery_autosize_from_placeholder_pv(tmp_path):
+    from citylearn_env import pv_battery_autosize as pvb
+    from citylearn_env.example import write_example_district
+
+    path = write_example_district(tmp_path, n_buildings=1, hours=48, seed=5)
+    raw = json.loads(path.read_text())
+    raw["buildings"]["Building_1"]["electrical_storage"].update(
+        autosize=True, autosize_attributes={"duration": 2.0, "safety_factor": 1.0})
+    path.write_text(json.dumps(raw))
+    b = load_schema(path).buildings[0]
+    peak = pvb.baseline_consumption(b.series, b.cooling_device, b.heating_device, b.dhw_device).reshape(-1, 24)
+    # corrected: CityLearn 2.2+'s rule (mean daily peak consumption for 2 h); 2.1: the zero-size PV's peak, 0
+    assert b.electrical_storage.capacity == pytest.approx(peak.max(axis=1).mean() * 2.0)
+    assert b.electrical_storage.capacity > 0
+    old = load_schema(path, settings=flipped("battery_autosize_from_placeholder_pv")).buildings[0]
+    assert old.electrical_storage.capacity == 0.0
+
+
 def test_battery_defaults_drawn(tmp_path):
     from citylearn_env.config import DEFAULT_CAPACITY_POWER_CURVE, DEFAULT_POWER_EFFICIENCY_CURVE
 
@@ -537,3 +555,210 @@ def test_battery_defaults_drawn(tmp_path):
     assert drawn.power_efficiency_curve[3] == pytest.approx((0.75 + 0.1 * u, 0.9))
     assert drawn.power_efficiency_curve[0] == pytest.approx((0.0, 0.9 * (0.85 + 0.05 * u)))
     assert drawn.capacity_power_curve[-1] == pytest.approx((1.0, 0.2 + 0.1 * u))
+
+
+# ------------------------------------------------------------------------------------------ CityLearn 2.5 dynamics
+def _example_edited(tmp_path, edit=None, hours: int = 48) -> str:
+    """The one-building example district (dhw_storage and electrical_storage actions), edited by ``edit(raw)``."""
+    from citylearn_env.example import write_example_district
+
+    path = write_example_district(tmp_path, n_buildings=1, hours=hours, seed=3)
+    raw = json.loads(path.read_text())
+    if edit is not None:
+        edit(raw)
+    path.write_text(json.dumps(raw))
+    return str(path)
+
+
+def test_thermal_device_defaults_drawn(tmp_path):
+    from citylearn_env.ev import upstream_device_seed, upstream_uniform
+
+    def edit(raw):
+        raw["random_seed"] = 7
+        b = raw["buildings"]["Building_1"]
+        b["dhw_storage"]["attributes"].pop("loss_coefficient")
+        b["cooling_device"]["attributes"] = {"nominal_power": 2.0}
+
+    path = _example_edited(tmp_path, edit)
+    fixed = load_schema(path).buildings[0]
+    assert fixed.dhw_storage.efficiency == 1.0 and fixed.dhw_storage.loss_coefficient == 0.006
+    assert (fixed.cooling_device.efficiency, fixed.cooling_device.target_cooling_temperature) == (0.2, 8.0)
+    drawn = load_schema(path, settings=flipped("thermal_device_defaults_drawn")).buildings[0]
+    # one number u per device from its upstream seed: low + (high - low) u for each left-out attribute
+    u_tank, u_pump = (upstream_uniform(upstream_device_seed("Building_1", "citylearn.building.Building", slot,
+                                                            f"citylearn.energy_model.{cls}", 7))
+                      for slot, cls in (("dhw_storage", "StorageTank"), ("cooling_device", "HeatPump")))
+    assert drawn.dhw_storage.efficiency == 0.9 + (0.98 - 0.9) * u_tank
+    assert drawn.dhw_storage.loss_coefficient == 0.001 + (0.009 - 0.001) * u_tank
+    assert drawn.cooling_device.efficiency == 0.2 + (0.3 - 0.2) * u_pump
+    assert drawn.cooling_device.target_cooling_temperature == 7.0 + (10.0 - 7.0) * u_pump
+    assert drawn.cooling_device.target_heating_temperature == 45.0 + (50.0 - 45.0) * u_pump
+    assert drawn.cooling_device.nominal_power == 2.0 and drawn.dhw_device == fixed.dhw_device  # given: kept
+
+
+def _first_call(path: str, settings: Behaviour, action: np.ndarray):
+    """The env after reset and one step call with ``action``."""
+    from citylearn_env import CityLearnEnv
+
+    env = CityLearnEnv(path, settings=settings)
+    env.reset(seed=0)
+    env.step(action)
+    return env
+
+
+def test_storage_action_scaled_by_other_tank(tmp_path):
+    path = _example_edited(tmp_path)
+    action = np.array([0.5, 0.0])  # dhw_storage, electrical_storage
+    own = _first_call(path, CORRECTED, action).district.end_use("dhw").record.storage_soc[0, 1]
+    other = _first_call(path, flipped("storage_action_scaled_by_other_tank"), action)
+    # half the DHW tank's capacity charges it; CityLearn 2.5 scales by the (absent, 0 kWh) heating tank
+    assert own > 0.3 and other.district.end_use("dhw").record.storage_soc[0, 1] == 0.0
+
+
+def test_thermal_storage_bounds_from_device_power(tmp_path):
+    from citylearn_env import CityLearnEnv
+
+    def edit(raw):
+        raw["buildings"]["Building_1"]["dhw_storage"]["attributes"]["capacity"] = 4.0
+
+    path = _example_edited(tmp_path, edit)
+    building = load_schema(path).buildings[0]
+    peak, power = building.series["dhw_demand"].max(), building.dhw_device.nominal_power
+    # +-peak DHW demand / capacity (2.1), or +-heater power [kW] / capacity (2.5)
+    assert CityLearnEnv(path).action_space.high[0] == pytest.approx(peak / 4.0)
+    assert CityLearnEnv(path, settings=flipped("thermal_storage_bounds_from_device_power")).action_space.high[0] \
+        == pytest.approx(power / 4.0)
+    assert abs(power - peak) > 0.05
+
+
+def test_act_then_advance(tmp_path):
+    from citylearn_env import CityLearnEnv
+
+    path = _example_edited(tmp_path)
+    charge = np.array([0.0, 0.5])  # the battery charges
+    for settings, acted in ((CORRECTED, 1), (flipped("act_then_advance"), 0)):
+        env = _first_call(path, settings, charge)
+        soc, net = env.district.battery_record.soc[0], env.district.building_record.net_electricity_consumption[0]
+        assert env.t == 1 and soc[acted] > soc[1 - acted]  # 2.1: rows 0 (initial) then 1; 2.5: row 0 charged
+        assert np.isfinite(env.rewards[acted]) and np.isnan(env.rewards[1 - acted])
+    # 2.5: the observation is row 1 before control (battery SOC 0, net 0, as 2.5.0 shows it) and row T - 1 is
+    # never acted on
+    env = CityLearnEnv(path, settings=flipped("act_then_advance"))
+    obs, _ = env.reset(seed=0)
+    names = env.observation_names
+    obs, *_ = env.step(charge)
+    net = env.district.building_record.net_electricity_consumption[0]
+    assert obs[names.index("Building_1.electrical_storage_soc")] == 0.0 == net[1]
+    for _ in range(env.episode_length - 2):
+        env.step(charge)
+    assert env.t == env.episode_length - 1 and net[-1] == 0.0 and net[-2] != 0.0
+
+
+def test_first_step_booked_three_times(tmp_path):
+    path = _example_edited(tmp_path)
+    base = replace(CORRECTED, act_then_advance=True)  # row 0 is acted on only with CityLearn 2.5's timing
+    zeros = np.zeros(2)
+    once = _first_call(path, base, zeros).district
+    thrice = _first_call(path, replace(base, first_step_booked_three_times=True), zeros).district
+    # no storage use: devices and the non-shiftable load booked at reset, at the call and at the update
+    row = once.episode
+    loads = row["non_shiftable_load"][0, 0] + row["cooling_demand"][0, 0] / once.end_use("cooling").cop[0, 0] \
+        + row["dhw_demand"][0, 0] / 0.9
+    net_once = once.building_record.net_electricity_consumption[0, 0]
+    assert net_once == pytest.approx(loads - row.pv_generation[0, 0])
+    assert thrice.building_record.net_electricity_consumption[0, 0] == pytest.approx(net_once + 2 * loads)
+    assert thrice.building_record.net_electricity_consumption[0, 1] == 0.0  # row 1 not acted on yet
+    # without act_then_advance row 0 is never acted on: the field alone changes nothing
+    assert _first_call(path, flipped("first_step_booked_three_times"), zeros).district.building_record \
+        .net_electricity_consumption[0, 0] == pytest.approx(net_once)
+
+
+def _mode_switch_district(tmp_path, heating_load: float = 0.0) -> str:
+    """The tiny-LSTM district of test_upstream_later (lookback 2, one v2.2 ``dynamics`` model, combined action)
+    with hvac_mode switching between cooling (1) and heating (2) every 6 hours; heating rows carry
+    ``heating_load`` kWh of ideal heating load."""
+    from tests.citylearn_env.test_upstream_later import lstm_district
+
+    path = lstm_district(tmp_path, hvac_mode=1.0)
+    csv = tmp_path / "Building_1.csv"
+    frame = pd.read_csv(csv)
+    mode = np.where((np.arange(len(frame)) // 6) % 2 == 0, 1.0, 2.0)
+    frame["hvac_mode"] = mode
+    frame["heating_demand"] = np.where(mode == 2, heating_load, 0.0)
+    frame["cooling_demand"] = np.where(mode == 1, frame["cooling_demand"], 0.0)
+    frame.to_csv(csv, index=False)
+    return str(path)
+
+
+def _zero_episode(path: str, settings: Behaviour):
+    from citylearn_env import CityLearnEnv
+
+    env = CityLearnEnv(path, settings=settings)
+    env.reset(seed=0)
+    for _ in range(env.episode_length - 1):
+        env.step(np.zeros(env.action_space.shape))
+    return env
+
+
+def test_lstm_one_model_across_modes(tmp_path):
+    from types import SimpleNamespace
+
+    from citylearn_env.dynamics import separate_heating_model
+
+    block = DynamicsBlock("m.pth", input_observation_names=("indoor_dry_bulb_temperature",),
+                          input_normalization_minimum=(10.0,), input_normalization_maximum=(30.0,),
+                          hidden_size=1, num_layers=1, lookback=1)
+    single = SimpleNamespace(cooling_model=block, heating_model=block)  # how a v2.2 schema's model loads
+    pair = SimpleNamespace(cooling_model=block, heating_model=replace(block))  # a v2.1 cooling/heating pair
+    one = flipped("lstm_one_model_across_modes")
+    assert separate_heating_model(single, CORRECTED) and not separate_heating_model(single, one)
+    assert separate_heating_model(pair, CORRECTED) and separate_heating_model(pair, one)
+    # in an episode: the data set's 22 degC stays wherever the model warms up again (2.1's reading: the lookback
+    # = 2 rows from every switch, which serve the ideal load too, as does the row after), never after the first
+    # warm-up with one model
+    path = _mode_switch_district(tmp_path)
+    kept = {}
+    for settings in (CORRECTED, one):
+        temperature = _zero_episode(path, settings).series()["indoor_dry_bulb_temperature"][0]
+        kept[settings] = int((temperature[3:] == 22.0).sum())
+    assert kept[one] == 0 and kept[CORRECTED] == 2 * 7  # 7 switches in rows 3..47
+
+
+def test_kpi_partial_load_heating_cop_of_last_step(tmp_path):
+    path = _mode_switch_district(tmp_path, heating_load=1.0)
+    saved = {}
+    for settings in (CORRECTED, flipped("kpi_partial_load_heating_cop_of_last_step")):
+        env = _zero_episode(path, settings)
+        s = env.series()
+        saved[settings] = s["net_electricity_consumption_without_storage_and_partial_load"][0] \
+            - s["net_electricity_consumption_without_storage"][0]
+        heating = s["heating_demand_without_partial_load"][0] - s["heating_demand"][0]
+        cooling = (s["cooling_demand_without_partial_load"][0] - s["cooling_demand"][0]) / s["cooling_device_cop"][0]
+        cop = s["heating_device_cop"][0]
+    assert heating.sum() > 5.0 and np.ptp(cop) > 0.1  # heat not served, at varying COP
+    np.testing.assert_allclose(saved[CORRECTED], cooling + heating / cop, rtol=1e-12)
+    # CityLearn 2.1 / 2.5: every step's heating difference over the COP of the last step
+    np.testing.assert_allclose(saved[flipped("kpi_partial_load_heating_cop_of_last_step")],
+                               cooling + heating / cop[-1], rtol=1e-12)
+
+
+def test_kpi_names_2_5():
+    series = hand_series()
+    series["indoor_dry_bulb_temperature_cooling_set_point"] = np.full((2, 48), 23.0)
+    series["indoor_dry_bulb_temperature_heating_set_point"] = np.full((2, 48), 22.5)
+    table = kpis.evaluate(series, ["a", "b"], dynamics=[True, True], settings=flipped("kpi_names_2_5"))
+    assert set(table["cost_function"]) == {*kpis.BUILDING_KPIS_2_5, *kpis.DISTRICT_KPIS_2_5}
+    value = table.set_index(["cost_function", "name"])["value"]
+    # a: 26 degC on 6 of its 24 occupied steps, 3 above the cooling set point (band 2): hot; b: 20 degC on 12 of 48,
+    # 2.5 below the heating set point: cold. Deltas over every step, unoccupied ones 0
+    assert value["discomfort_hot_proportion", "a"] == pytest.approx(6 / 24) and value["discomfort_cold_proportion",
+                                                                                     "a"] == 0.0
+    assert value["discomfort_cold_proportion", "b"] == pytest.approx(12 / 48)
+    assert value["discomfort_hot_delta_average", "a"] == pytest.approx(3 * 6 / 48)
+    assert value["discomfort_cold_delta_maximum", "b"] == 2.5 and value["discomfort_cold_delta_minimum", "b"] == 0.0
+    # ramping: increases only, the control series one step short (47 steps: 23 rises of 1 kWh); baseline 24 x 4
+    assert value["ramping_average", "District"] == pytest.approx(23 / 96)
+    assert value["all_time_peak_average", "District"] == pytest.approx(3 / 6.5)
+    corrected = kpis.evaluate(series, ["a", "b"], dynamics=[True, True])
+    assert "annual_peak_average" in set(corrected["cost_function"]) and "discomfort_cold_proportion" not in \
+        set(corrected["cost_function"])

@@ -115,9 +115,12 @@ def test_make_vec_returns_the_batched_vector_env():
 def test_clipped_normalised_observations(tmp_path):
     schema = write_example_district(tmp_path, n_buildings=2, hours=48)
     env = CityLearnEnv(schema)
-    clipped = NormalizedObservationWrapper(CityLearnEnv(schema), clip=True)
-    plain = NormalizedObservationWrapper(env)
+    clipped = NormalizedObservationWrapper(CityLearnEnv(schema))  # clip=True is the default
+    plain = NormalizedObservationWrapper(env, clip=False)
     raw = np.asarray(env.observation_space.high, dtype=np.float64) + 100.0  # far above every bound
     assert plain.observation(raw).max() > 1.0
+    # unclipped values are declared as such: the space never claims [0, 1] for values that leave it
+    assert np.isinf(plain.observation_space.low).all() and np.isinf(plain.observation_space.high).all()
+    assert plain.observation_space.contains(plain.observation(raw))
     out = clipped.observation(raw)
-    assert out.min() >= 0.0 and out.max() <= 1.0
+    assert out.min() >= 0.0 and out.max() <= 1.0 and clipped.observation_space.contains(out)

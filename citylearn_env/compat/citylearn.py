@@ -1,0 +1,296 @@
+"""``CityLearnEnv`` with CityLearn 2.1's API over the native environment (mirrors ``citylearn.citylearn``).
+
+An upstream program runs after replacing ``citylearn.`` with ``citylearn_env.compat.`` in its imports:
+``CityLearnEnv(dataset name | schema path | schema dict, central_agent=, buildings=, simulation_start_time_step=,
+simulation_end_time_step=, episode_time_steps=, random_seed=, reward_function=, ...)``; observations and actions
+as lists of lists (one list for a central agent, one per building otherwise); rewards as lists; ``reset()``
+returning ``(observations, info)`` and ``step()`` five values (gymnasium API, as CityLearn 2.1.2 with gym 0.26);
+``time_steps``, ``terminated``, ``episode_tracker``, ``rewards``, ``episode_rewards``, ``get_metadata()``,
+``evaluate()`` and ``env.buildings[i]`` (:mod:`citylearn_env.compat.building`).
+
+The physics is the native environment's (:attr:`CityLearnEnv.native`), run with ``settings`` (default
+"citylearn-2.1": CityLearn 2.1.2's numbers, its quirks included; docs/compat.md). The environment is reset once
+at construction, as upstream, so ``time_steps`` (alias ``episode_length``) and the observations are known before
+the first ``reset()``; the first ``reset()`` still starts episode 0.
+"""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+import uuid
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+from citylearn_env.compat.base import EpisodeTracker
+from citylearn_env.compat.building import Building, BuildingObservations, building_view
+from citylearn_env.compat.loading import read_config, resolve_schema
+from citylearn_env.compat.results import EvaluationCondition, Results, action_vector, available
+from citylearn_env.compat.reward_function import RewardFunction, computes_natively, reward_from_keyword
+from citylearn_env.compat.utilities import read_json
+from citylearn_env.config import DistrictConfig
+from citylearn_env.env import CityLearnEnv as NativeEnv
+from citylearn_env.errors import SchemaError
+from citylearn_env.settings import Behaviour, resolve
+
+#: the behaviour preset a compat environment runs unless ``settings=`` says otherwise
+DEFAULT_SETTINGS = "citylearn-2.1"
+
+
+class CityLearnEnv(Results, gym.Env):
+    """CityLearn 2.1's environment API over :class:`citylearn_env.env.CityLearnEnv` (see the module docstring).
+
+    ``settings``: a :class:`~citylearn_env.settings.Behaviour` or preset name ("citylearn-2.1", the default;
+    "citylearn-2.5"; "corrected"). Other keywords as upstream; per-building lists of active observations or
+    actions and ``Building`` objects are not accepted.
+    """
+
+    metadata = {"render_modes": []}
+
+    def __init__(self, schema: Any, root_directory: str | Path | None = None, buildings: list[Any] | None = None,
+                 simulation_start_time_step: int | None = None, simulation_end_time_step: int | None = None,
+                 episode_time_steps: Any = None, rolling_episode_split: bool | None = None,
+                 random_episode_split: bool | None = None, seconds_per_time_step: float | None = None,
+                 reward_function: Any = None, reward_function_kwargs: dict[str, Any] | None = None,
+                 central_agent: bool | None = None, shared_observations: list[str] | None = None,
+                 active_observations: list[str] | None = None, inactive_observations: list[str] | None = None,
+                 active_actions: list[str] | None = None, inactive_actions: list[str] | None = None,
+                 simulate_power_outage: bool | None = None, solar_generation: bool | None = None,
+                 random_seed: int | None = None, *, settings: Behaviour | str | None = None, **kwargs: Any) -> None:
+        if kwargs:
+            raise SchemaError(f"unsupported keyword(s) {', '.join(sorted(kwargs))}", column="CityLearnEnv")
+        self.settings = resolve(DEFAULT_SETTINGS if settings is None else settings)
+        self.schema_source = resolve_schema(schema, self.settings)
+        keywords = dict(
+            root_directory=root_directory, buildings=buildings, simulation_start_time_step=simulation_start_time_step,
+            simulation_end_time_step=simulation_end_time_step, episode_time_steps=episode_time_steps,
+            rolling_episode_split=rolling_episode_split, random_episode_split=random_episode_split,
+            seconds_per_time_step=seconds_per_time_step, central_agent=central_agent,
+            shared_observations=shared_observations, active_observations=active_observations,
+            inactive_observations=inactive_observations, active_actions=active_actions,
+            inactive_actions=inactive_actions, simulate_power_outage=simulate_power_outage,
+            solar_generation=solar_generation, random_seed=random_seed)
+        base = read_config(self.schema_source, keywords, self.settings)
+        self.reward_function = reward_from_keyword(reward_function, reward_function_kwargs, base.reward_function)
+        self.uid = uuid.uuid4().hex
+        self._base, self._ignored, self._no_actions = base, frozenset(), False
+        self._rewards: list[list[float]] = [[]]
+        self._episode_rewards: list[dict[str, list[float]]] = []
+        self._build(episode=-1)
+        #: one read-only view per building (:mod:`citylearn_env.compat.building`)
+        self.buildings: list[Building] = [building_view(self, i, b.has_dynamics) for i, b in enumerate(base.buildings)]
+        self._bind_reward()
+
+    # ------------------------------------------------------------------ construction
+    def _effective_config(self) -> DistrictConfig:
+        """The base config with the temperature models of ``ignore_dynamics`` buildings and (BaselineAgent) every
+        action removed."""
+        config = self._base
+        if self._ignored:
+            config = config.replace(buildings=tuple(
+                dataclasses.replace(b, cooling_model=None, heating_model=None) if i in self._ignored else b
+                for i, b in enumerate(config.buildings)))
+        return config.with_actions(()) if self._no_actions else config
+
+    def _build(self, episode: int) -> None:
+        """(Re)build the native environment, reset it once (spaces, ``time_steps``, observations known) and put its
+        episode counter at ``episode`` so the next ``reset()`` starts episode ``episode + 1``."""
+        native_reward = computes_natively(self.reward_function)
+        spec = self.reward_function.native_spec() if native_reward else "default"
+        self.native = NativeEnv(self._effective_config(), settings=self.settings, reward_function=spec)
+        self._native_reward = native_reward
+        native = self.native
+        native.reset()
+        native.episode = episode
+        self.series_names = frozenset(native.series())
+        view = native.step_observations()
+        self._reward_names = tuple(n for n in view if available(view, n))
+        lo, hi = native.observation_bounds
+        pairs, layout = native.action_pairs, native.layout
+        self._action_index = [np.array([i for i, (_, b) in enumerate(pairs) if b == k], dtype=np.intp)
+                              for k in range(len(native.building_names))]
+        self._building_boxes = [gym.spaces.Box(lo[s].astype(np.float32), hi[s].astype(np.float32), dtype=np.float32)
+                                for s in layout.building_slices]
+        low, high = native.action_space.low, native.action_space.high
+        self._action_boxes = [gym.spaces.Box(low[ix], high[ix], dtype=np.float32) for ix in self._action_index]
+
+    def _rebuild(self) -> None:
+        if self.native.t not in (0, self.native.episode_length - 1):
+            raise SchemaError("can only change the environment between episodes (before a step or at the end)",
+                              column="CityLearnEnv")
+        self._build(episode=self.native.episode)
+        self._bind_reward()
+
+    def _bind_reward(self) -> None:
+        """Give the reward upstream's ``env_metadata`` (and a compat reward this environment's settings)."""
+        if isinstance(self.reward_function, RewardFunction):
+            self.reward_function.compat_settings = self.settings
+        self.reward_function.env_metadata = self.get_metadata()
+
+    # ------------------------------------------------------------------ upstream properties
+    @property
+    def config(self) -> DistrictConfig:
+        """The typed config the native environment runs."""
+        return self.native.config
+
+    @property
+    def time_step(self) -> int:
+        return self.native.t
+
+    @property
+    def time_steps(self) -> int:
+        """Time steps in the current episode (known from construction); ``time_steps - 1`` step calls."""
+        return self.native.episode_length
+
+    episode_length = time_steps
+
+    @property
+    def terminated(self) -> bool:
+        return self.time_step == self.time_steps - 1
+
+    done = terminated
+
+    @property
+    def truncated(self) -> bool:
+        return False
+
+    @property
+    def episode(self) -> int:
+        return max(self.native.episode, 0)
+
+    @property
+    def episode_tracker(self) -> EpisodeTracker:
+        return EpisodeTracker(self)
+
+    @property
+    def episode_time_steps(self) -> Any:
+        """Episode length [time steps] or inclusive (start, end) time-step splits; settable between episodes."""
+        value = self.config.episode_time_steps
+        return self.episode_tracker.simulation_time_steps if value is None else value
+
+    @episode_time_steps.setter
+    def episode_time_steps(self, value: Any) -> None:
+        self._base = self._base.with_episode(value)
+        self._rebuild()
+
+    @property
+    def rolling_episode_split(self) -> bool:
+        return self.config.rolling_episode_split
+
+    @property
+    def random_episode_split(self) -> bool:
+        return self.config.random_episode_split
+
+    @property
+    def central_agent(self) -> bool:
+        return self.config.central_agent
+
+    @property
+    def shared_observations(self) -> list[str]:
+        return list(self.config.shared_observations)
+
+    @property
+    def seconds_per_time_step(self) -> float:
+        return float(self.config.seconds_per_time_step)
+
+    @property
+    def random_seed(self) -> int | None:
+        return self.config.random_seed
+
+    @property
+    def schema(self) -> dict[str, Any]:
+        """The schema as a dict (read again from its file; a copy for a dict)."""
+        source = self.schema_source
+        if isinstance(source, (str, Path)):
+            return read_json(source)
+        return copy.deepcopy(dict(source)) if isinstance(source, dict) else {}
+
+    @property
+    def observation_space(self) -> list[gym.spaces.Box]:
+        return [self.native.observation_space] if self.central_agent else list(self._building_boxes)
+
+    @property
+    def action_space(self) -> list[gym.spaces.Box]:
+        return [self.native.action_space] if self.central_agent else list(self._action_boxes)
+
+    @property
+    def observation_names(self) -> list[list[str]]:
+        if self.central_agent:
+            return [self.native.layout.names(central=True)]
+        return [self.observation_names_of(i) for i in range(len(self.buildings))]
+
+    @property
+    def action_names(self) -> list[list[str]]:
+        names = [self.action_names_of(i) for i in range(len(self._action_index))]
+        return [[n for b in names for n in b]] if self.central_agent else names
+
+    @property
+    def observations(self) -> list[list[float]]:
+        """The observations at the current time step (float32 values as Python floats)."""
+        flat = self.native.flat_observations()
+        if self.central_agent:
+            return [flat[self.native.layout.central_index].astype(np.float32).tolist()]
+        return [flat[s].astype(np.float32).tolist() for s in self.native.layout.building_slices]
+
+    @property
+    def rewards(self) -> list[list[float]]:
+        """Rewards of the current episode; ``rewards[0]`` is the empty placeholder of the reset step."""
+        return self._rewards
+
+    @property
+    def episode_rewards(self) -> list[dict[str, list[float]]]:
+        """min, max, sum and mean of the rewards of every finished episode."""
+        return self._episode_rewards
+
+    # ------------------------------------------------------------------ gymnasium API
+    def reset(self, *, seed: int | None = None, options: dict | None = None) -> tuple[list[list[float]], dict]:
+        """Start the next episode at t = 0; the reward function's ``reset()`` is called."""
+        super().reset(seed=seed)
+        self.native.reset(seed=seed, options=options)
+        self.reward_function.reset()
+        self._rewards = [[]]
+        return self.observations, self.get_info()
+
+    def step(self, actions: Any) -> tuple[list[list[float]], list[float], bool, bool, dict]:
+        """Apply ``actions`` (``[[...]]`` for a central agent, one list per building otherwise) at t + 1."""
+        _, reward, terminated, truncated, info = self.native.step(action_vector(
+            actions, self._action_index, self.native.action_space.shape[0], self.central_agent))
+        if self._native_reward:
+            values = info.get("building_rewards")
+            value = [float(reward)] if values is None else [float(v) for v in values]
+        else:
+            value = self.reward_function.calculate(observations=[
+                BuildingObservations(self.native.step_observations(), i, self._reward_names)
+                for i in range(len(self.buildings))])
+            value = [float(value)] if np.isscalar(value) else [float(v) for v in value]
+        self._rewards.append(value)
+        if terminated:
+            r = np.array(self._rewards[1:], dtype="float32")
+            self._episode_rewards.append({k: getattr(r, k)(axis=0).tolist() for k in ("min", "max", "sum", "mean")})
+        return self.observations, value, terminated, truncated, self.get_info()
+
+    def get_info(self) -> dict[str, Any]:
+        """What ``step`` and ``reset`` return as ``info`` (empty, as upstream)."""
+        return {}
+
+    def ignores_dynamics(self, index: int) -> bool:
+        return index in self._ignored
+
+    def set_ignore_dynamics(self, index: int, flag: bool) -> None:
+        """Switch building ``index``'s temperature model off (True) or on; rebuilds between episodes."""
+        ignored = self._ignored | {index} if flag else self._ignored - {index}
+        if ignored != self._ignored:
+            self._ignored = frozenset(ignored)
+            self._rebuild()
+
+    def deactivate_actions(self) -> None:
+        """No active action in any building (what upstream's ``BaselineAgent`` does to its environment)."""
+        if not self._no_actions:
+            self._no_actions = True
+            self._rebuild()
+
+
+__all__ = ["DEFAULT_SETTINGS", "CityLearnEnv", "EvaluationCondition"]

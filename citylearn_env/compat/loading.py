@@ -1,0 +1,158 @@
+"""From an upstream-style ``CityLearnEnv(schema, **keywords)`` call to the typed :class:`DistrictConfig` the native
+environment runs.
+
+``schema`` is a data-set name (:mod:`citylearn_env.compat.data`), a schema path, a schema dict or a
+``DistrictConfig``. Keywords that change what is read from the files -- ``root_directory``,
+``simulation_start_time_step``, ``simulation_end_time_step`` and ``buildings`` (which may pick buildings the
+schema excludes) -- are applied to a copy of the schema before its single load, as upstream does; every other
+keyword is a typed edit of the loaded config (never of the JSON).
+"""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+from citylearn_env.compat.data import dataset_schema_path, dataset_version, is_dataset_name
+from citylearn_env.compat.utilities import read_json
+from citylearn_env.config import DistrictConfig
+from citylearn_env.errors import SchemaError
+from citylearn_env.schema import load_schema
+from citylearn_env.settings import Behaviour
+
+#: keywords applied to the schema before it is read (they decide which rows and files are read)
+READ_KEYWORDS = ("root_directory", "simulation_start_time_step", "simulation_end_time_step", "buildings")
+#: keywords applied to the loaded, typed config
+TYPED_KEYWORDS = ("central_agent", "episode_time_steps", "rolling_episode_split", "random_episode_split",
+                  "seconds_per_time_step", "random_seed", "shared_observations", "active_observations",
+                  "inactive_observations", "active_actions", "inactive_actions", "simulate_power_outage",
+                  "solar_generation")
+
+
+def resolve_schema(schema: Any, settings: Behaviour | str) -> str | Path | Mapping[str, Any] | DistrictConfig:
+    """A data-set name becomes its cached ``schema.json`` path; anything else is returned as given."""
+    if is_dataset_name(schema):
+        return dataset_schema_path(schema, dataset_version(settings))
+    return schema
+
+
+def _raw(schema: str | Path | Mapping[str, Any]) -> dict[str, Any]:
+    """A deep copy of the schema as a dict, ``root_directory`` absolute for a schema file (it resolves against
+    the file's folder, as the file itself would)."""
+    if isinstance(schema, Mapping):
+        return copy.deepcopy(dict(schema))
+    path = Path(schema)
+    if not path.is_file():
+        raise SchemaError("schema file not found", file=path)
+    raw = read_json(path)
+    root = raw.get("root_directory")
+    folder = path.resolve().parent
+    raw["root_directory"] = str(folder if not root else (folder / root).resolve())
+    return raw
+
+
+def _building_names(raw: Mapping[str, Any], buildings: Sequence[Any]) -> list[str]:
+    """Schema building names of ``buildings`` (names, or indices into every schema building, as upstream)."""
+    names = list(raw.get("buildings") or {})
+    chosen = []
+    for b in buildings:
+        if isinstance(b, str) and b in names:
+            chosen.append(b)
+        elif isinstance(b, int) and not isinstance(b, bool) and -len(names) <= b < len(names):
+            chosen.append(names[b])
+        else:
+            raise SchemaError(f"unknown building {b!r}; the schema has {', '.join(names)} (names or indices; "
+                              "Building objects are not accepted)", column="buildings")
+    return chosen
+
+
+def read_config(schema: Any, keywords: Mapping[str, Any], settings: Behaviour) -> DistrictConfig:
+    """Load ``schema`` with the read keywords applied, then apply the typed ones."""
+    given = {k: v for k, v in keywords.items() if v is not None}
+    if isinstance(schema, DistrictConfig):
+        if any(k in given for k in READ_KEYWORDS):
+            raise SchemaError(f"{', '.join(k for k in READ_KEYWORDS if k in given)} cannot change a loaded "
+                              "DistrictConfig; pass the schema path or dict", column="schema")
+        return apply_typed(schema, given)
+    chosen = None
+    if any(k in given for k in READ_KEYWORDS):
+        raw = _raw(schema)
+        for key in ("root_directory", "simulation_start_time_step", "simulation_end_time_step"):
+            if key in given:
+                raw[key] = str(given[key]) if key == "root_directory" else given[key]
+        if "buildings" in given:
+            chosen = _building_names(raw, given["buildings"])
+            for name, spec in raw["buildings"].items():
+                if isinstance(spec, dict):
+                    spec["include"] = name in chosen
+        schema = raw
+    config = load_schema(schema, settings=settings)
+    if chosen is not None:
+        config = config.with_buildings(chosen)
+    return apply_typed(config, given)
+
+
+def _per_building(config: DistrictConfig, field: str, drop: Sequence[str]) -> DistrictConfig:
+    """Every building with the names in ``drop`` removed from its ``field`` (active observations or actions;
+    ``electric_vehicle_storage`` also drops each charger's action)."""
+    def keep(name: str) -> bool:
+        return name not in drop and not any(name.startswith(f"{d}_") and d == "electric_vehicle_storage"
+                                            for d in drop)
+
+    return config.replace(buildings=tuple(
+        dataclasses.replace(b, **{field: tuple(n for n in getattr(b, field) if keep(n))}) for b in config.buildings))
+
+
+def _flat_names(value: Any, keyword: str) -> list[str]:
+    """A list of names for every building; per-building lists of lists are not supported."""
+    if isinstance(value, str) or not isinstance(value, Sequence) or any(not isinstance(v, str) for v in value):
+        raise SchemaError("expected one list of names for every building (per-building lists are not "
+                          "supported)", column=keyword)
+    return list(value)
+
+
+def _active(config: DistrictConfig, given: Mapping[str, Any]) -> DistrictConfig:
+    """The observation and action keywords: shared, active and inactive names (one list for every building)."""
+    if "shared_observations" in given:
+        shared = set(_flat_names(given["shared_observations"], "shared_observations"))
+        config = config.replace(observations=tuple((n, n in shared) for n, _ in config.observations))
+    if "active_observations" in given:
+        config = config.with_observations(_flat_names(given["active_observations"], "active_observations"),
+                                          shared=config.shared_observations)
+    if "inactive_observations" in given:
+        config = _per_building(config, "active_observations",
+                               _flat_names(given["inactive_observations"], "inactive_observations"))
+    if "active_actions" in given:
+        config = config.with_actions(_flat_names(given["active_actions"], "active_actions"))
+    if "inactive_actions" in given:
+        config = _per_building(config, "active_actions", _flat_names(given["inactive_actions"], "inactive_actions"))
+    return config
+
+
+def _devices(config: DistrictConfig, given: Mapping[str, Any]) -> DistrictConfig:
+    """``simulate_power_outage`` (False: none; True: the schema must define some) and ``solar_generation=False``."""
+    if given.get("simulate_power_outage") is False:
+        config = config.without_outages()
+    elif given.get("simulate_power_outage") and not any(b.outage.simulate for b in config.buildings):
+        raise SchemaError("no building of the schema defines power outages to simulate",
+                          column="simulate_power_outage")
+    if given.get("solar_generation") is False:
+        config = config.without_devices("pv")
+    return config
+
+
+def apply_typed(config: DistrictConfig, given: Mapping[str, Any]) -> DistrictConfig:
+    """``config`` with the typed keywords in ``given`` applied (upstream's meaning of each keyword)."""
+    replace = {k: given[k] for k in ("central_agent", "rolling_episode_split", "random_episode_split",
+                                     "seconds_per_time_step", "random_seed") if k in given}
+    if replace:
+        config = config.replace(**{k: (bool(v) if k.endswith(("agent", "split")) else v) for k, v in replace.items()})
+    if "episode_time_steps" in given:
+        config = config.with_episode(given["episode_time_steps"])
+    return _devices(_active(config, given), given)
+
+
+__all__ = ["READ_KEYWORDS", "TYPED_KEYWORDS", "apply_typed", "read_config", "resolve_schema"]
