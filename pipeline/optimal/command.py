@@ -1,0 +1,139 @@
+"""The oracle as one call for the CLI: :func:`optimal` loads a schema, plans the storage with perfect foresight,
+replays the plan in the environment, prints and returns the result and writes the schedule as CSV.
+
+The district is the schema's, with the heat-pump and heater actions inactive (the devices serve the data set's
+ideal loads, as in the paper's storage benchmarks: :func:`pipeline.controllers.without_device_actions`) and one
+episode over the data rows ``start`` .. ``end``. The environment runs with the given behaviour preset (default:
+the corrected one, ``citylearn_env.settings.CORRECTED``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from citylearn_env import CityLearnEnv, load_schema
+from citylearn_env.config import DistrictConfig
+from citylearn_env.settings import PRESETS, resolve
+from pipeline.controllers import without_device_actions
+from pipeline.errors import InputError
+from pipeline.optimal import objectives as obj
+from pipeline.optimal.oracle import Oracle, Schedule, oracle
+from pipeline.optimal.replay import Replay, replay
+
+UNITS = {"cost": "$", "emissions": "kg", "consumption": "kWh", "average_daily_peak": "kW"}
+
+
+@dataclass(frozen=True)
+class Result:
+    """What :func:`optimal` found: the ``oracle`` (bound, objectives, schedule), the ``replay`` in the env (None
+    when not replayed), the behaviour ``preset`` name, the episode's first and last data rows, the CSV written
+    and how the replay followed the plan (``track``)."""
+
+    oracle: Oracle
+    replay: Replay | None
+    preset: str
+    start: int
+    end: int
+    csv: Path | None = None
+    track: str = "soc"
+
+    @property
+    def bound(self) -> float:
+        """The oracle's value of the objective (weighted sum for weights) over the episode."""
+        return self.oracle.value
+
+    def summary(self) -> str:
+        """A few lines: objective, bound vs no control, each objective, the replay's gap, the solve."""
+        o = self.oracle
+        used = [k for k, w in o.weights.items() if w]
+        name = used[0] if len(used) == 1 else " + ".join(f"{o.weights[k]:.4g} {k}" for k in used)
+        lines = [f"oracle: minimum {name} over data rows {self.start}..{self.end} "
+                 f"({o.schedule.net.shape[1]} steps, {o.schedule.net.shape[0]} buildings, "
+                 f"{len(o.schedule.storages)} storages; env preset {self.preset})"]
+        for k in obj.OBJECTIVES:
+            base, best = o.baseline[k], o.objectives[k]
+            change = f"{(best - base) / abs(base) * 100:+.2f} %" if base else "n/a"
+            replayed = "" if self.replay is None else \
+                f"; env ({self.track} replay) {self.replay.objectives[k]:.6g} ({_percent(self.replay.gap[k])})"
+            lines.append(f"  {k:19s} {best:14.6g} {UNITS[k]:3s} (no control {base:.6g} {UNITS[k]}, {change}){replayed}")
+        lines.append(f"  solved in {o.seconds:.2f} s ({o.iterations} LP solves of the largest group, "
+                     f"{o.size[0]} columns x {o.size[1]} rows; plan vs physics {o.path_error:.1e} of capacity)")
+        if self.csv is not None:
+            lines.append(f"  schedule: {self.csv}")
+        return "\n".join(lines)
+
+
+def _percent(gap: float) -> str:
+    return "gap n/a" if not np.isfinite(gap) else f"gap {gap * 100:+.4f} %"
+
+
+def district(schema: str | Path | Mapping[str, Any] | DistrictConfig, *, start: int | None = None,
+             end: int | None = None, settings: Any = None) -> DistrictConfig:
+    """The storage-planning district of ``schema``: device actions inactive, one episode over the data rows
+    ``start`` .. ``end`` (inclusive; default: the schema's first explicit episode split if it lists them, else
+    its simulation range)."""
+    config = schema if isinstance(schema, DistrictConfig) else load_schema(schema, settings=resolve(settings))
+    first, last = config.simulation_start_time_step, config.simulation_end_time_step
+    splits = config.episode_time_steps
+    default = splits[0] if isinstance(splits, tuple) and splits else (first, last)
+    start = default[0] if start is None else int(start)
+    end = default[1] if end is None else int(end)
+    if not first <= start < end <= last:
+        raise InputError(f"the episode {start}..{end} must lie inside the simulation range {first}..{last} "
+                         "with at least two steps", column="start/end")
+    return without_device_actions(config).with_episode([(start, end)]).replace(random_episode_split=False)
+
+
+def preset_name(settings: Any = None) -> str:
+    """The preset name of ``settings`` ("custom" for an edited one)."""
+    behaviour = resolve(settings)
+    return next((name for name, preset in PRESETS.items() if preset == behaviour), "custom")
+
+
+def optimal(schema: str | Path | Mapping[str, Any] | DistrictConfig, objective: str | Mapping[str, float] = "cost",
+            start: int | None = None, end: int | None = None, out: str | Path | None = None, *,
+            settings: Any = None, seed: int = 0, normalise: bool = False, check: bool = True, track: str = "soc",
+            workers: int = 1, quiet: bool = False) -> Result:
+    """The perfect-foresight optimum of ``schema``'s storage for ``objective`` (a name of
+    :data:`pipeline.optimal.objectives.OBJECTIVES` or ``{name: weight}``; ``normalise`` divides the weights
+    by the no-control values) over the data rows ``start`` .. ``end``.
+
+    ``out``: write the schedule there as CSV (:func:`write_schedule`); ``settings``: the env's behaviour preset
+    (default corrected); ``seed``: the reset seed (stochastic outages are drawn from it); ``check``: replay the
+    schedule in the env and report the gap, following its states of charge (``track="soc"``) or its energies
+    open loop (``"energy"``; :mod:`pipeline.optimal.replay`); ``workers``: processes solving buildings in
+    parallel; ``quiet``: print nothing. Returns a :class:`Result` (its ``bound``, ``summary()``).
+    """
+    config = district(schema, start=start, end=end, settings=settings)
+    env = CityLearnEnv(config, settings=settings)
+    env.reset(seed=seed)
+    solution = oracle(env, objective, normalise=normalise, workers=workers)
+    checked = replay(env, solution.schedule, seed=seed, track=track) if check else None
+    first = config.episode_time_steps[0]
+    csv = write_schedule(solution.schedule, out, first=first[0]) if out is not None else None
+    result = Result(oracle=solution, replay=checked, preset=preset_name(settings), start=first[0], end=first[1],
+                    csv=csv, track=track)
+    if not quiet:
+        print(result.summary())
+    return result
+
+
+def write_schedule(schedule: Schedule, path: str | Path, *, first: int = 0) -> Path:
+    """Write ``schedule`` as CSV: ``time_step`` (data row, from ``first``), then per storage
+    ``<building>.<slot>.action`` (the action applied at that step; 0 at the uncontrolled first step) and
+    ``<building>.<slot>.soc`` (state of charge after the step). Returns the path."""
+    import pandas as pd  # lazy: only when a file is written
+
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    columns: dict[str, np.ndarray] = {"time_step": first + np.arange(schedule.action.shape[1])}
+    for row, (building, slot) in enumerate(schedule.storages):
+        columns[f"{building}.{slot}.action"] = schedule.action[row]
+        columns[f"{building}.{slot}.soc"] = schedule.soc[row]
+    pd.DataFrame(columns).to_csv(path, index=False, float_format="%.10g")
+    return path

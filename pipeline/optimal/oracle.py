@@ -1,0 +1,255 @@
+"""The perfect-foresight optimum of a district's storage over one episode: solve the LP of
+:mod:`pipeline.optimal.lp`, make its battery efficiencies consistent with the schedule, return the schedule.
+
+The env's battery physics that is not linear, and how the oracle makes the LP agree with it:
+
+* round-trip efficiency = power-efficiency curve at |energy| / nominal power, per step. The LP takes one fixed
+  efficiency per step (a secant through 0: stored = sqrt(efficiency) x charge). Solve 1 uses the battery's
+  nominal efficiency; after every solve the efficiencies (and the previous-step efficiency of the depth-of-
+  discharge limit) are recomputed from the schedule's own energies and the LP is solved again. The curve is
+  not concave (the default one rises from 0.83 to 0.9 and falls to 0.85), so plain re-solving can flip between
+  two plans; from solve :data:`FREE_SOLVES` + 1 on each battery step is kept within a trust radius of the last
+  plan that shrinks by :data:`TRUST_SHRINK` per solve, which makes the efficiencies converge. It stops when the
+  plan follows the env's physics within :data:`PATH_TOLERANCE` of capacity (``Oracle.path_error``).
+* capacity fade (capacity_loss x C x |energy| / (2 x usable capacity) per step): the usable capacity path is
+  recomputed from the schedule's throughput in the same loop.
+* the capacity-power curve (power limit falling with the state of charge) is linear in E per segment and is
+  exact in the LP for a concave curve such as the default one (plant.curve_lines).
+
+Without the peak objective the buildings do not interact and each one is solved on its own (same optimum,
+smaller LPs; each building's first solve starts from the previous building's basis when the LPs have the
+same shape, and ``workers`` > 1 solves chunks of buildings in parallel processes); with it the district is
+one LP. (Merging batteries that are scaled copies of each other would shrink that LP but is not exact: with a
+power-dependent efficiency, batteries at different powers can beat the same batteries in lockstep -- 1.2 % on
+the peak of citylearn_challenge_2022_phase_1's month.) Every solve after the first of a group restarts from
+the previous basis.
+
+What the value is: the optimum of the LP at the efficiencies it converged to, for a plan the env executes as
+planned (replay gaps of at most 1e-3 % on every upstream dataset). It is not a certified lower bound on every
+policy: the non-concave efficiency curve makes the env's problem non-convex (the fixed point is a local
+optimum of it), and the plant restricts three rare situations (no tank discharge where the heater or heat pump
+is undersized; charging during an outage only from the PV surplus; a battery decays below its depth-of-
+discharge floor only through a penalised slack). With tanks only, the LP is (but for those restrictions)
+the env's problem exactly.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from pipeline.optimal import objectives as obj
+from pipeline.optimal.lp import build
+from pipeline.optimal.plant import Plant, battery_path, path_error, plant_from_env, trust
+from pipeline.optimal.solver import SolveError, solve
+
+#: stop refreshing the battery efficiencies when the planned path is this close to the env's [fraction of capacity]
+PATH_TOLERANCE = 1e-4
+#: solves without a trust region; later ones keep each battery step within a radius of the last plan
+FREE_SOLVES = 2
+#: the first trust radius [fraction of nominal power], and the factor it shrinks by at every later solve
+TRUST_RADIUS = 0.1
+TRUST_SHRINK = 0.1
+MAX_ITERATIONS = 12
+
+
+@dataclass(frozen=True, eq=False)
+class Schedule:
+    """The planned operation of every controllable storage, (S, T) over the episode's T steps: ``energy``
+    [kWh, device side, > 0 charging; 0 at step 0], ``held`` [kWh after the step], ``action`` [the env's action:
+    energy / action scale], ``soc`` [-]; ``storages`` (building name, slot) per row; ``net`` (B, T) [kWh]: each
+    building's planned net consumption; ``scale`` (S,) [kWh per unit of action]."""
+
+    storages: tuple[tuple[str, str], ...]
+    energy: np.ndarray
+    held: np.ndarray
+    action: np.ndarray
+    soc: np.ndarray
+    net: np.ndarray
+    scale: np.ndarray
+
+
+@dataclass(frozen=True, eq=False)
+class Oracle:
+    """An oracle solution. ``weights``: the objective; ``value``: the weighted objective of the schedule;
+    ``objectives`` / ``baseline``: the four objectives of the schedule / of no control (storages idle);
+    ``iterations``: LP solves of the building group that needed most; ``path_error``: how far the planned
+    battery paths are from the env's physics at their own powers [fraction of capacity]; ``solve_seconds``:
+    HiGHS time summed over the LPs; ``seconds``: the whole oracle (wall); ``size``: (columns, rows, non-zeros)
+    of the largest LP."""
+
+    weights: Mapping[str, float]
+    value: float
+    objectives: Mapping[str, float]
+    baseline: Mapping[str, float]
+    schedule: Schedule
+    iterations: int
+    path_error: float
+    solve_seconds: float
+    seconds: float
+    size: tuple[int, int, int]
+
+
+@dataclass(frozen=True, eq=False)
+class Group:
+    """Solved storages of one group of buildings: device-side and held energies (S, n) in the group plant's
+    storage order, the number of solves, the plan's distance to the physics [fraction of capacity], HiGHS
+    seconds, the LP size and the first solve's basis (a start for the next group of the same shape)."""
+
+    plant: Plant
+    energy: np.ndarray
+    held: np.ndarray
+    iterations: int
+    path_error: float
+    solve_seconds: float
+    size: tuple[int, int, int]
+    first_basis: Any = None
+
+
+def oracle(env, objective: str | Mapping[str, float] = "cost", *, normalise: bool = False,
+           workers: int = 1) -> Oracle:
+    """The oracle of ``env``'s current episode (call ``env.reset(seed=...)`` first: the outage signal of that
+    reset is the one planned for). ``objective``: a name of :data:`objectives.OBJECTIVES` or weights;
+    ``normalise``: divide the weights by the no-control values (a sum of ratios); ``workers``: processes
+    solving buildings in parallel (objectives without the peak only)."""
+    return solve_plant(plant_from_env(env), objective, normalise=normalise, workers=workers)
+
+
+def solve_plant(plant: Plant, objective: str | Mapping[str, float] = "cost", *, normalise: bool = False,
+                workers: int = 1, solver: str = "choose", solves: int = MAX_ITERATIONS, joint: bool = False) -> Oracle:
+    """The oracle of ``plant`` (see :func:`oracle`; ``solver``: HiGHS's solver option; ``solves``: at most
+    this many LP solves per building group; ``joint``: one LP for the district even when the buildings do not
+    interact -- fewer, larger solves, for short horizons)."""
+    began = time.perf_counter()
+    weights = obj.weights_of(objective)
+    baseline = obj.values(plant.base_net, plant.price, plant.carbon)
+    if normalise:
+        weights = obj.normalised(weights, baseline)
+    owners = sorted({s.building for s in plant.storages})
+    if (joint or weights[obj.PEAK] > 0) and owners:
+        plants = [plant]  # one LP; buildings without storage count in the district's peak
+    else:
+        plants = [plant.only([b]) for b in owners]
+    if workers > 1 and len(plants) > 1:
+        from pipeline.runners import ProcessRunner  # only when asked for: spawns worker processes
+
+        chunks = {str(i): (plants[i::workers], weights, solver, solves) for i in range(min(workers, len(plants)))}
+        done = ProcessRunner(len(chunks)).map("oracle", solve_groups, chunks)
+        solved = [g for chunk in done.values() for g in chunk]
+    else:
+        solved = solve_groups(plants, weights, solver, solves)
+    schedule = _schedule(plant, solved)
+    values = obj.values(schedule.net, plant.price, plant.carbon)
+    return Oracle(weights=weights, value=obj.weighted(values, weights), objectives=values, baseline=baseline,
+                  schedule=schedule, iterations=max((g.iterations for g in solved), default=0),
+                  path_error=max((g.path_error for g in solved), default=0.0),
+                  solve_seconds=sum(g.solve_seconds for g in solved), seconds=time.perf_counter() - began,
+                  size=max((g.size for g in solved), default=(0, 0, 0)))
+
+
+def solve_groups(plants: Sequence[Plant], weights: Mapping[str, float], solver: str = "choose",
+                 solves: int = MAX_ITERATIONS) -> list[Group]:
+    """Solve the building groups ``plants`` one after the other, each first solve starting from the previous
+    group's first basis (used only when the LP has the same shape). The bases are dropped from the result
+    (HiGHS objects do not cross process boundaries)."""
+    out: list[Group] = []
+    for plant in plants:
+        out.append(solve_group(plant, weights, solver, start=out[-1].first_basis if out else None, limit=solves))
+    return [dataclasses.replace(g, first_basis=None) for g in out]
+
+
+def solve_group(plant: Plant, weights: Mapping[str, float], solver: str = "choose", start: Any = None,
+                limit: int = MAX_ITERATIONS) -> Group:
+    """Solve, refresh the battery efficiencies and usable capacity from the schedule, and solve again (warm
+    started; in a shrinking trust region around the last plan after :data:`FREE_SOLVES` solves) until the plan
+    follows the env's physics within :data:`PATH_TOLERANCE` or ``limit`` solves were made; keep
+    the plan closest to the physics. A trust region that leaves no feasible plan (the refreshed efficiencies
+    moved the last plan out of reach) is widened and the solve repeated."""
+    seconds, basis, first, best = 0.0, start, None, None
+    center, radius, solves = None, None, 0
+    while solves < limit:
+        solves += 1
+        lp = build(_windowed(plant, center, radius), weights)
+        try:
+            solution = solve(lp, basis=basis, solver=solver)
+        except SolveError:
+            if best is None or radius is None or radius >= 1.0:
+                raise
+            radius /= TRUST_SHRINK ** 2
+            continue
+        seconds, basis = seconds + solution.seconds, solution.basis
+        first = basis if first is None else first
+        energy, held = _energies(lp.columns, solution.x, len(plant.storages))
+        refreshed, error = _refresh(plant, energy, held)
+        if best is None or error < best[0]:
+            best = (error, plant, energy, held)
+        if error <= PATH_TOLERANCE:
+            break
+        plant, center = refreshed, energy
+        if solves >= FREE_SOLVES:
+            radius = TRUST_RADIUS if radius is None else radius * TRUST_SHRINK
+    error, plant, energy, held = best
+    size = (int(lp.cost.size), int(lp.row_lower.size), int(lp.value.size))
+    return Group(plant, energy, held, solves, error, seconds, size, first)
+
+
+def _refresh(plant: Plant, energy: np.ndarray, held: np.ndarray) -> tuple[Plant, float]:
+    """``plant`` with its batteries' efficiencies and usable capacity recomputed from the planned ``energy``
+    (S, n), and how far the plan (``energy``, ``held``) is from the physics [fraction of capacity]."""
+    refreshed = tuple(battery_path(s, e) if s.battery is not None else s
+                      for s, e in zip(plant.storages, energy, strict=True))
+    error = max((path_error(new, e, h) / new.capacity for new, e, h in zip(refreshed, energy, held, strict=True)
+                 if new.battery is not None), default=0.0)
+    return dataclasses.replace(plant, storages=refreshed), error
+
+
+def _windowed(plant: Plant, center: np.ndarray | None, radius: float | None) -> Plant:
+    """``plant`` with every battery step within ``radius`` x nominal power of ``center`` (S, n) [kWh] (no
+    window when ``radius`` is None)."""
+    if radius is None:
+        return plant
+    return dataclasses.replace(plant, storages=tuple(
+        trust(s, e, radius * s.battery.nominal_power) if s.battery is not None else s
+        for s, e in zip(plant.storages, center, strict=True)))
+
+
+def _energies(cols, x: np.ndarray, count: int) -> tuple[np.ndarray, np.ndarray]:
+    """Device-side energy (charge - discharge) and held energy, (count, n), from the LP solution ``x``."""
+    n = cols.n
+    energy = np.array([x[cols.charge[s]:cols.charge[s] + n] - x[cols.discharge[s]:cols.discharge[s] + n]
+                       for s in range(count)]).reshape(count, n)
+    held = np.array([x[cols.energy[s]:cols.energy[s] + n] for s in range(count)]).reshape(count, n)
+    return energy, held
+
+
+def _schedule(plant: Plant, solved: Sequence[Group]) -> Schedule:
+    """The district's schedule (every storage of ``plant``, in its order) from the solved groups."""
+    found: dict[tuple[str, str], tuple[np.ndarray, np.ndarray]] = {}
+    for g in solved:
+        for s, storage in enumerate(g.plant.storages):
+            found[(g.plant.building_names[storage.building], storage.slot)] = (g.energy[s], g.held[s])
+    keys = storage_keys(plant)
+    shape = (len(keys), plant.steps)
+    energy, held = np.zeros(shape), np.zeros(shape)
+    action, soc = np.zeros(shape), np.zeros(shape)
+    net = plant.base_net.copy()
+    for row, (key, storage) in enumerate(zip(keys, plant.storages, strict=True)):
+        e, h = found[key]
+        energy[row, 1:], held[row, 0], held[row, 1:] = e, storage.initial_energy, h
+        action[row] = energy[row] / storage.action_scale
+        soc[row] = held[row] / storage.capacity
+        live = ~plant.outage[storage.building, 1:]
+        net[storage.building, 1:] += np.where(live, storage.electricity * e, 0.0)
+    return Schedule(storages=keys, energy=energy, held=held, action=action, soc=soc, net=net,
+                    scale=np.array([s.action_scale for s in plant.storages]))
+
+
+def storage_keys(plant: Plant) -> tuple[tuple[str, str], ...]:
+    """(building name, slot) of every controllable storage of ``plant``, in its order."""
+    return tuple((plant.building_names[s.building], s.slot) for s in plant.storages)
+

@@ -1,0 +1,97 @@
+"""Solve a :class:`pipeline.optimal.lp.LinearProgram` with HiGHS through ``highspy``.
+
+Why HiGHS/highspy: HiGHS is the open-source LP solver that is actively maintained (MIT licence, released with
+binary wheels for every platform, the default LP solver of SciPy and of most modelling layers); its Python
+binding takes a row-wise sparse matrix directly, so no modelling layer (Pyomo, PuLP, CVXPY) is needed between
+the numpy arrays of :mod:`pipeline.optimal.lp` and the solver; and its dual simplex and interior-point codes
+solve a district-year storage LP (about a million variables) in seconds. ``highspy`` is imported here only,
+when a problem is solved (it belongs to the ``pipeline`` extra).
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import time
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from pipeline.optimal.lp import LinearProgram
+
+
+def new_highs(highspy):
+    """A silent ``highspy.Highs``. HiGHS prints a banner to the process's standard output when the first
+    instance is made, before any option can be set: that construction runs with file descriptor 1 pointed at
+    the null device (nothing else is printed meanwhile)."""
+    global _BANNER_SHOWN
+    if _BANNER_SHOWN:
+        h = highspy.Highs()
+    else:
+        sys.stdout.flush()
+        saved = os.dup(1)
+        try:
+            with open(os.devnull, "w") as null:
+                os.dup2(null.fileno(), 1)
+                h = highspy.Highs()
+        finally:
+            os.dup2(saved, 1)
+            os.close(saved)
+        _BANNER_SHOWN = True
+    h.setOptionValue("output_flag", False)
+    return h
+
+
+_BANNER_SHOWN = False
+
+
+class SolveError(RuntimeError):
+    """HiGHS did not find an optimal solution (infeasible, unbounded, time limit ...)."""
+
+
+@dataclass(frozen=True)
+class Solution:
+    """``x``: the optimal column values; ``objective``: cost . x without the penalties, plus the constant;
+    ``seconds``: wall time of HiGHS (loading the model and solving); ``iterations``: simplex + IPM iterations;
+    ``basis``: (columns, rows, HiGHS's final basis), a warm start for an LP of that shape."""
+
+    x: np.ndarray
+    objective: float
+    seconds: float
+    iterations: int
+    basis: Any = None
+
+
+def solve(lp: LinearProgram, *, basis: Any = None, solver: str = "choose", time_limit: float = float("inf"),
+          threads: int = 1) -> Solution:
+    """Solve ``lp``; raise :class:`SolveError` unless HiGHS reports an optimum. ``basis``: a previous
+    solution's basis (used when its shape fits ``lp``: the simplex restarts from it); ``solver``: HiGHS's
+    ``solver`` option ("choose", "simplex", "ipm", "pdlp"); ``threads``: HiGHS's thread count."""
+    import highspy  # lazy: the optimal package's only dependency beyond the environment
+
+    h = new_highs(highspy)
+    h.setOptionValue("solver", solver)
+    h.setOptionValue("threads", int(threads))
+    if np.isfinite(time_limit):
+        h.setOptionValue("time_limit", float(time_limit))
+    n, m = int(lp.cost.size), int(lp.row_lower.size)
+    began = time.perf_counter()
+    loaded = h.passModel(n, m, int(lp.value.size), int(highspy.MatrixFormat.kRowwise.value),
+                int(highspy.ObjSense.kMinimize.value), 0.0, lp.cost, lp.lower, lp.upper, lp.row_lower, lp.row_upper,
+                lp.start.astype(np.int32), lp.index.astype(np.int32), lp.value,
+                np.zeros(n, dtype=np.int32))  # every column continuous
+    if loaded != highspy.HighsStatus.kOk:
+        raise SolveError(f"HiGHS refused the model ({n} columns, {m} rows): {loaded}")
+    if basis is not None and basis[:2] == (n, m):
+        h.setBasis(basis[2])
+    h.run()
+    seconds = time.perf_counter() - began
+    status = h.getModelStatus()
+    if status != highspy.HighsModelStatus.kOptimal:
+        raise SolveError(f"HiGHS: {h.modelStatusToString(status)} ({lp.cost.size} columns, {lp.row_lower.size} rows)")
+    x = np.asarray(h.getSolution().col_value, dtype=float)
+    info = h.getInfo()
+    return Solution(x=x, objective=float(lp.objective @ x + lp.constant), seconds=seconds,
+                    iterations=int(info.simplex_iteration_count + max(info.ipm_iteration_count, 0)),
+                    basis=(n, m, h.getBasis()))
