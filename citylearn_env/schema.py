@@ -262,7 +262,8 @@ def _device(slot: str, spec: Mapping[str, Any] | None, where: str, series: Mappi
     attributes = spec.get("autosize_attributes")
     later = {"PV": pvb.PV_KEYS, "Battery": pvb.BATTERY_KEYS}.get(cls, ())
     sf = autosize.safety_factor(attributes, where, extra_keys=later)
-    if cls == "PV" and (set(attributes or {}) - {"safety_factor"} or isinstance(attributes.get("safety_factor"), list)):
+    given = attributes if isinstance(attributes, Mapping) else {}
+    if cls == "PV" and (set(given) - {"safety_factor"} or isinstance(given.get("safety_factor"), list)):
         return _pv_2_2(attributes, where, series, sized, sizing, str(spec.get("type")))
     if cls == "PV":
         efficiency = (spec.get("attributes") or {}).get("efficiency") or 1.0

@@ -28,7 +28,7 @@ def test_time_steps_are_known_before_reset(cache) -> None:
     assert env.time_steps == env.episode_length == END + 1  # what SAC.learn(total_timesteps=2 * ...) reads
     assert env.episode_tracker.episode_time_steps == END + 1 and env.episode_tracker.episode == 0
     assert env.time_step == 0 and not env.terminated and len(env.observations[0]) == 60
-    assert native_env(PHASE_1, simulation_end_time_step=END).episode_length == 0  # the native env's gap
+    assert native_env(PHASE_1, simulation_end_time_step=END).episode_length == END + 1  # the native env too
     env.reset()
     assert env.native.episode == 0  # the construction reset does not use up episode 0
 
