@@ -135,19 +135,10 @@ class Building:
     # ------------------------------------------------------------------ data
     @property
     def energy_simulation(self) -> DataView:
+        """The building's data columns (one view serves upstream's four data objects)."""
         return DataView(self._env, self._index)
 
-    @property
-    def weather(self) -> DataView:
-        return DataView(self._env, self._index)
-
-    @property
-    def pricing(self) -> DataView:
-        return DataView(self._env, self._index)
-
-    @property
-    def carbon_intensity(self) -> DataView:
-        return DataView(self._env, self._index)
+    weather = pricing = carbon_intensity = energy_simulation
 
     @property
     def power_outage_signal(self) -> np.ndarray:

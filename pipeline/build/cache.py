@@ -27,6 +27,8 @@ from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
 
+from pipeline.build.staging import write_new_file
+
 CACHE_ENV = "DISTRICTGEN_CACHE_DIR"
 ENTRY = "entry.json"
 
@@ -114,9 +116,7 @@ class FileCache:
             for name, data in files.items():
                 path = tmp / name
                 path.parent.mkdir(parents=True, exist_ok=True)
-                with open(os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_NOFOLLOW", 0),
-                                  0o644), "wb") as stream:  # a new file in our folder, never through a link
-                    stream.write(data)
+                write_new_file(path, data)  # a new file in our folder, never through a link
                 listing["files"][name] = {"sha256": sha256_bytes(data), "bytes": len(data)}
             (tmp / ENTRY).write_text(json.dumps(listing, indent=2, sort_keys=True, default=str))
             if final.exists():  # damaged (we only put after a failed get): move it aside
