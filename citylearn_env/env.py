@@ -343,4 +343,5 @@ class CityLearnEnv(gym.Env):
 
     def objectives(self, window: slice | None = None) -> dict[str, Any]:
         """The SimBuild paper's five objectives in absolute units over ``window`` of the episode so far."""
-        return kpis.objectives(self.series(), window=window)
+        return kpis.objectives(self.series(), window=window,
+                               one_set_point=self.settings.kpi_discomfort_against_one_set_point)

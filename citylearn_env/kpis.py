@@ -115,17 +115,29 @@ def positive_sum(values: np.ndarray) -> float:
     return float(np.clip(np.asarray(values, dtype=float), 0.0, None).sum())
 
 
+def band_delta(temperature: np.ndarray, heating_set_point: np.ndarray, cooling_set_point: np.ndarray) -> np.ndarray:
+    """Signed distance of the indoor temperature from the comfort band [heating set point, cooling set point]
+    (degC): T - S_heating below the band (negative), T - S_cooling above it (positive), 0 inside. Edges given in
+    the wrong order are swapped. With one set point S for both edges it is T - S."""
+    temperature = np.asarray(temperature, dtype=float)
+    heating, cooling = np.asarray(heating_set_point, dtype=float), np.asarray(cooling_set_point, dtype=float)
+    low, high = np.minimum(heating, cooling), np.maximum(heating, cooling)
+    return temperature - np.clip(temperature, low, high)
+
+
 def discomfort(temperature: np.ndarray, set_point: np.ndarray, band: float, occupants: np.ndarray, *,
-               over_all_steps: bool = False) -> dict[str, float]:
-    """Comfort statistics of one building: proportions of occupied steps with |T - S| > band (too cold:
-    T - S < -band, too hot: T - S > band), and min/max/mean of T - S (degC).
+               over_all_steps: bool = False, cooling_set_point: np.ndarray | None = None) -> dict[str, float]:
+    """Comfort statistics of one building: proportions of occupied steps with |D| > band (too cold: D < -band,
+    too hot: D > band), and min/max/mean of D (degC), D = :func:`band_delta` of the band [``set_point``,
+    ``cooling_set_point``]; without ``cooling_set_point`` the band is the one set point S and D = T - S
+    (CityLearn 2.1).
 
     ``over_all_steps`` (CityLearn 2.1): deltas are zeroed on unoccupied steps and the min/max/mean run over all
     steps; otherwise they run over occupied steps only (NaN when none). Proportions are over occupied steps
     either way (NaN with no occupied step).
     """
     occupied = np.asarray(occupants, dtype=float) > 0.0
-    delta = np.asarray(temperature, dtype=float) - np.asarray(set_point, dtype=float)
+    delta = band_delta(temperature, set_point, set_point if cooling_set_point is None else cooling_set_point)
     delta = np.where(np.asarray(occupants, dtype=float) == 0.0, 0.0, delta)
     n = int(occupied.sum())
     cold, hot = int((delta < -band).sum()), int((delta > band).sum())
@@ -210,6 +222,16 @@ def _prepare(series: Mapping[str, np.ndarray], window: slice | None, n_buildings
     return get
 
 
+def comfort_band_edges(series: Mapping[str, np.ndarray], get, *, one_set_point: bool) -> tuple[np.ndarray, np.ndarray]:
+    """The comfort band's lower and upper edges per building and step (degC): the heating and the cooling set
+    point, or (``one_set_point``, CityLearn 2.1; or a series without the two) the one set point for both."""
+    heating, cooling = "indoor_dry_bulb_temperature_heating_set_point", "indoor_dry_bulb_temperature_cooling_set_point"
+    if one_set_point or heating not in series or cooling not in series:
+        single = get("indoor_dry_bulb_temperature_set_point")
+        return single, single
+    return get(heating), get(cooling)
+
+
 def _nanmean(values: Sequence[float]) -> float:
     values = np.array([np.nan if v is None else v for v in values], dtype=float)
     return float(np.nanmean(values)) if (~np.isnan(values)).any() else float("nan")
@@ -261,7 +283,8 @@ def building_kpis(series: Mapping[str, np.ndarray], building_names: Sequence[str
     out = []
     net, cost, emission = get(NET), get(f"{NET}_cost"), get(f"{NET}_emission")
     pricing, carbon = get("electricity_pricing"), get("carbon_intensity")
-    temperature, set_point = get("indoor_dry_bulb_temperature"), get("indoor_dry_bulb_temperature_set_point")
+    temperature = get("indoor_dry_bulb_temperature")
+    heating, cooling = comfort_band_edges(series, get, one_set_point=settings.kpi_discomfort_against_one_set_point)
     occupants, outage = get("occupant_count"), get("power_outage")
     expected = sum(get(k) for k in DEMANDS)
     served = sum(get(k) for k in DELIVERED)
@@ -269,9 +292,11 @@ def building_kpis(series: Mapping[str, np.ndarray], building_names: Sequence[str
     for b, suffix in enumerate(_conditions(dynamics, settings.kpi_baseline_from_first_building)):
         base_net, base_cost = get(f"{NET}{suffix}")[b], get(f"{NET}_cost{suffix}")[b]
         base_emission = get(f"{NET}_emission{suffix}")[b]
-        comfort = discomfort(temperature[b], set_point[b], comfort_band, occupants[b], over_all_steps=all_steps)
-        resilience = discomfort(temperature[b], set_point[b], comfort_band,
-                                np.where(outage[b] == 0.0, 0.0, occupants[b]), over_all_steps=all_steps)
+        comfort = discomfort(temperature[b], heating[b], comfort_band, occupants[b], over_all_steps=all_steps,
+                             cooling_set_point=cooling[b])
+        resilience = discomfort(temperature[b], heating[b], comfort_band,
+                                np.where(outage[b] == 0.0, 0.0, occupants[b]), over_all_steps=all_steps,
+                                cooling_set_point=cooling[b])
         kpi = {
             "electricity_consumption_total": divide(positive_sum(net[b]), positive_sum(base_net), plain=plain),
             "zero_net_energy": divide(net[b].sum(), base_net.sum(), plain=plain),
@@ -410,11 +435,13 @@ OBJECTIVES = ("cost", "emissions", "discomfort", "consumption", "average_daily_p
 
 
 def objectives(series: Mapping[str, np.ndarray], *, window: slice | None = None,
-               steps_per_day: int = DAY_STEPS) -> dict:
+               steps_per_day: int = DAY_STEPS, one_set_point: bool = False) -> dict:
     """The SimBuild paper's objectives in absolute units over ``window`` (to minimise).
 
     * cost ($) = sum_t max(e, 0) * price; emissions (kg) = sum_t max(e, 0) * carbon intensity;
-      discomfort (degC h) = sum_t |T - T_set|; consumption (kWh) = sum_t max(e, 0) -- per building, summed;
+      discomfort (degC h) = sum_t |D|, D = :func:`band_delta` outside the comfort band [heating set point,
+      cooling set point] (``one_set_point``, CityLearn 2.1: D = T - T_set, the one set point);
+      consumption (kWh) = sum_t max(e, 0) -- per building, summed;
     * average_daily_peak (kW) = (sum over days d of max_t in d of P) * steps_per_day / n, with P the district
       net demand (sum of building net consumption; kWh per 1-h step = kW), days in blocks of
       ``steps_per_day`` from the window start and n the number of steps.
@@ -428,8 +455,8 @@ def objectives(series: Mapping[str, np.ndarray], *, window: slice | None = None,
     per_building = {
         "cost": (grid * get("electricity_pricing")).sum(axis=1),
         "emissions": (grid * get("carbon_intensity")).sum(axis=1),
-        "discomfort": np.abs(get("indoor_dry_bulb_temperature")
-                             - get("indoor_dry_bulb_temperature_set_point")).sum(axis=1),
+        "discomfort": np.abs(band_delta(get("indoor_dry_bulb_temperature"),
+                                        *comfort_band_edges(series, get, one_set_point=one_set_point))).sum(axis=1),
         "consumption": grid.sum(axis=1),
     }
     demand = net.sum(axis=0)

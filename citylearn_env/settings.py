@@ -144,6 +144,12 @@ class Behaviour:
     kpi_baseline_from_first_building: bool = False
     #: the 2023 challenge score summed in float32
     kpi_float32_score: bool = False
+    #: discomfort (the 2.1 KPI table's ``discomfort_*`` and the paper objective ``discomfort``) measured against
+    #: the one set point ``indoor_dry_bulb_temperature_set_point`` (CityLearn 2.1: T - S, where S jumps between the
+    #: heating and the cooling set point with hvac_mode, so a temperature inside the deadband counts) instead of
+    #: against the comfort band [heating set point, cooling set point] (0 inside, T - S_heating below, T -
+    #: S_cooling above: CityLearn 2.5's cold/hot definition). One set point only (v2.1 data): the same either way
+    kpi_discomfort_against_one_set_point: bool = False
     #: the partial-load baseline of an LSTM building converts every step's heating difference with the heating
     #: COP of the last step of the series (CityLearn 2.1.2 and 2.5 read the current outdoor temperature only;
     #: the 2.1 golden data sets have no heating partial load, so it moves none of their numbers); False: each
@@ -178,6 +184,7 @@ QUIRKS_2_1 = ("battery_curve_extrapolates_first_segment", "lstm_output_uses_last
               "battery_autosize_from_placeholder_pv",
               "comfort_reward_float32", "storage_signal_reward_multiplies_by_delta", "kpi_plain_division",
               "kpi_discomfort_over_all_steps", "kpi_baseline_from_first_building", "kpi_float32_score",
+              "kpi_discomfort_against_one_set_point",
               "kpi_partial_load_heating_cop_of_last_step")
 #: CityLearn 2.1.2 exactly, bugs included: its quirks, and day_type with period 8 [days] (holidays as day 8)
 CITYLEARN_2_1 = Behaviour(**dict.fromkeys(QUIRKS_2_1, True), lstm_day_type_period=8.0, wrapper_day_type_period=8.0)

@@ -70,6 +70,40 @@ def test_discomfort_occupied_steps_and_all_steps():
     assert every["discomfort_proportion"] == pytest.approx(2 / 3)
 
 
+def test_band_delta_is_zero_inside_the_band_and_the_distance_outside():
+    temperature = np.array([18.0, 20.0, 22.0, 24.0, 26.0])
+    # band [20, 24]: 2 degC below it, the two edges and the middle inside, 2 degC above it
+    assert kpis.band_delta(temperature, np.full(5, 20.0), np.full(5, 24.0)).tolist() == [-2.0, 0, 0, 0, 2.0]
+    # edges swapped: the same band
+    assert kpis.band_delta(temperature, np.full(5, 24.0), np.full(5, 20.0)).tolist() == [-2.0, 0, 0, 0, 2.0]
+    # one set point: T - S
+    assert kpis.band_delta(temperature, np.full(5, 23.0), np.full(5, 23.0)).tolist() == [-5, -3, -1, 1, 3]
+
+
+def test_discomfort_against_the_band_counts_no_deadband_step():
+    # heating 20, cooling 25, band 1: 24 degC sits in the deadband (2.1's one cooling set point 25: -1 delta,
+    # inside its band too); 18.5 is 1.5 below heating (cold); 26.5 is 1.5 above cooling (hot); 19.5 is 0.5 below
+    temperature = np.array([24.0, 18.5, 26.5, 19.5])
+    stats = kpis.discomfort(temperature, np.full(4, 20.0), 1.0, np.ones(4), cooling_set_point=np.full(4, 25.0))
+    assert stats["discomfort_too_cold_proportion"] == pytest.approx(1 / 4)
+    assert stats["discomfort_too_hot_proportion"] == pytest.approx(1 / 4)
+    assert stats["discomfort_delta_minimum"] == -1.5 and stats["discomfort_delta_maximum"] == 1.5
+    assert stats["discomfort_delta_average"] == pytest.approx((0 - 1.5 + 1.5 - 0.5) / 4)
+
+
+def test_discomfort_objective_against_the_band():
+    series = {k: np.zeros((1, 4)) for k in ("net_electricity_consumption", "electricity_pricing",
+                                             "carbon_intensity")}
+    series |= {"indoor_dry_bulb_temperature": np.array([[21.0, 23.0, 26.0, 19.0]]),
+               # the one set point follows hvac_mode: cooling 24, cooling 24, cooling 24, heating 20
+               "indoor_dry_bulb_temperature_set_point": np.array([[24.0, 24.0, 24.0, 20.0]]),
+               "indoor_dry_bulb_temperature_cooling_set_point": np.full((1, 4), 24.0),
+               "indoor_dry_bulb_temperature_heating_set_point": np.full((1, 4), 20.0)}
+    # band [20, 24]: 0 + 0 + 2 + 1 degC h; against the one set point: 3 + 1 + 2 + 1
+    assert kpis.objectives(series)["discomfort"] == pytest.approx(3.0)
+    assert kpis.objectives(series, one_set_point=True)["discomfort"] == pytest.approx(7.0)
+
+
 def test_discomfort_without_occupants_is_nan():
     stats = kpis.discomfort(np.array([30.0, 30.0]), np.array([23.0, 23.0]), 2.0, np.zeros(2))
     assert all(math.isnan(v) for v in stats.values())

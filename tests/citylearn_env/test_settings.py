@@ -301,6 +301,27 @@ def test_kpi_discomfort_over_all_steps():
     assert upstream[0]["discomfort_proportion"] == corrected[0]["discomfort_proportion"] == pytest.approx(6 / 24)
 
 
+def test_kpi_discomfort_against_one_set_point():
+    series = hand_series()
+    # b: heating 21, cooling 25; its one set point 23 (cooling mode) as in hand_series
+    series["indoor_dry_bulb_temperature_heating_set_point"] = np.full_like(series["occupant_count"], 21.0)
+    series["indoor_dry_bulb_temperature_cooling_set_point"] = np.full_like(series["occupant_count"], 25.0)
+    corrected = kpis.building_kpis(series, ["a", "b"], dynamics=[True, False])
+    upstream = kpis.building_kpis(series, ["a", "b"], dynamics=[True, False],
+                                  settings=flipped("kpi_discomfort_against_one_set_point"))
+    # b at 20 degC for 12 of 48 occupied steps: 3 below 23 (cold beyond the 2 degC band), 1 below 21 (not)
+    assert upstream[1]["discomfort_too_cold_proportion"] == pytest.approx(12 / 48)
+    assert corrected[1]["discomfort_too_cold_proportion"] == 0.0
+    # a at 26 degC on 6 steps: 3 above 23 (hot), 1 above 25 (inside the band); at 23 inside [21, 25]: delta 0
+    assert upstream[0]["discomfort_too_hot_proportion"] == pytest.approx(6 / 24)
+    assert corrected[0]["discomfort_too_hot_proportion"] == 0.0
+    assert corrected[0]["discomfort_delta_average"] == pytest.approx(6 * 1 / 24)
+    # the paper's discomfort objective: b's 12 steps 1 degC below 21 and 36 steps inside the band; a's 6 steps
+    # 1 degC above 25. Against 23: 12 x 3 + 36 x 1 and 6 x 3
+    assert kpis.objectives(series)["discomfort"] == pytest.approx(12 + 6)
+    assert kpis.objectives(series, one_set_point=True)["discomfort"] == pytest.approx(36 + 36 + 18)
+
+
 def test_kpi_baseline_from_first_building():
     series = hand_series()
     for kind in ("", "_cost", "_emission"):  # the without-storage baseline: twice the partial-load one
