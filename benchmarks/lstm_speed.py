@@ -4,7 +4,10 @@ Run single-threaded:  NUMBA_NUM_THREADS=1 OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 OP
     .venv/bin/python benchmarks/lstm_speed.py
 Uses the 2023 challenge Building_*.pth weights from ../shared (13 inputs, 2 layers, 16 units, lookback 12);
 B buildings cycle through the six files. Reports the median over repeats of the mean us per bank.step call
-(warm buffers, i.e. every call runs the full window for every building).
+(warm buffers, i.e. every call runs the full window for every building), wall and CPU (process) time, the
+numpy/numba ratio of the CPU medians, the CPU model and the load average (the numpy path is the plain install's:
+no numba; it batches every building of a group into one matmul per layer wavefront, see
+citylearn_env/lstm_kernels.py). The repeats of the two backends alternate.
 
 ``--hidden H [H ...] [--lookback L ...]``: instead, random weights of the shape our trainer exports (the 12
 default inputs, 2 layers; numba only), e.g. ``--hidden 32 64 --lookback 1 6 -- 1 6``.
@@ -24,6 +27,7 @@ import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
+from neighbourhood_speed import cpu_model  # noqa: E402
 
 from citylearn_env.dataset import DynamicsBlock  # noqa: E402
 from citylearn_env.dynamics import LSTMBank, LSTMSpec, read_pth_state_dict  # noqa: E402
@@ -77,21 +81,42 @@ def inputs(n: int, steps: int, seed: int = 0) -> list[dict[str, np.ndarray]]:
     return rows
 
 
-def us_per_step(n: int, backend: str, steps: int, repeats: int,
-                surrogate: tuple[int, int] | None = None) -> tuple[float, float]:
-    """``surrogate``: (hidden, lookback) of random weights of our exported shape instead of the 2023 files."""
+def warm_bank(n: int, backend: str, steps: int, surrogate: tuple[int, int] | None = None):
+    """(bank, input rows, hvac modes) with full buffers (and numba compiled). ``surrogate``: (hidden, lookback)
+    of random weights of our exported shape instead of the 2023 files."""
     bank = make_bank(n, backend) if surrogate is None else make_surrogate_bank(n, *surrogate)
     rows = inputs(n, steps)
     hvac = np.ones(n)
-    for row in rows[:20]:  # fill the buffers (and compile numba on the first call)
+    for row in rows[:20]:
         bank.step(row, hvac)
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        for row in rows:
-            bank.step(row, hvac)
-        times.append((time.perf_counter() - start) / steps * 1e6)
+    return bank, rows, hvac
+
+
+def timed_pass(bank: LSTMBank, rows: list[dict], hvac: np.ndarray) -> tuple[float, float]:
+    """(wall, CPU) us per bank.step call over ``rows``."""
+    start, cpu = time.perf_counter(), time.process_time()
+    for row in rows:
+        bank.step(row, hvac)
+    return (time.perf_counter() - start) / len(rows) * 1e6, (time.process_time() - cpu) / len(rows) * 1e6
+
+
+def us_per_step(n: int, backend: str, steps: int, repeats: int,
+                surrogate: tuple[int, int] | None = None) -> tuple[float, float]:
+    """(median, min) wall us per bank.step call."""
+    bank, rows, hvac = warm_bank(n, backend, steps, surrogate)
+    times = [timed_pass(bank, rows, hvac)[0] for _ in range(repeats)]
     return statistics.median(times), min(times)
+
+
+def compare_backends(n: int, steps: int, repeats: int) -> dict[str, tuple[float, float, float]]:
+    """backend -> (median wall, min wall, median CPU) us per bank.step call, the backends alternating."""
+    banks = {backend: warm_bank(n, backend, steps) for backend in ("numpy", "numba")}
+    runs: dict[str, list[tuple[float, float]]] = {backend: [] for backend in banks}
+    for _ in range(repeats):
+        for backend, (bank, rows, hvac) in banks.items():
+            runs[backend].append(timed_pass(bank, rows, hvac))
+    return {b: (statistics.median(w for w, _ in r), min(w for w, _ in r), statistics.median(c for _, c in r))
+            for b, r in runs.items()}
 
 
 def main(argv: list[str]) -> None:
@@ -110,12 +135,15 @@ def main(argv: list[str]) -> None:
                     print(f"lookback {lookback:>2} hidden {hidden:>3} B {n:>3}: {med:>8.1f} ({low:>6.1f}) us, "
                           f"{med / n:.1f} per building")
         return
-    print("us per bank.step call: median (min) over repeats")
-    print(f"{'B':>3} {'numpy':>16} {'numba':>16} {'numba per bldg':>15}")
-    for n in args.sizes or [1, 3, 6, 17]:
-        np_med, np_min = us_per_step(n, "numpy", 200, 7)
-        nb_med, nb_min = us_per_step(n, "numba", 1000, 11)
-        print(f"{n:>3} {np_med:>8.1f} ({np_min:>5.1f}) {nb_med:>8.1f} ({nb_min:>5.1f}) {nb_med / n:>15.1f}")
+    print(f"CPU: {cpu_model()}; load average {os.getloadavg()}")
+    print("us per bank.step call: wall median (min) over 9 repeats of 200 calls; CPU median; numpy/numba CPU")
+    print(f"{'B':>3} {'numpy wall':>17} {'CPU':>7} {'numba wall':>17} {'CPU':>7} {'ratio':>6}")
+    for n in args.sizes or [1, 3, 6, 17, 100]:
+        res = compare_backends(n, 200, 9)
+        (np_med, np_min, np_cpu), (nb_med, nb_min, nb_cpu) = res["numpy"], res["numba"]
+        print(f"{n:>3} {np_med:>8.1f} ({np_min:>6.1f}) {np_cpu:>7.1f} {nb_med:>8.1f} ({nb_min:>6.1f}) {nb_cpu:>7.1f} "
+              f"{np_cpu / nb_cpu:>6.2f}")
+    print(f"load average after {os.getloadavg()}")
 
 
 if __name__ == "__main__":

@@ -482,7 +482,7 @@ class LSTMBank:
         if backend == "numba" and kernel is None:
             raise ImportError("backend='numba' needs the numba package")
         self.backend = "numba" if kernel is not None else "numpy"
-        self._kernel = kernel or lstm_kernels.numpy_group_step
+        self._kernel = kernel or lstm_kernels.NumpyGroupStep()
 
     def reset(self) -> None:
         """Empty every buffer and zero every hidden/cell state (episode start)."""
