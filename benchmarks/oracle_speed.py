@@ -3,6 +3,7 @@ with ``--gaps``, the env replay gap of every upstream dataset with storage and o
 
     .venv/bin/python benchmarks/oracle_speed.py [--repeats 3] [--workers 2] [--cases month-1,year-17]
     .venv/bin/python benchmarks/oracle_speed.py --gaps [--peak]
+    .venv/bin/python benchmarks/oracle_speed.py --repeats 1 --cases year-17-peak   (not a default case: ~20 min)
 
 Timed: :func:`pipeline.optimal.oracle.oracle` on a reset environment (read the plan, build and solve the LPs,
 iterate the battery efficiencies, assemble the schedule); loading the schema and resetting the env are timed
@@ -46,6 +47,8 @@ CASES = {
                 "one year, 17 buildings (batteries + PV)"),
     "month-17-peak": (UPSTREAM / "citylearn_challenge_2022_phase_all" / "schema.json", "average_daily_peak", 0,
                       719, None, "one month, 17 buildings, district peak (one joint LP)"),
+    "year-17-peak": (UPSTREAM / "citylearn_challenge_2022_phase_all" / "schema.json", "average_daily_peak", 0,
+                     8759, None, "one year, 17 buildings, district peak (one joint LP; ~20 min)"),
 }
 DEFAULT_CASES = ("month-1", "month-1-default", "month-6-default", "year-9-tanks", "year-17", "month-17-peak")
 

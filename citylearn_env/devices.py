@@ -38,6 +38,21 @@ def heater_efficiency(efficiency: np.ndarray, n_steps: int) -> np.ndarray:
     return np.repeat(np.asarray(efficiency, dtype=np.float64).reshape(-1, 1), n_steps, axis=1)
 
 
+def conversion_table(kinds: Sequence[str], efficiency: Sequence[float], target_c: Sequence[float],
+                     outdoor_c: np.ndarray, *, cooling: bool) -> np.ndarray:
+    """COP of each building's heat pump (Carnot at ``outdoor_c`` [degC], (B, N), toward its ``target_c``
+    [degC]) or efficiency of its electric heater (``kinds[b] == "ElectricHeater"``) [-], (B, N)."""
+    rows = []
+    for i, (kind, eff, target) in enumerate(zip(kinds, efficiency, target_c, strict=True)):
+        if kind == "ElectricHeater":
+            rows.append(heater_efficiency(np.array([eff]), outdoor_c.shape[1])[0])
+        elif cooling:
+            rows.append(carnot_cop_cooling(outdoor_c[i], target, eff))
+        else:
+            rows.append(carnot_cop_heating(outdoor_c[i], target, eff))
+    return np.stack(rows)
+
+
 def device_output(demand: np.ndarray, nominal_power: np.ndarray, cop: np.ndarray,
                   supply: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Serve a thermal ``demand`` [kWh] with a device of ``nominal_power`` [kW electric] and ``cop`` [-], drawing

@@ -125,16 +125,11 @@ class District:
 
     def _conversion(self, devs, end_use: str) -> np.ndarray:
         """COP (heat pump) or efficiency (heater) of each building's device for ``end_use``, (B, N)."""
-        t_out = self.signals["outdoor_dry_bulb_temperature"]
-        rows = []
-        for i, d in enumerate(devs):
-            if d.kind == "ElectricHeater":
-                rows.append(devices.heater_efficiency(np.array([d.efficiency]), t_out.shape[1])[0])
-            elif end_use == "cooling":
-                rows.append(devices.carnot_cop_cooling(t_out[i], d.target_cooling_temperature, d.efficiency))
-            else:
-                rows.append(devices.carnot_cop_heating(t_out[i], d.target_heating_temperature, d.efficiency))
-        cop = np.stack(rows)
+        cooling = end_use == "cooling"
+        cop = devices.conversion_table(
+            [d.kind for d in devs], [d.efficiency for d in devs],
+            [d.target_cooling_temperature if cooling else d.target_heating_temperature for d in devs],
+            self.signals["outdoor_dry_bulb_temperature"], cooling=cooling)
         cop.flags.writeable = False
         return cop
 

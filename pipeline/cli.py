@@ -34,8 +34,17 @@ def build_parser() -> argparse.ArgumentParser:
     stock_selection.register(sub)
     optimal_commands.register(sub)
     ingest_commands.register(sub)
-    register_surrogate_install(surrogate_commands.register(sub))
+    surrogate_sub = surrogate_commands.register(sub)
+    register_surrogate_install(surrogate_sub)
+    surrogate_sub.choices["evaluate"].set_defaults(judge_handler=_judge_command)
     return parser
+
+
+def _judge_command(args: argparse.Namespace) -> int:
+    # the build (pydantic, torch, EnergyPlus): imported only when judging
+    from pipeline.build.judge import judge_command
+
+    return judge_command(args)
 
 
 #: the arguments that name where a command writes, in the order they are looked for

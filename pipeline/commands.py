@@ -56,6 +56,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     build.add_argument("--surrogate-source", choices=("csv", "energyplus", "fmu", "none"),
                        help="override [surrogate] source: precomputed ILV tables, EnergyPlus, the configured FMU, "
                             "or no surrogates")
+    build.add_argument("--strict", action="store_true",
+                       help="refuse the build when a house's surrogate misses the bound against a fresh EnergyPlus "
+                            "run (monthly RMSE median 0.25 / worst month 0.5 degC); default: one warning per house")
     build.set_defaults(func=build_command)
 
     paper = subparsers.add_parser("paper", help="run the SimBuild 2024 paper's 17 benchmarks on a district")
@@ -87,6 +90,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                        help="the m-sweep of rlc-b1-d_o-hp for these multipliers (paper: 1 3 6 12); with --only "
                             "or alone, default: none; --full runs all 17 and the sweep 1 3 6 12")
     paper.add_argument("--full", action="store_true", help="the whole paper: all 17 and the m-sweep 1 3 6 12")
+    paper.add_argument("--controllers", nargs="+", choices=("rbc", "sac", "oracle", "mpc"),
+                       default=["rbc", "sac", "oracle", "mpc"],
+                       help="controllers to run (default all): the RBC and SAC rows, and the perfect-foresight oracle "
+                            "and 24-h MPC on each storage configuration (regret.md; docs/paper.md)")
     paper.set_defaults(func=paper_command)
 
     verify = subparsers.add_parser("verify", help="re-check a built district's manifest hashes and validate it")
@@ -169,6 +176,8 @@ def build_command(args: argparse.Namespace) -> int:
         data = config.model_dump(exclude={"source"})
         data["surrogate"]["source"] = args.surrogate_source
         config = parse_build_config(data, file=f"{args.config} (--surrogate-source)")
+    if args.strict:
+        config = config.model_copy(update={"surrogate": config.surrogate.model_copy(update={"strict": True})})
     staging(config, args.output_root).check()  # a bad output folder: one line before any work
     if args.workers is not None and (args.workers < 1 or not args.dask or args.dask != "local"):
         raise InputError("--workers N (N >= 1) sizes the local Dask cluster: use it with --dask and no ADDRESS",
@@ -284,8 +293,9 @@ def paper_command(args: argparse.Namespace) -> int:
 
         runner = DaskRunner(None if args.dask == "local" else args.dask, args.workers)
     run_paper(args.schema, args.output, only=only, sweep=sweep, seed=args.seed, seeds=args.seeds,
-              multiplier=args.multiplier, options=options, workers=args.workers, runner=runner)
-    for name in ("results.md", "multiplier_sweep.md"):
+              multiplier=args.multiplier, options=options, workers=args.workers, runner=runner,
+              controllers=tuple(args.controllers))
+    for name in ("results.md", "regret.md", "multiplier_sweep.md"):
         if (args.output / name).is_file():
             print((args.output / name).read_text())
     return 0

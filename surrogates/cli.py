@@ -7,6 +7,7 @@ import json
 import os
 from pathlib import Path
 
+from citylearn_env.errors import InputError
 from surrogates.config import TrainConfig
 from surrogates.precision import PRECISIONS
 from surrogates.sources.csv import read_ilv_table
@@ -56,6 +57,15 @@ def _train_command(args: argparse.Namespace) -> int:
 def _evaluate_command(args: argparse.Namespace) -> int:
     from surrogates.evaluate import month_table  # torch: the CLI builds its parser without it
 
+    if args.judge:
+        handler = getattr(args, "judge_handler", None)
+        if handler is None:
+            raise InputError("--judge needs the district pipeline: install districtgen[pipeline,energyplus]",
+                             column="--judge")
+        return handler(args)
+    if args.table is None:
+        raise InputError("give an ILV table, or --judge CONFIG to score against a fresh EnergyPlus run",
+                         column="table")
     plot = args.plot or Path(args.model).with_suffix(".evaluate.png")
     metrics = evaluate(args.model, args.table, all_runs=args.all, plot=plot)
     if args.json:
@@ -70,7 +80,7 @@ def _evaluate_command(args: argparse.Namespace) -> int:
 
 def register(subparsers: argparse._SubParsersAction) -> argparse._SubParsersAction:
     """Add the surrogate sub-commands to ``districtgen``; returns their sub-parsers (the pipeline adds
-    ``surrogate install`` there: putting a model into a built district is pipeline work)."""
+    ``surrogate install`` there and the ``evaluate --judge`` handler: a district's houses are pipeline work)."""
     parser = subparsers.add_parser("surrogate", help="train or evaluate an LSTM indoor-temperature surrogate")
     sub = parser.add_subparsers(dest="surrogate_command", required=True)
     defaults = TrainConfig()
@@ -93,9 +103,15 @@ def register(subparsers: argparse._SubParsersAction) -> argparse._SubParsersActi
                                    "it natively and it measures faster, else float32")
     train_parser.add_argument("--quiet", action="store_true", help="no progress bar")
     train_parser.set_defaults(func=_train_command)
-    eval_parser = sub.add_parser("evaluate", help="print the per-month closed-loop table and write the plot")
+    eval_parser = sub.add_parser("evaluate", help="print the per-month closed-loop table and write the plot, or "
+                                                  "judge against a fresh EnergyPlus run of the house (--judge)")
     eval_parser.add_argument("model", help="<name>.pth written by 'surrogate train' (dynamics JSON beside it)")
-    eval_parser.add_argument("table", help="ILV table (.csv or .parquet)")
+    eval_parser.add_argument("table", nargs="?", help="ILV table (.csv or .parquet); not with --judge")
+    eval_parser.add_argument("--judge", metavar="CONFIG",
+                             help="district TOML: score against a fresh EnergyPlus run of the model's house (another "
+                                  "zone timestep count and seed than the training data; docs/surrogates.md)")
+    eval_parser.add_argument("--bldg-id", type=int, help="--judge: the house (default: buildings.json beside the "
+                                                         "model)")
     eval_parser.add_argument("--all", action="store_true", help="evaluate every run, not only the test split")
     eval_parser.add_argument("--plot", help="PNG of prediction vs simulation (default: <model>.evaluate.png)")
     eval_parser.add_argument("--json", action="store_true", help="print the metrics as JSON instead")

@@ -101,3 +101,10 @@ class TrainConfig:
         """Epoch at which the long-chunk phase starts (None: no long phase)."""
         long = min(self.long_chunk_epochs, self.epochs - 1)
         return self.epochs - long if long > 0 else None
+
+
+#: the build's recipe (``[surrogate]`` defaults): the default's warm start and closed-loop phases cut to fit about
+#: 30 s of CPU per building-year in float32 on an AVX2-only CPU (AMD EPYC, no native bfloat16), where
+#: ``TrainConfig()`` takes 72-92 s: hidden 16, 2000 warm-start updates, 24 closed-loop epochs of which the last
+#: 8 on 168-h chunks (docs/surrogates.md, section 4 and section 11)
+BUILD_RECIPE = TrainConfig(hidden_size=16, pretrain_steps=2000, epochs=24, long_chunk_epochs=8)

@@ -43,6 +43,8 @@ from surrogates.model import (
 from surrogates.precision import Choice, Probe, choose
 
 ROLES = ("train", "validation", "test")
+#: progress units of the warm start (one per tenth of its updates), before the closed-loop epochs' units
+WARM_START_UNITS = 10
 
 
 @dataclass(frozen=True)
@@ -176,7 +178,8 @@ def train_surrogate(table: pd.DataFrame, config: TrainConfig | None = None,
     """Validate ``table``, split it, and train one LSTM; deterministic on CPU for a given ``config.seed``
     (default: ``TrainConfig()``).
 
-    ``progress``: optional ``progress(epochs_done, epochs)``, called after each epoch (progress bars)."""
+    ``progress``: optional ``progress(done, total)`` in units of :func:`progress_units` (a tenth of the warm
+    start's updates, then one per closed-loop epoch), called after each unit (progress bars)."""
     config = config or TrainConfig()
     table = validate_ilv(table, source=source)
     inputs = available_inputs(table, config.inputs)
@@ -193,6 +196,12 @@ def train_surrogate(table: pd.DataFrame, config: TrainConfig | None = None,
         members = [_fit(table, inputs, splits, replace(config, seed=config.seed + k), started, progress, choice)
                    for k in range(config.ensemble)]
     return merge_trained(members, config, time.perf_counter() - started)
+
+
+def progress_units(config: TrainConfig) -> int:
+    """Progress units of one training: :data:`WARM_START_UNITS` for the warm start (when it runs), then one
+    per closed-loop epoch."""
+    return (WARM_START_UNITS if config.pretrain_steps > 0 else 0) + config.epochs
 
 
 def update_precision(config: TrainConfig) -> Choice:
@@ -247,9 +256,18 @@ def _fit(table, inputs, splits, config: TrainConfig, started: float, progress=No
     run_starts = {run.start for run in run_segments(table).values()}
     anchors = [seg for seg in splits["train"] if seg.start in run_starts]  # training segments starting a run
     optimizer = _adam(model, config.learning_rate, _bf16(config))
-    warm_start(model, optimizer, x, splits["train"], config, rng, anchors)
+    bar = _progress(config)
+    warm = WARM_START_UNITS if config.pretrain_steps > 0 else 0
+    total = progress_units(config)
+
+    def tick(done: int) -> None:
+        _advance(bar, progress, done, total)
+
+    warm_start(model, optimizer, x, splits["train"], config, rng, anchors, tick)
     best, best_epoch, history = _closed_loop_phase(model, x, splits["train"], val, config, rng, scale,
-                                                   started, progress)
+                                                   started, lambda epoch: tick(warm + epoch), bar)
+    if bar is not None:
+        bar.close()
     model.load_state_dict(best)
     model.eval()
     return Trained(model, norm, inputs, config, splits, history, best_epoch, time.perf_counter() - started,
@@ -277,19 +295,19 @@ def _validation_chunks(x: np.ndarray, segments: Sequence[Segment], config: Train
 
 def _closed_loop_phase(model: LSTMModel, x: np.ndarray, segments: Sequence[Segment], val: torch.Tensor,
                        config: TrainConfig, rng: np.random.Generator, scale: float, started: float,
-                       progress: Callable[[int, int], None] | None) -> tuple[dict, int, list[dict]]:
+                       tick: Callable[[int], None], bar: tqdm | None) -> tuple[dict, int, list[dict]]:
     """The closed-loop epochs after the warm start, with a fresh Adam (the warm start's moments made the first
     closed-loop epochs diverge): ``chunk_hours`` chunks at ``finetune_learning_rate``, then the last
     ``long_chunk_epochs`` on ``long_chunk_hours`` chunks at ``long_chunk_learning_rate``. The weights'
     exponential moving average is validated after every epoch; returns the best epoch's averaged weights, that
-    epoch and the history (RMSE in degC: ``scale`` is the training temperature range)."""
+    epoch and the history (RMSE in degC: ``scale`` is the training temperature range). ``tick(epochs_done)``
+    after each epoch; ``bar`` shows the last epoch's RMSE."""
     optimizer = _adam(model, config.finetune_learning_rate, _bf16(config))
     averaged = copy.deepcopy(model)
     lr = config.finetune_learning_rate
     longest = max(s.stop - s.start for s in segments)  # check_trainable: >= lookback + chunk_hours
     hours = min(config.chunk_hours, longest - config.lookback)
     best, best_rmse, best_epoch, history, updates = None, math.inf, 0, [], 0
-    bar = _progress(config)
     for epoch in range(config.epochs):
         if epoch == config.long_start:
             hours = min(config.long_chunk_hours, longest - config.lookback)
@@ -303,13 +321,13 @@ def _closed_loop_phase(model: LSTMModel, x: np.ndarray, segments: Sequence[Segme
         history.append({"epoch": epoch, "chunk_hours": hours, "learning_rate": lr,
                         "train_rmse_c": round(train_rmse, 4), "val_closed_loop_rmse_c": round(val_rmse, 4),
                         "seconds": round(time.perf_counter() - started, 2)})
-        _report(bar, progress, epoch + 1, config.epochs, train_rmse, val_rmse)
+        if bar is not None:
+            bar.set_postfix(train=f"{train_rmse:.3f}C", val=f"{val_rmse:.3f}C")
+        tick(epoch + 1)
         if val_rmse < best_rmse:
             best, best_rmse, best_epoch = copy.deepcopy(averaged.state_dict()), val_rmse, epoch
         if config.max_seconds and time.perf_counter() - started > config.max_seconds:
             break
-    if bar is not None:
-        bar.close()
     return best, best_epoch, history
 
 
@@ -378,7 +396,8 @@ def closed_loop_epoch(model: LSTMModel, optimizer, x: np.ndarray, segments: Sequ
 
 
 def warm_start(model: LSTMModel, optimizer, x: np.ndarray, segments: Sequence[Segment], config: TrainConfig,
-               rng: np.random.Generator, anchors: Sequence[Segment] = ()) -> None:
+               rng: np.random.Generator, anchors: Sequence[Segment] = (),
+               tick: Callable[[int], None] | None = None) -> None:
     """Teacher-forced warm start (fast, batched): brings the weights near a good one-step predictor before
     the closed-loop stateful fine-tuning. Every temperature of the history but the first
     ``pretrain_clean_hours`` of a sample is perturbed by ``pretrain_noise`` drawn afresh per update (robustness
@@ -391,7 +410,9 @@ def warm_start(model: LSTMModel, optimizer, x: np.ndarray, segments: Sequence[Se
       segment in ``anchors`` (:func:`warm_start_sequences`);
     * lookback > 1: independent windows of ``lookback`` rows from zero state, the last hour predicted.
 
-    Row ``t`` of a sample holds the exogenous inputs of hour ``t+1`` and the temperature of hour ``t``."""
+    Row ``t`` of a sample holds the exogenous inputs of hour ``t+1`` and the temperature of hour ``t``.
+    ``tick(k)`` after each k-th tenth of the updates (:data:`WARM_START_UNITS`): the build's progress line
+    moves during what is most of the training time."""
     if config.pretrain_steps < 1:
         return
     sequences = config.lookback == 1
@@ -406,7 +427,8 @@ def warm_start(model: LSTMModel, optimizer, x: np.ndarray, segments: Sequence[Se
             return windows
     weights, parameters = model.flat_weights(), list(model.parameters())
     model.train()
-    for batch in _batches(draw, config.pretrain_batch_size, config.pretrain_steps, rng):
+    marks = {max(1, round(config.pretrain_steps * k / WARM_START_UNITS)): k for k in range(1, WARM_START_UNITS + 1)}
+    for done, batch in enumerate(_batches(draw, config.pretrain_batch_size, config.pretrain_steps, rng), 1):
         temps = perturb_history(batch[:, :-1, -1:], config.pretrain_noise, config.pretrain_clean_hours, rng)
         rows = torch.cat([batch[:, 1:, :-1], temps], dim=2)
         with _autocast(config):
@@ -418,6 +440,8 @@ def warm_start(model: LSTMModel, optimizer, x: np.ndarray, segments: Sequence[Se
         if sequences:
             torch.nn.utils.clip_grad_norm_(parameters, 1.0, foreach=True)
         optimizer.step()
+        if tick is not None and done in marks:
+            tick(marks[done])
 
 
 def warm_start_sequences(x: np.ndarray, segments: Sequence[Segment], hours: int, rng: np.random.Generator,
@@ -458,15 +482,15 @@ def _batches(draw: Callable[[], torch.Tensor], batch_size: int, steps: int,
 
 
 def _progress(config: TrainConfig) -> tqdm | None:
-    """The epochs' progress bar (None without ``config.progress``)."""
-    return tqdm(total=config.epochs, desc="surrogate", unit="epoch", leave=False) if config.progress else None
+    """The training's progress bar in :func:`progress_units` (None without ``config.progress``)."""
+    if not config.progress:
+        return None
+    return tqdm(total=progress_units(config), desc="surrogate", unit="step", leave=False)
 
 
-def _report(bar: tqdm | None, progress: Callable[[int, int], None] | None, done: int, epochs: int,
-            train_rmse: float, val_rmse: float) -> None:
-    """An epoch's end on the progress bar and to the caller's ``progress(epochs_done, epochs)``."""
+def _advance(bar: tqdm | None, progress: Callable[[int, int], None] | None, done: int, total: int) -> None:
+    """Unit ``done`` of ``total`` reached: on the progress bar and to the caller's ``progress(done, total)``."""
     if bar is not None:
-        bar.update(1)
-        bar.set_postfix(train=f"{train_rmse:.3f}C", val=f"{val_rmse:.3f}C")
+        bar.update(done - bar.n)
     if progress is not None:
-        progress(done, epochs)
+        progress(done, total)

@@ -58,8 +58,11 @@ from pipeline.build.steps import (
 )
 from pipeline.build.surrogates import (
     SurrogateFiles,
+    annotate_schema,
     check_cache_root,
+    check_surrogate_errors,
     fmu_ilv,
+    surrogate_errors,
     surrogate_files,
     write_surrogate_files,
 )
@@ -125,7 +128,9 @@ def run_build(config: BuildConfig, output_root: str | Path = "artifacts", runner
             dynamics = {n: write_surrogate_files(out, split[n][0]) for n in names}
             cache_use = {n: {"hit": trained[n].hit, **split[n][1]} for n in names}
         timings["surrogates"] = time.perf_counter() - started
-        schema = schema_dict(config, names, sizes, dynamics)
+        judged = surrogate_errors({n: trained[n].files for n in trained})  # the judge's record per house
+        check_surrogate_errors(judged, config.surrogate.strict)  # a warning per house, or refused (--strict)
+        schema = annotate_schema(schema_dict(config, names, sizes, dynamics), judged)
         schema_path = out / "schema.json"
         schema_path.write_text(json.dumps(schema, indent=2))
         buildings = building_notes(ids, systems, heating, {n: h.summary for n, h in houses.items()}, frames,

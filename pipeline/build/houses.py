@@ -17,37 +17,18 @@ from pipeline.build.cache import FileCache, cache_key, cache_root, files_digest
 from pipeline.build.manifest import (
     sha256_file,
 )
-from pipeline.build.steps import eulp_metadata_row, plain_value
-from pipeline.build.surrogates import ENERGYPLUS_SOURCES, SurrogateFiles, surrogate_files
+from pipeline.build.steps import eulp_metadata_row, read_characteristics_row
+from pipeline.build.surrogates import ENERGYPLUS_SOURCES, SurrogateFiles, ilv_config, surrogate_files
 from pipeline.config import BuildConfig
-from pipeline.errors import InputError
 from pipeline.ingest.eulp import citylearn_building
 from pipeline.ingest.timeindex import period_index
 from pipeline.progress import report
-from pipeline.select import read_stock_table
-from surrogates.energyplus.ilv import ILVConfig
-from surrogates.energyplus.metadata import normalise_characteristics, parse_heating_system
+from surrogates.energyplus.metadata import parse_heating_system
+from surrogates.energyplus.schedules import SCHEDULE_VERSION
 from surrogates.sources.energyplus import simulate_house
 
 #: heating system of the stock -> heating device of the schema (``fuel`` and ``none``: simulation.fuel_heating)
 HEATING_DEVICE_OF = {"heat_pump": "heat_pump", "electric_resistance": "electric_heater"}
-
-
-def read_characteristics_row(path: Path, bldg_id: int) -> dict[str, object]:
-    """One stock row (either metadata layout) as plain JSON values in the published layout (``bldg_id``,
-    ``in.*``); NaN -> None."""
-
-    path = Path(path)
-    raw = read_stock_table(path)
-    id_column = "bldg_id" if "bldg_id" in raw.columns else "building_id"
-    if id_column not in raw.columns:
-        raise InputError("no building id column (expected 'bldg_id' or 'building_id')", file=path, column="bldg_id")
-    rows = raw[pd.to_numeric(raw[id_column], errors="coerce") == int(bldg_id)]
-    if rows.empty:
-        raise InputError(f"building {bldg_id} not in the characteristics", file=path, column=id_column)
-    keep = {k: v for k, v in rows.iloc[0].to_dict().items()
-            if str(k).startswith(("bldg_id", "building_id", "in.", "build_existing_model.", "upgrade_costs.floor"))}
-    return {k: plain_value(v) for k, v in normalise_characteristics(keep).items()}
 
 
 @dataclass(frozen=True)
@@ -70,7 +51,8 @@ def simulation_cache_parts(config: BuildConfig, row: Mapping[str, object]) -> di
     package = Path(surrogates.__file__).parent
     return {"row": dict(row), "epw_sha256": sha256_file(Path(config.inputs.weather)), "year": config.period.start.year,
             "simulation": config.simulation.model_dump(exclude={"fuel_heating"}),
-            "generator_sha256": files_digest([package / f for f in ENERGYPLUS_SOURCES], package)}
+            "generator_sha256": files_digest([package / f for f in ENERGYPLUS_SOURCES], package),
+            "schedule_version": SCHEDULE_VERSION}
 
 
 def simulate_building(config: BuildConfig, bldg_id: int) -> HouseSimulation:
@@ -81,7 +63,6 @@ def simulate_building(config: BuildConfig, bldg_id: int) -> HouseSimulation:
 
     row = read_characteristics_row(config.inputs.characteristics, bldg_id)
     parts = simulation_cache_parts(config, row)
-    sim, year = config.simulation, config.period.start.year
     key = cache_key(parts)
     cache = FileCache(cache_root(config.cache_dir) / "simulations")
     files = cache.get(key)
@@ -89,9 +70,7 @@ def simulate_building(config: BuildConfig, bldg_id: int) -> HouseSimulation:
         return HouseSimulation(pd.read_parquet(io.BytesIO(files["loads.parquet"])),
                                pd.read_parquet(io.BytesIO(files["ilv.parquet"])),
                                json.loads(files["house.json"]), key, True)
-    ilv_config = ILVConfig(partial_runs=sim.partial_runs, seed=sim.seed, timesteps_per_hour=sim.timesteps_per_hour,
-                           year=year)
-    loads, table, summary = simulate_house(row, Path(config.inputs.weather), config=ilv_config,
+    loads, table, summary = simulate_house(row, Path(config.inputs.weather), config=ilv_config(config),
                                            source=config.inputs.characteristics)
     files = {"loads.parquet": loads.to_parquet(), "ilv.parquet": table.to_parquet(index=False),
              "house.json": json.dumps(summary).encode()}

@@ -23,7 +23,8 @@ from pipeline.ingest.tariff import citylearn_pricing, read_tariff
 from pipeline.ingest.timeindex import period_index
 from pipeline.ingest.weather import ForecastSpec, citylearn_weather
 from pipeline.pv import site_pv_yield
-from pipeline.select import select_from_file
+from pipeline.select import read_stock_table, select_from_file
+from surrogates.energyplus.metadata import normalise_characteristics
 
 OBSERVATIONS_SHARED = ("month", "day_type", "hour", "outdoor_dry_bulb_temperature",
                        "outdoor_dry_bulb_temperature_predicted_6h", "diffuse_solar_irradiance",
@@ -191,3 +192,20 @@ def _resistance(size: Mapping[str, Mapping]) -> bool:
 
 def period_hours(config: BuildConfig) -> int:
     return ((config.period.end - config.period.start).days + 1) * 24
+
+
+def read_characteristics_row(path: Path, bldg_id: int) -> dict[str, object]:
+    """One stock row (either metadata layout) as plain JSON values in the published layout (``bldg_id``,
+    ``in.*``); NaN -> None."""
+
+    path = Path(path)
+    raw = read_stock_table(path)
+    id_column = "bldg_id" if "bldg_id" in raw.columns else "building_id"
+    if id_column not in raw.columns:
+        raise InputError("no building id column (expected 'bldg_id' or 'building_id')", file=path, column="bldg_id")
+    rows = raw[pd.to_numeric(raw[id_column], errors="coerce") == int(bldg_id)]
+    if rows.empty:
+        raise InputError(f"building {bldg_id} not in the characteristics", file=path, column=id_column)
+    keep = {k: v for k, v in rows.iloc[0].to_dict().items()
+            if str(k).startswith(("bldg_id", "building_id", "in.", "build_existing_model.", "upgrade_costs.floor"))}
+    return {k: plain_value(v) for k, v in normalise_characteristics(keep).items()}

@@ -4,11 +4,13 @@ through :mod:`surrogates` and the files written into the district.
 
 from __future__ import annotations
 
+import calendar
 import json
 import re
+import sys
 import tempfile
 from collections.abc import Callable, Mapping
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
 import pandas as pd
@@ -20,16 +22,18 @@ from pipeline.build.manifest import (
     sha256_file,
 )
 from pipeline.build.staging import write_new_file
-from pipeline.build.steps import check_weather, eulp_metadata_row
+from pipeline.build.steps import check_weather, eulp_metadata_row, read_characteristics_row
 from pipeline.config import BuildConfig
 from pipeline.errors import InputError
 from pipeline.progress import epochs, report
-from surrogates.config import TrainConfig
+from surrogates.config import BUILD_RECIPE
+from surrogates.energyplus.ilv import ILVConfig
 from surrogates.export import train_and_export
 from surrogates.ilv import read_ilv, table_digest, validate_ilv
+from surrogates.judge import JudgeConfig, judge_surrogate, verdict
 from surrogates.sources.energyplus import energyplus_ilv_table
 from surrogates.sources.fmu import simulate_ilv_fmu
-from surrogates.train import update_precision
+from surrogates.train import progress_units, update_precision
 
 #: the trainer's source files (relative to the ``surrogates`` package): part of every surrogate cache key
 TRAINER_SOURCES = ("config.py", "train.py", "model.py", "export.py", "evaluate.py", "ilv.py")
@@ -38,6 +42,10 @@ TRAINER_SOURCES = ("config.py", "train.py", "model.py", "export.py", "evaluate.p
 #: what turns EULP metadata + EPW into an ILV table: part of the key for ``surrogate.source = "energyplus"``
 ENERGYPLUS_SOURCES = ("sources/energyplus.py", "energyplus/ilv.py", "energyplus/house.py",
                       "energyplus/metadata.py", "energyplus/runner.py", "energyplus/sqlite.py", "energyplus/epw.py")
+
+
+#: the judge's sources (relative to ``surrogates``): part of the key of every judged surrogate
+JUDGE_SOURCES = ("judge.py", *ENERGYPLUS_SOURCES)
 
 
 @dataclass(frozen=True)
@@ -50,11 +58,60 @@ class SurrogateFiles:
 
 
 def train_config(config: BuildConfig):
-    """The :class:`surrogates.train.TrainConfig` of the build (single-threaded, no progress bar)."""
+    """The :class:`surrogates.train.TrainConfig` of the build (single-threaded, no progress bar): the
+    ``[surrogate]`` settings over :data:`surrogates.config.BUILD_RECIPE` (about 30 s of CPU per building-year
+    in float32 on an AVX2-only CPU)."""
 
     s = config.surrogate
-    return TrainConfig(hidden_size=s.hidden_size, num_layers=s.num_layers, lookback=s.lookback, epochs=s.epochs,
-                       seed=s.seed, max_seconds=s.max_seconds, precision=s.precision, progress=False, threads=1)
+    return replace(BUILD_RECIPE, hidden_size=s.hidden_size, num_layers=s.num_layers, lookback=s.lookback,
+                   epochs=s.epochs, pretrain_steps=s.pretrain_steps, long_chunk_epochs=s.long_chunk_epochs,
+                   seed=s.seed, max_seconds=s.max_seconds, precision=s.precision, progress=False, threads=1)
+
+
+def ilv_config(config: BuildConfig) -> ILVConfig:
+    """The ILV configuration of the build's EnergyPlus houses (``[simulation]``, the period's year): what their
+    surrogates are trained on."""
+    sim = config.simulation
+    return ILVConfig(partial_runs=sim.partial_runs, seed=sim.seed, timesteps_per_hour=sim.timesteps_per_hour,
+                     year=config.period.start.year)
+
+
+def judge_config(config: BuildConfig) -> JudgeConfig:
+    """The build's judge: the whole months of the district's period (the months its surrogates serve in), or
+    the training data's year when the period crosses a new year."""
+    start, end = config.period.start, config.period.end
+    if start.year != end.year:
+        return JudgeConfig()
+    last = calendar.monthrange(end.year, end.month)[1]
+    return JudgeConfig(run_period=((start.month, 1), (end.month, last)))
+
+
+def judge_row(config: BuildConfig, bldg_id: int) -> dict[str, object] | None:
+    """The stock row the judge simulates (EnergyPlus houses and EULP buildings with ``energyplus`` surrogates);
+    None where there is no house to judge against (precomputed tables, FMUs, no surrogate)."""
+    if config.surrogate.source == "none":
+        return None
+    if config.inputs.characteristics is not None:
+
+        return read_characteristics_row(config.inputs.characteristics, bldg_id)
+    if config.surrogate.source == "energyplus":
+        return eulp_metadata_row(config, bldg_id)
+    return None
+
+
+def judge_training_config(config: BuildConfig) -> ILVConfig:
+    """The ILV configuration the judged model was trained on: the houses' (:func:`ilv_config`), or the
+    default of ``energyplus`` tables of EULP buildings (:func:`energyplus_ilv`)."""
+    return ilv_config(config) if config.inputs.characteristics is not None else ILVConfig()
+
+
+def judge_cache_part(config: BuildConfig, row: Mapping[str, object]) -> dict:
+    """What a judgement is a function of (besides the model): the row, the weather file, both ILV configs
+    and the judge's and generator's sources."""
+    package = Path(surrogates.__file__).parent
+    return {"row": dict(row), "epw_sha256": sha256_file(Path(config.inputs.weather)),
+            "judge": asdict(judge_config(config)), "training_ilv": asdict(judge_training_config(config)),
+            "judge_sha256": files_digest([package / f for f in JUDGE_SOURCES], package)}
 
 
 def check_cache_root(config: BuildConfig) -> None:
@@ -108,6 +165,9 @@ def surrogate_cache_parts(config: BuildConfig, bldg_id: int, name: str, table: p
         "trainer_sha256": files_digest([package / f for f in TRAINER_SOURCES], package),
         "torch": package_version("torch"),
     }
+    row = judge_row(config, bldg_id)
+    if row is not None:
+        parts["judge"] = judge_cache_part(config, row)
     if table is not None:
         parts["ilv"] = {"source": config.surrogate.source, "table_sha256": table_digest(table)}
         return parts, table
@@ -149,7 +209,8 @@ def fmu_ilv(config: BuildConfig, frame: pd.DataFrame, weather: pd.DataFrame) -> 
 def energyplus_ilv(config: BuildConfig, bldg_id: int) -> pd.DataFrame:
     """The building's ILV table simulated with the project's EnergyPlus house model (validated)."""
 
-    result = energyplus_ilv_table(eulp_metadata_row(config, bldg_id), Path(config.inputs.weather))
+    result = energyplus_ilv_table(eulp_metadata_row(config, bldg_id), Path(config.inputs.weather),
+                                  config=judge_training_config(config))
     return validate_ilv(result.table, source=f"EnergyPlus ILV of building {bldg_id}")
 
 
@@ -187,10 +248,80 @@ def surrogate_files(config: BuildConfig, bldg_id: int, name: str, table: pd.Data
     if table is None:
         report(name, "simulate ILV runs (EnergyPlus)")
         table = energyplus_ilv(config, bldg_id)
-    report(name, "train", 0, config.surrogate.epochs)
-    files = train_files(table, bldg_id, name, train_config(config))
+    settings = train_config(config)
+    report(name, "train", 0, progress_units(settings))
+    files = train_files(table, bldg_id, name, settings)
+    if "judge" in parts:
+        report(name, "judge (fresh EnergyPlus run)")
+        files = judged_files(config, name, files, parts["judge"]["row"])
     cache.put(key, files, inputs=parts)
     return SurrogateFiles(files, key, False)
+
+
+def judged_files(config: BuildConfig, name: str, files: Mapping[str, bytes], row: Mapping[str, object],
+                 ) -> dict[str, bytes]:
+    """``files`` with the judge's record (:func:`surrogates.judge.judge_surrogate`: a fresh EnergyPlus run
+    of the house, other seed and timestep count than the training data) under ``"judge"`` in
+    ``surrogates/<name>.metrics.json``."""
+    metrics_name = f"surrogates/{name}.metrics.json"
+    with tempfile.TemporaryDirectory(prefix="districtgen_judge_") as scratch:
+        pth = Path(scratch) / f"{name}.pth"
+        pth.write_bytes(files[f"{name}.pth"])
+        block = json.loads(files[f"surrogates/{name}.dynamics.json"])
+        record = judge_surrogate(pth, row, Path(config.inputs.weather), judge_training_config(config),
+                                 judge_config(config), dynamics=block, source=f"building {name}")
+    metrics = json.loads(files[metrics_name])
+    metrics["judge"] = record
+    return {**files, metrics_name: (json.dumps(metrics, indent=2) + "\n").encode()}
+
+
+def surrogate_errors(files: Mapping[str, Mapping[str, bytes]]) -> dict[str, dict]:
+    """Building name -> the judge's record in its metrics (buildings without a judge left out)."""
+    out = {}
+    for name, entry in files.items():
+        metrics = json.loads(entry.get(f"surrogates/{name}.metrics.json", b"{}"))
+        if "judge" in metrics:
+            out[name] = metrics["judge"]
+    return out
+
+
+def check_surrogate_errors(judged: Mapping[str, Mapping], strict: bool = False, stream=None) -> None:
+    """One warning line per house whose surrogate misses the bound (monthly RMSE median 0.25 / worst month
+    0.5 degC against the judge); with ``strict`` the first such house is one :class:`InputError` instead."""
+    for name, record in judged.items():
+        miss = verdict(record, record.get("median_bound_c", 0.25), record.get("worst_bound_c", 0.5))
+        if miss is None:
+            continue
+        ilv = record.get("judge_ilv", {})
+        line = (f"{name}: surrogate misses the bound against a fresh EnergyPlus run "
+                f"({ilv.get('timesteps_per_hour')} timesteps/h, seed {ilv.get('seed')}): {miss}")
+        if strict:
+            raise InputError(f"{line} (--strict)", column="surrogate")
+        print(f"districtgen: warning: {line}", file=stream or sys.stderr)
+
+
+def surrogate_error_summary(record: Mapping) -> dict:
+    """The schema's short form of a judge record [degC]: monthly RMSE median and worst month, mean absolute
+    errors, the bounds, whether it passes and the judge's timestep count and seed."""
+    ilv = record.get("judge_ilv", {})
+    return {"judge": "fresh EnergyPlus run of the house (surrogates.judge)",
+            "monthly_rmse_median_c": record["median_c"], "monthly_rmse_worst_c": record["worst_c"],
+            "mean_abs_error_c": record.get("mean_abs_c"), "ideal_loads_mean_abs_error_c": record.get("ideal_mean_abs_c"),
+            "median_bound_c": record.get("median_bound_c"), "worst_bound_c": record.get("worst_bound_c"),
+            "passes": record.get("passes"), "timesteps_per_hour": ilv.get("timesteps_per_hour"),
+            "seed": ilv.get("seed")}
+
+
+def annotate_schema(schema: dict, judged: Mapping[str, Mapping]) -> dict:
+    """Put each judged building's :func:`surrogate_error_summary` into its schema ``dynamics`` entry, key
+    ``surrogate_error`` beside ``type``/``attributes`` (both v2.1 blocks): loaders read only those two."""
+    for name, record in judged.items():
+        entry = schema["buildings"][name].get("dynamics")
+        if not entry:
+            continue
+        for block in ([entry] if "type" in entry or "attributes" in entry else list(entry.values())):
+            block["surrogate_error"] = surrogate_error_summary(record)
+    return schema
 
 
 def write_surrogate_files(out: Path, files: Mapping[str, bytes]) -> dict:

@@ -1,5 +1,6 @@
 """``districtgen optimal SCHEMA``: the perfect-foresight bound of a district's storage, printed, and its schedule
-written as CSV (:func:`pipeline.optimal.command.optimal`). The parser loads nothing heavy (HiGHS loads when
+written as CSV (:func:`pipeline.optimal.command.optimal`); with ``--mpc``, receding-horizon MPC beside it (its
+actions written instead). The parser loads nothing heavy (HiGHS loads when
 the command runs)."""
 
 from __future__ import annotations
@@ -9,6 +10,8 @@ from pathlib import Path
 
 #: objectives a user names on the command line (weights: ``--objective cost=1 emissions=0.5``)
 OBJECTIVE_NAMES = ("cost", "emissions", "consumption", "average_daily_peak")
+#: MPC's forecasts (pipeline.optimal.forecasts.FORECASTS; repeated so the parser imports nothing heavy)
+FORECASTS = ("perfect", "persistence", "day_ahead", "predicted")
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -26,6 +29,14 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--compat", action="store_true", help="plan and replay in the CityLearn 2.1 preset")
     parser.add_argument("--no-check", action="store_true", help="skip the replay of the schedule in the env")
     parser.add_argument("--workers", type=int, default=1, help="processes solving buildings in parallel")
+    parser.add_argument("--mpc", action="store_true",
+                        help="also run receding-horizon MPC and print it beside the oracle; -o writes its actions")
+    parser.add_argument("--horizon", type=int, default=24, help="with --mpc: steps planned ahead (default 24)")
+    parser.add_argument("--forecast", default="perfect", choices=FORECASTS,
+                        help="with --mpc: what the controller knows ahead (default perfect)")
+    parser.add_argument("--train", type=int, nargs=2, metavar=("START", "END"),
+                        help="with --mpc: data rows (inclusive) the day-ahead profiles learn from (default: every "
+                             "row before the period)")
     parser.set_defaults(func=optimal_command)
 
 
@@ -59,7 +70,11 @@ def optimal_command(args: argparse.Namespace) -> int:
 
     if args.workers < 1:
         raise InputError("--workers N needs N >= 1", column="--workers")
+    if not args.mpc and (args.horizon != 24 or args.forecast != "perfect" or args.train is not None):
+        raise InputError("--horizon, --forecast and --train apply to --mpc only", column="--mpc")
+    control = {"horizon": args.horizon, "forecast": args.forecast,
+               "train": None if args.train is None else tuple(args.train)} if args.mpc else None
     optimal(args.schema, parse_objective(args.objective), start=args.start, end=args.end, out=args.output,
             settings="citylearn-2.1" if args.compat else None, normalise=args.normalise,
-            check=not args.no_check, workers=args.workers)
+            check=not args.no_check, workers=args.workers, control=control)
     return 0

@@ -22,6 +22,7 @@ from citylearn_env.settings import PRESETS, resolve
 from pipeline.controllers import without_device_actions
 from pipeline.errors import InputError
 from pipeline.optimal import objectives as obj
+from pipeline.optimal.mpc import MpcRun, mpc
 from pipeline.optimal.oracle import Oracle, Schedule, oracle
 from pipeline.optimal.replay import Replay, replay
 
@@ -41,6 +42,7 @@ class Result:
     end: int
     csv: Path | None = None
     track: str = "soc"
+    mpc: MpcRun | None = None
 
     @property
     def bound(self) -> float:
@@ -63,9 +65,25 @@ class Result:
             lines.append(f"  {k:19s} {best:14.6g} {UNITS[k]:3s} (no control {base:.6g} {UNITS[k]}, {change}){replayed}")
         lines.append(f"  solved in {o.seconds:.2f} s ({o.iterations} LP solves of the largest group, "
                      f"{o.size[0]} columns x {o.size[1]} rows; plan vs physics {o.path_error:.1e} of capacity)")
+        if self.mpc is not None:
+            lines += _mpc_lines(self.mpc, o)
         if self.csv is not None:
-            lines.append(f"  schedule: {self.csv}")
+            lines.append(f"  {'MPC actions' if self.mpc is not None else 'schedule'}: {self.csv}")
         return "\n".join(lines)
+
+
+def _mpc_lines(run: MpcRun, bound: Oracle) -> list[str]:
+    """MPC's objectives in the env beside the oracle's bound and no control."""
+    lines = [f"mpc: horizon {run.horizon} steps, {run.forecast} forecasts, {run.solves} LP solves, "
+             f"{run.seconds:.2f} s (env values; the oracle's bound and no control beside them)"]
+    for k in obj.OBJECTIVES:
+        lines.append(f"  {k:19s} {run.objectives[k]:14.6g} {UNITS[k]:3s} (oracle {bound.objectives[k]:.6g}, "
+                     f"no control {bound.baseline[k]:.6g})")
+    used = {k: w for k, w in bound.weights.items() if w}
+    if len(used) > 1:
+        lines.append(f"  weighted            {obj.weighted(run.objectives, used):14.6g}     "
+                     f"(oracle {bound.value:.6g}, no control {obj.weighted(bound.baseline, used):.6g})")
+    return lines
 
 
 def _percent(gap: float) -> str:
@@ -98,7 +116,7 @@ def preset_name(settings: Any = None) -> str:
 def optimal(schema: str | Path | Mapping[str, Any] | DistrictConfig, objective: str | Mapping[str, float] = "cost",
             start: int | None = None, end: int | None = None, out: str | Path | None = None, *,
             settings: Any = None, seed: int = 0, normalise: bool = False, check: bool = True, track: str = "soc",
-            workers: int = 1, quiet: bool = False) -> Result:
+            workers: int = 1, quiet: bool = False, control: Mapping[str, Any] | None = None) -> Result:
     """The perfect-foresight optimum of ``schema``'s storage for ``objective`` (a name of
     :data:`pipeline.optimal.objectives.OBJECTIVES` or ``{name: weight}``; ``normalise`` divides the weights
     by the no-control values) over the data rows ``start`` .. ``end``.
@@ -107,17 +125,21 @@ def optimal(schema: str | Path | Mapping[str, Any] | DistrictConfig, objective: 
     (default corrected); ``seed``: the reset seed (stochastic outages are drawn from it); ``check``: replay the
     schedule in the env and report the gap, following its states of charge (``track="soc"``) or its energies
     open loop (``"energy"``; :mod:`pipeline.optimal.replay`); ``workers``: processes solving buildings in
-    parallel; ``quiet``: print nothing. Returns a :class:`Result` (its ``bound``, ``summary()``).
+    parallel; ``quiet``: print nothing; ``control``: run MPC too (keywords of :func:`pipeline.optimal.mpc.mpc`:
+    ``horizon``, ``forecast``, ``train``; the weights as the oracle's) and write its actions to ``out`` instead of
+    the schedule. Returns a :class:`Result` (its ``bound``, ``summary()``, ``mpc``).
     """
     config = district(schema, start=start, end=end, settings=settings)
     env = CityLearnEnv(config, settings=settings)
     env.reset(seed=seed)
     solution = oracle(env, objective, normalise=normalise, workers=workers)
     checked = replay(env, solution.schedule, seed=seed, track=track) if check else None
+    run = mpc(env, solution.weights, seed=seed, **control) if control is not None else None
     first = config.episode_time_steps[0]
-    csv = write_schedule(solution.schedule, out, first=first[0]) if out is not None else None
+    written = solution.schedule if run is None else run.schedule
+    csv = write_schedule(written, out, first=first[0]) if out is not None else None
     result = Result(oracle=solution, replay=checked, preset=preset_name(settings), start=first[0], end=first[1],
-                    csv=csv, track=track)
+                    csv=csv, track=track, mpc=run)
     if not quiet:
         print(result.summary())
     return result
@@ -133,7 +155,7 @@ def write_schedule(schedule: Schedule, path: str | Path, *, first: int = 0) -> P
     path.parent.mkdir(parents=True, exist_ok=True)
     columns: dict[str, np.ndarray] = {"time_step": first + np.arange(schedule.action.shape[1])}
     for row, (building, slot) in enumerate(schedule.storages):
-        columns[f"{building}.{slot}.action"] = schedule.action[row]
+        columns[f"{building}.{slot}.action"] = schedule.action[row] + 0.0  # + 0.0: no "-0" in the file
         columns[f"{building}.{slot}.soc"] = schedule.soc[row]
     pd.DataFrame(columns).to_csv(path, index=False, float_format="%.10g")
     return path

@@ -4,7 +4,8 @@ Variables per storage s and controlled step i (episode step t = i + 1), device-s
 charge c >= 0, discharge d >= 0, energy held after the step E in [0, capacity]; a battery with a
 depth-of-discharge floor adds a slack v >= 0 (see below). Per building b and step i with an import price:
 grid import g >= 0. With the peak objective: one peak p_k per day k (blocks of 24 steps from the episode
-start).
+start; an MPC window starts ``plant.day_offset`` steps into its first day, whose peak is at least the running
+peak ``plant.peak_floor``).
 
 Constraints (a = 1 - standing loss, r = one-way efficiency, k = electricity per device-side kWh, 1/COP or 1):
 
@@ -25,7 +26,7 @@ Constraints (a = 1 - standing loss, r = one-way efficiency, k = electricity per 
   p_day is bounded below by the lowest net its day can reach (a valid bound that helps the dual simplex).
 
 Objective: the weighted import coefficients (``objectives.import_coefficients``) times g, peak weight x 24 / T
-times sum_k p_k, plus constants of step 0 and of building-steps without a storage; a tiny throughput penalty
+times sum_k p_k (T the episode's steps, ``plant.episode_steps`` for a window), plus constants of step 0 and of building-steps without a storage; a tiny throughput penalty
 (``THROUGHPUT_PENALTY`` x the largest coefficient, on c and d) keeps the LP from charging and discharging in the
 same step when it is indifferent, and the slack v costs ``SLACK_PENALTY`` x that coefficient per kWh. The
 reported objective leaves both penalties out.
@@ -95,14 +96,18 @@ class RowBuilder:
         k = lower.size
         rows = self.count + np.arange(k)
         for cols, vals in terms:
-            cols = np.broadcast_to(np.asarray(cols, dtype=np.intp), (k,))
-            vals = np.broadcast_to(np.asarray(vals, dtype=float), (k,))
+            cols, vals = _full(cols, k, np.intp), _full(vals, k, float)
             keep = cols >= 0
-            self.rows.append(rows[keep])
-            self.cols.append(cols[keep])
-            self.vals.append(vals[keep])
+            if keep.all():
+                self.rows.append(rows)
+                self.cols.append(cols)
+                self.vals.append(vals)
+            else:
+                self.rows.append(rows[keep])
+                self.cols.append(cols[keep])
+                self.vals.append(vals[keep])
         self.lower.append(lower)
-        self.upper.append(np.broadcast_to(np.asarray(upper, dtype=float), (k,)))
+        self.upper.append(_full(upper, k, float))
         self.count += k
 
     def csr(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -111,6 +116,12 @@ class RowBuilder:
         order = np.argsort(rows, kind="stable")
         start = np.concatenate([[0], np.cumsum(np.bincount(rows, minlength=self.count))])
         return start, np.concatenate(self.cols)[order], np.concatenate(self.vals)[order]
+
+
+def _full(values, k: int, dtype) -> np.ndarray:
+    """``values`` (a scalar or (k,)) as a (k,) array of ``dtype`` (a cheap broadcast: this runs per LP block)."""
+    array = np.asarray(values, dtype=dtype)
+    return array if array.shape == (k,) else np.full(k, array.reshape(-1)[0] if array.size == 1 else array, dtype)
 
 
 def layout(plant: Plant, weights: dict[str, float], coefficient: np.ndarray) -> Columns:
@@ -125,7 +136,7 @@ def layout(plant: Plant, weights: dict[str, float], coefficient: np.ndarray) -> 
     imports = np.full(wanted.shape, -1, dtype=np.intp)
     imports[wanted] = total + np.arange(int(wanted.sum()))
     total += int(wanted.sum())
-    days = -(-plant.steps // obj.DAY_STEPS) if weights[obj.PEAK] > 0 else 0
+    days = -(-(plant.day_offset + plant.steps) // obj.DAY_STEPS) if weights[obj.PEAK] > 0 else 0
     peak = total if days else -1
     return Columns(n=n, charge=first, discharge=first + n, energy=first + 2 * n,
                    slack=np.where(blocks == 4, first + 3 * n, -1), imports=imports, peak=peak, days=days,
@@ -151,7 +162,8 @@ def build(plant: Plant, weights: dict[str, float]) -> LinearProgram:
     _import_rows(rows, plant, cols)
     _outage_rows(rows, plant, cols)
     if cols.days:
-        _peak_rows(rows, plant, cols, lower, cost, weights[obj.PEAK] * obj.DAY_STEPS / plant.steps)
+        scale = obj.DAY_STEPS / (plant.episode_steps or plant.steps)
+        _peak_rows(rows, plant, cols, lower, cost, weights[obj.PEAK] * scale)
     scale = max(float(cost.max(initial=0.0)), 1e-12)
     objective = cost.copy()
     for s in range(len(plant.storages)):
@@ -241,9 +253,10 @@ def _outage_rows(rows: RowBuilder, plant: Plant, cols: Columns) -> None:
 
 def _peak_rows(rows: RowBuilder, plant: Plant, cols: Columns, lower: np.ndarray, cost: np.ndarray,
                weight: float) -> None:
-    """p_day(t) - sum_s k_si (c_si - d_si) >= district base net_t; day 0 is at least step 0's net."""
+    """p_day(t) - sum_s k_si (c_si - d_si) >= district base net_t; day 0 is at least step 0's net and the
+    plant's ``peak_floor`` (the running peak of a day an MPC window starts inside)."""
     n = cols.n
-    day = cols.peak + (np.arange(1, n + 1) // obj.DAY_STEPS)
+    day = cols.peak + ((plant.day_offset + np.arange(1, n + 1)) // obj.DAY_STEPS)
     peaks = cols.peak + np.arange(cols.days)
     cost[peaks] = weight
     steps = np.arange(n)
@@ -259,7 +272,7 @@ def _peak_rows(rows: RowBuilder, plant: Plant, cols: Columns, lower: np.ndarray,
     # day can reach) keeps the dual simplex away from free columns
     bound = np.full(cols.days, -np.inf)
     np.maximum.at(bound, day - cols.peak, floor)
-    bound[0] = max(bound[0], float(plant.base_net[:, 0].sum()))
+    bound[0] = max(bound[0], float(plant.base_net[:, 0].sum()), plant.peak_floor)
     lower[peaks] = bound
 
 

@@ -93,7 +93,10 @@ class Plant:
     """A district's storage problem over one episode. ``base_net`` (B, T) [kWh]: each building's net consumption
     with every storage idle (0 during its outages); ``price`` [$ / kWh] and ``carbon`` [kg / kWh] (B, T);
     ``outage`` (B, T) bool; ``surplus`` (B, T) [kWh]: PV left after every load at an outage step (0 elsewhere);
-    ``storages``: the controllable ones (capacity > 0 and an active action)."""
+    ``storages``: the controllable ones (capacity > 0 and an active action). For a window of an episode (MPC,
+    :mod:`pipeline.optimal.window`): ``day_offset`` [steps] of the first day already run before step 0 (days are
+    blocks of 24 steps from the episode start), ``peak_floor`` [kW] that day's running district peak so far,
+    and ``episode_steps`` the episode's T that scales the peak's weight (0: this plant's own T)."""
 
     building_names: tuple[str, ...]
     base_net: np.ndarray
@@ -102,6 +105,9 @@ class Plant:
     outage: np.ndarray
     surplus: np.ndarray
     storages: tuple[Storage, ...]
+    day_offset: int = 0
+    peak_floor: float = -np.inf
+    episode_steps: int = 0
 
     @property
     def steps(self) -> int:
@@ -159,10 +165,15 @@ def _check_supported(env) -> None:
 
 
 def _tank(u, b: int, d) -> Storage:
-    """Tank of end use ``u`` (an EndUseState) in building ``b``: charge up to the device's headroom
-    nominal x COP - demand, discharge up to the demand (none where the device is undersized)."""
+    """Tank of end use ``u`` (an EndUseState) in building ``b`` over the episode's controlled steps."""
+    return tank_storage(u, b, u.cop[b, 1:], u.demand_data[b, 1:])
+
+
+def tank_storage(u, b: int, cop: np.ndarray, demand: np.ndarray) -> Storage:
+    """Tank of end use ``u`` (an EndUseState) in building ``b`` at the device ``cop`` [-] and thermal ``demand``
+    [kWh] (n,) of the steps planned: charge up to the device's headroom nominal x COP - demand, discharge up to
+    the demand (none where the device is undersized); starting from the tank's initial state."""
     tank = u.params.tank
-    cop, demand = u.cop[b, 1:], u.demand_data[b, 1:]
     reach = u.params.nominal_power[b] * cop
     undersized = demand > reach + UNDERSIZED_TOLERANCE
     n = cop.size

@@ -50,14 +50,14 @@ def schedule_actions(env, schedule: Schedule) -> np.ndarray:
     """The open-loop action vectors of ``schedule`` for ``env``, (T - 1, A): row k is passed to the k-th
     ``step`` call (it controls step k + 1). Actions the schedule does not plan (inactive storages, devices) are 0."""
     out = np.zeros((schedule.action.shape[1] - 1, len(env.action_pairs)))
-    for j, row in _positions(env, schedule):
+    for j, row in positions(env, schedule.storages):
         out[:, j] = schedule.action[row, 1:]
     return out
 
 
-def _positions(env, schedule: Schedule) -> list[tuple[int, int]]:
-    """(action vector position, schedule row) of every planned storage."""
-    rows = {key: i for i, key in enumerate(schedule.storages)}
+def positions(env, storages) -> list[tuple[int, int]]:
+    """(action vector position, row) of every storage of ``storages`` ((building name, slot) per row)."""
+    rows = {key: i for i, key in enumerate(storages)}
     names = env.building_names
     return [(j, rows[(names[b], name)]) for j, (name, b) in enumerate(env.action_pairs) if (names[b], name) in rows]
 
@@ -70,7 +70,7 @@ class SocTracker:
         self.env, self.schedule = env, schedule
         pairs = env.action_pairs
         self.groups: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
-        for j, row in _positions(env, schedule):
+        for j, row in positions(env, schedule.storages):
             slot, b = pairs[j]
             position, rows, buildings = self.groups.get(slot, ((), (), ()))
             self.groups[slot] = ((*position, j), (*rows, row), (*buildings, b))

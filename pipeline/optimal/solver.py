@@ -13,6 +13,7 @@ from __future__ import annotations
 import os
 import sys
 import time
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -64,15 +65,18 @@ class Solution:
 
 
 def solve(lp: LinearProgram, *, basis: Any = None, solver: str = "choose", time_limit: float = float("inf"),
-          threads: int = 1) -> Solution:
+          threads: int = 1, options: Mapping[str, Any] | None = None) -> Solution:
     """Solve ``lp``; raise :class:`SolveError` unless HiGHS reports an optimum. ``basis``: a previous
     solution's basis (used when its shape fits ``lp``: the simplex restarts from it); ``solver``: HiGHS's
-    ``solver`` option ("choose", "simplex", "ipm", "pdlp"); ``threads``: HiGHS's thread count."""
+    ``solver`` option ("choose", "simplex", "ipm", "pdlp"); ``threads``: HiGHS's thread count; ``options``:
+    further HiGHS options by name (e.g. ``{"simplex_dual_edge_weight_strategy": 1}``)."""
     import highspy  # lazy: the optimal package's only dependency beyond the environment
 
     h = new_highs(highspy)
     h.setOptionValue("solver", solver)
     h.setOptionValue("threads", int(threads))
+    for name, value in (options or {}).items():
+        h.setOptionValue(name, value)
     if np.isfinite(time_limit):
         h.setOptionValue("time_limit", float(time_limit))
     n, m = int(lp.cost.size), int(lp.row_lower.size)

@@ -28,7 +28,10 @@ from citylearn_env.config import BuildingConfig, DistrictConfig
 from citylearn_env.errors import InputError
 from citylearn_env.wrappers import NormalizedActionWrapper, NormalizedObservationWrapper
 from pipeline.controllers import RULE_SETS, rule_actions, run_episode
+from pipeline.paper import seasons
 from pipeline.paper.sac.train import sac_threads, train_sac
+from pipeline.paper.seasons import DEVICE_OF, SIDES_OF, Season
+from pipeline.paper.seasons import season as season_of
 
 TRAIN_DAYS = 13
 
@@ -108,45 +111,72 @@ def resolve_roles(district: DistrictConfig, names: Sequence[str] | None = None) 
     return names
 
 
-def missing_devices(building: BuildingConfig, b: Benchmark) -> list[str]:
-    """The devices benchmark ``b`` needs that ``building`` lacks (empty when it has them all)."""
+def missing_devices(building: BuildingConfig, b: Benchmark, season: Season = "cooling") -> list[str]:
+    """The devices benchmark ``b`` needs that ``building`` lacks (empty when it has them all); the heat pump of
+    ``season`` (:data:`pipeline.paper.seasons.DEVICE_OF`)."""
+    slot = DEVICE_OF[season]
     needs = {"DHW storage (dhw_storage capacity > 0)": b.dhw and building.dhw_storage.capacity <= 0,
              "battery (electrical_storage capacity > 0)": b.bess_pv and building.electrical_storage.capacity <= 0,
              "PV (pv nominal_power > 0)": b.pv and building.pv_nominal_power <= 0,
-             "heat pump (cooling_device nominal_power > 0)": b.hp and building.cooling_device.nominal_power <= 0,
-             "LSTM temperature model (dynamics)": b.hp and building.cooling_model is None}
+             f"heat pump ({slot} nominal_power > 0, {season} period)":
+                 b.hp and getattr(building, slot).nominal_power <= 0,
+             "LSTM temperature model (dynamics)": b.hp and not building.has_dynamics}
     return [device for device, missing in needs.items() if missing]
 
 
-def check_devices(district: DistrictConfig, b: Benchmark, roles: Sequence[str]) -> None:
+def check_devices(district: DistrictConfig, b: Benchmark, roles: Sequence[str], season: Season = "cooling") -> None:
     """Raise one clear InputError when a building playing a role in ``b`` lacks a device ``b`` needs."""
 
     by_name = dict(zip(district.building_names, district.buildings, strict=True))
     for role, name in zip(ROLES, roles[:b.buildings], strict=False):
-        missing = missing_devices(by_name[name], b)
+        missing = missing_devices(by_name[name], b, season)
         if missing:
             raise InputError(f"{b.id} needs {', '.join(missing)} in {role} = {name}; pick another building "
                              "with --buildings", file=district.source, column=f"buildings.{name}")
 
 
+def season_of_test_period(district: DistrictConfig, roles: Sequence[str] | None = None) -> Season:
+    """The season of the test period (days 14 to the end) of the building playing B1."""
+    roles = resolve_roles(district, roles)
+    b1 = dict(zip(district.building_names, district.buildings, strict=True))[roles[0]]
+    return season_of(b1, test_period(district))
+
+
+def test_period(district: DistrictConfig) -> tuple[int, int]:
+    """The paper's test period: inclusive steps from the simulation start, days 14 to the end."""
+    n = district.simulation_end_time_step - district.simulation_start_time_step + 1
+    return TRAIN_DAYS * 24, n - 1
+
+
+def benchmark_notes(district: DistrictConfig, b: Benchmark, roles: Sequence[str] | None = None) -> list[str]:
+    """One line per part of ``b`` that the district's test period cannot exercise (:func:`seasons.notes`)."""
+    roles = resolve_roles(district, roles)
+    by_name = dict(zip(district.building_names, district.buildings, strict=True))
+    return seasons.notes([by_name[n] for n in roles[:b.buildings]], test_period(district), objective=b.objective,
+                         dhw=b.dhw, bess_pv=b.bess_pv, hp=b.hp)
+
+
 def benchmark_schema(district: DistrictConfig, b: Benchmark, split: tuple[int, int],
-                     multiplier: float = 3.0, roles: Sequence[str] | None = None) -> DistrictConfig:
+                     multiplier: float = 3.0, roles: Sequence[str] | None = None,
+                     season: Season | None = None) -> DistrictConfig:
     """The district edited for benchmark ``b`` over the inclusive time-step range ``split`` (typed edits).
 
     The buildings playing B1 (and B2) (``roles``, default the first two); the paper's observations
     (:func:`observations`, calendar, prices, carbon and outdoor temperature shared in the central agent); the
     storage/heat-pump actions of ``b``; devices ``b`` does not use removed; the objective's reward; a
-    central agent; no power outages.
+    central agent; no power outages. The heat pump controlled is the one of ``season`` (default: the season of
+    the test period, :func:`season_of_test_period`).
     """
     roles = resolve_roles(district, roles)
     if len(roles) < b.buildings:
 
         raise InputError(f"{b.id} needs two buildings (B1 and B2), got only {list(roles)}", column="--buildings")
-    check_devices(district, b, roles)
+    season = season or season_of_test_period(district, roles)
+    check_devices(district, b, roles, season)
     names = observations(b)
     shared = set(ALWAYS) | {"electricity_pricing", "carbon_intensity", "outdoor_dry_bulb_temperature"}
     actions = [a for a, on in (("dhw_storage", b.dhw), ("electrical_storage", b.bess_pv),
-                               ("cooling_device", b.hp)) if on]
+                               (DEVICE_OF[season], b.hp)) if on]
     removed = [slot for slot, keep in (("dhw_storage", b.dhw), ("electrical_storage", b.bess_pv), ("pv", b.pv))
                if not keep]
     attributes = {"multiplier": multiplier} if b.objective == "discomfort_consumption" else {}
@@ -172,15 +202,26 @@ SWEEP_ID = "rlc-b1-d_o-hp"
 
 @dataclass(frozen=True)
 class Task:
-    """One run: benchmark ``id`` with over-cooling multiplier ``multiplier`` and seed ``seed``."""
+    """One run: benchmark ``id`` with over-cooling multiplier ``multiplier`` and seed ``seed``, under the
+    benchmark's own controller (``controller`` = "") or a reference controller of its configuration ("oracle",
+    "mpc"; :mod:`pipeline.paper.reference`)."""
 
     id: str
     multiplier: float
     seed: int
+    controller: str = ""
 
     @property
     def key(self) -> str:
+        if self.controller:
+            return f"{self.controller}-{configuration(self.id)}-s{self.seed}"
         return f"{self.id}-m{self.multiplier:g}-s{self.seed}"
+
+
+def configuration(benchmark_id: str) -> str:
+    """The configuration of a benchmark id (buildings, objective, devices): the id without its controller,
+    e.g. "b1-c-dhw" for rbc-b1-c-dhw and rlc-b1-c-dhw."""
+    return benchmark_id.split("-", 1)[1]
 
 
 @dataclass(frozen=True)
@@ -221,15 +262,17 @@ def run_benchmark(district: DistrictConfig, b: Benchmark, *, seed: int = 0, mult
 
         raise InputError(f"unknown rule set {options.rules!r}; known: {', '.join(RULE_SETS)}", column="--rules")
     started = time.perf_counter()
-    n = district.simulation_end_time_step - district.simulation_start_time_step + 1
-    train, test = (0, TRAIN_DAYS * 24 - 1), (TRAIN_DAYS * 24, n - 1)
-    env = CityLearnEnv(benchmark_schema(district, b, test, multiplier, options.roles), settings=options.settings)
+    train, test = (0, TRAIN_DAYS * 24 - 1), test_period(district)
+    season = season_of_test_period(district, options.roles)
+    env = CityLearnEnv(benchmark_schema(district, b, test, multiplier, options.roles, season),
+                       settings=options.settings)
     policy, train_seconds, train_cpu, precision, threads = None, 0.0, 0.0, "-", 0
     if b.control == "sac":
 
         threads = options.sac_threads or sac_threads(options.cores)[0]
         trained = sac_policy(
-            CityLearnEnv(benchmark_schema(district, b, train, multiplier, options.roles), settings=options.settings),
+            CityLearnEnv(benchmark_schema(district, b, train, multiplier, options.roles, season),
+                         settings=options.settings),
             options.sac_episodes, seed, options.sac, threads, options.precision)
         policy, train_seconds, train_cpu, precision = trained
     rules, lookahead = RULE_SETS[options.rules]
@@ -240,6 +283,17 @@ def run_benchmark(district: DistrictConfig, b: Benchmark, *, seed: int = 0, mult
         actions = run_episode(env, policy, seed)
     else:
         actions = run_episode(env, lambda _: np.zeros(env.action_space.shape), seed)
+    return {**episode_result(env, b, actions, seed=seed, multiplier=multiplier, controller=b.control),
+            "notes": benchmark_notes(district, b, options.roles),
+            "precision": precision, "sac_threads": threads, "train_seconds": train_seconds,
+            "train_cpu_seconds": train_cpu, "seconds": time.perf_counter() - started}
+
+
+def episode_result(env, b: Benchmark, actions: Sequence[np.ndarray], *, seed: int, multiplier: float,
+                   controller: str) -> dict[str, Any]:
+    """The test-period objectives of a finished episode of ``env`` under benchmark ``b``'s configuration: cost
+    [$], emissions [kg], discomfort [C h] and consumption [kWh] of B1, over-/under-cooling statistics [C], the
+    district's average daily peak [kW], the ``controller`` that ran and the trace for the figures."""
     result = env.objectives()
     first = {k: float(v[0]) for k, v in result["per_building"].items()}
     series = env.series()
@@ -247,11 +301,11 @@ def run_benchmark(district: DistrictConfig, b: Benchmark, *, seed: int = 0, mult
     over, under = -delta[delta < 0], delta[delta > 0]  # over-cooling: colder than the set point
     first |= {"overcooling_mean": mean_or_zero(over), "overcooling_std": std_or_zero(over),
               "undercooling_mean": mean_or_zero(under), "undercooling_std": std_or_zero(under)}
-    return {"id": b.id, "buildings": "+".join(env.building_names), "multiplier": multiplier, "seed": seed,
-            **first, "average_daily_peak": result["average_daily_peak"], "steps": int(env.t),
-            "mean_abs_action": float(np.mean(np.abs(actions))) if env.action_names else 0.0,
-            "precision": precision, "sac_threads": threads, "train_seconds": train_seconds,
-            "train_cpu_seconds": train_cpu, "seconds": time.perf_counter() - started,
+    kind = "heating" if b.hp and any(n.endswith(".heating_device") for n in env.action_names) else "cooling"
+    return {"id": b.id, "controller": controller, "buildings": "+".join(env.building_names), "season": kind,
+            "below_above": "/".join(SIDES_OF[kind]),
+            "multiplier": multiplier, "seed": seed, **first, "average_daily_peak": result["average_daily_peak"],
+            "steps": int(env.t), "mean_abs_action": float(np.mean(np.abs(actions))) if env.action_names else 0.0,
             "trace": trace(env, series, actions)}
 
 

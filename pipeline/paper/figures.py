@@ -5,6 +5,8 @@
 * ``actions_soc.png`` -- the agent's action and the storage SOC of B1 over the first 7 test days for each
   learning DHW / battery benchmark; TOU periods shaded by price level, carbon intensity as a filled area.
 * ``daily_peak.png`` -- the district's daily peak [kW] per test day: no control with PV, peak RBC, peak SAC.
+* ``soc_trajectories.png`` -- B1's storage SOC [-] over the first 7 test days under the oracle, MPC, the RBC
+  and SAC, one panel per storage configuration (battery solid, DHW tank dashed); TOU periods shaded.
 
 The m-sweep table is markdown (``multiplier_sweep.md``, :func:`pipeline.paper.sweep_table`).
 """
@@ -23,16 +25,18 @@ STORAGE_RL = ("rlc-b1-c-dhw", "rlc-b1-e-dhw", "rlc-b1-c-bess_pv", "rlc-b1-e-bess
 PEAK_ROWS = ("x-b1_b2-x-pv", "rbc-b1_b2-p-bess_pv", "rlc-b1_b2-p-bess_pv")
 
 
-def write_figures(out: Path, results: Sequence[Mapping[str, Any]], sweep: Sequence[Mapping[str, Any]] = ()
-                  ) -> list[Path]:
-    """Draw every figure whose runs are in ``results``; return the files written."""
+def write_figures(out: Path, results: Sequence[Mapping[str, Any]], sweep: Sequence[Mapping[str, Any]] = (),
+                  references: Mapping[str, Mapping[str, Mapping[str, Any]]] | None = None) -> list[Path]:
+    """Draw every figure whose runs are in ``results`` (and ``references``: configuration -> controller ->
+    run of :mod:`pipeline.paper.reference`); return the files written."""
     import matplotlib  # matplotlib loads only when a figure is drawn
 
     matplotlib.use("Agg")
     by_id = {r["id"]: r for r in results}
     written = []
     for name, draw in (("cost_emissions.png", cost_emissions), ("actions_soc.png", actions_soc),
-                       ("daily_peak.png", daily_peak)):
+                       ("daily_peak.png", daily_peak),
+                       ("soc_trajectories.png", lambda rows: soc_trajectories(rows, references or {}))):
         figure = draw(by_id)
         if figure is not None:
             figure.savefig(out / name, dpi=110, bbox_inches="tight")
@@ -125,4 +129,60 @@ def daily_peak(by_id: Mapping[str, Mapping[str, Any]]):
     ax.set_xlabel("test day")
     ax.set_ylabel("district daily peak [kW]")
     ax.legend(fontsize=8)
+    return figure
+
+
+#: line colour of each controller in the SOC figure
+CONTROLLER_COLOURS = {"oracle": "0.55", "rbc": "tab:orange", "sac": "tab:blue", "mpc": "tab:green"}
+#: line width per controller (the oracle drawn first and wide, so MPC on top of it stays visible)
+CONTROLLER_WIDTHS = {"oracle": 2.6}
+SOC_STYLES = (("electrical_storage_soc", "-", "battery"), ("dhw_storage_soc", "--", "DHW"))
+
+
+def soc_traces(by_id: Mapping[str, Mapping[str, Any]], references: Mapping[str, Mapping[str, Mapping[str, Any]]]
+               ) -> dict[str, dict[str, Mapping[str, Any]]]:
+    """configuration -> controller ("rbc", "sac", "mpc", "oracle") -> trace, for the storage configurations
+    with at least one run of the benchmarks' own controllers or of the references (skipped ones left out)."""
+    out: dict[str, dict[str, Mapping[str, Any]]] = {}
+    for i, row in by_id.items():
+        algo, _, config = i.partition("-")
+        if algo in ("rbc", "rlc") and any(s in config for s in ("dhw", "bess")):
+            out.setdefault(config, {})["sac" if algo == "rlc" else "rbc"] = row["trace"]
+    for config, runs in references.items():
+        for controller, run in runs.items():
+            if "trace" in run:
+                out.setdefault(config, {})[controller] = run["trace"]
+    return out
+
+
+def soc_trajectories(by_id: Mapping[str, Mapping[str, Any]],
+                     references: Mapping[str, Mapping[str, Mapping[str, Any]]]):
+    """B1's storage SOC over the first 7 test days under every controller, one panel per storage
+    configuration; None without any reference run (the oracle or MPC)."""
+    import matplotlib.pyplot as plt  # matplotlib loads only when a figure is drawn
+
+    traces = soc_traces(by_id, references)
+    traces = {c: t for c, t in traces.items() if set(t) & {"oracle", "mpc"}}
+    if not traces:
+        return None
+    figure, axes = plt.subplots(len(traces), 1, figsize=(12, 2.3 * len(traces)), sharex=True, squeeze=False)
+    for ax, (config, runs) in zip(axes[:, 0], traces.items(), strict=True):
+        first = next(iter(runs.values()))
+        shade_tou(ax, np.asarray(first["electricity_pricing"]))
+        for controller in CONTROLLER_COLOURS:
+            trace = runs.get(controller)
+            if trace is None:
+                continue
+            for name, style, label in SOC_STYLES:
+                if any(name.removesuffix("_soc") in a for a in trace["action_names"]):
+                    soc = np.asarray(trace[name])
+                    ax.plot(np.arange(len(soc)), soc, style, color=CONTROLLER_COLOURS[controller],
+                            lw=CONTROLLER_WIDTHS.get(controller, 1.0), label=f"{controller} {label}")
+        ax.set_ylim(-0.03, 1.03)
+        ax.set_ylabel("SOC [-]")
+        ax.set_title(config, fontsize=9, loc="left")
+        ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
+    axes[-1, 0].set_xlabel("hour of the test period (first 7 days); shading: TOU price level")
+    figure.suptitle("B1's state of charge: oracle (wide grey), MPC (24 h), RBC and SAC", fontsize=10)
+    figure.tight_layout(rect=(0.0, 0.0, 1.0, 0.985))
     return figure

@@ -1,5 +1,7 @@
 """The paper's result tables: mean and sample std over seeds per row, ``results.md`` (changes against the
-baselines), the m-sweep table, ``results.csv`` / ``runs.csv`` and the figures.
+baselines), the regret table (``regret.md`` / ``regret.csv``: each controller's objective next to the oracle's
+and the share of the oracle's saving it captures), the m-sweep table, ``results.csv`` / ``runs.csv`` and the
+figures.
 """
 
 from __future__ import annotations
@@ -11,14 +13,17 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from pipeline.paper.benchmarks import BENCHMARKS, SWEEP_ID, RunOptions, Task
+from pipeline.paper.benchmarks import BENCHMARKS, SWEEP_ID, RunOptions, Task, configuration
 from pipeline.paper.figures import write_figures
+from pipeline.paper.reference import OBJECTIVE_FIELDS, REFERENCES, unsupported
 
 
 def sweep_table(rows: Sequence[Mapping[str, Any]]) -> str:
     """The m-sweep table (markdown): one row per multiplier, changes against the first row (m = 1)."""
     base = rows[0]
-    lines = ["| m | discomfort C h | over-cooling C (mean +- std) | under-cooling C (mean +- std) | "
+    below, above = (side.replace("cooling", "-cooling").replace("heating", "-heating")
+                    for side in str(base.get("below_above", "overcooling/undercooling")).split("/"))
+    lines = [f"| m | discomfort C h | {below} C (mean +- std) | {above} C (mean +- std) | "
              "consumption kWh | discomfort change | consumption change |", "|---|---|---|---|---|---|---|"]
     for r in rows:
         lines.append(f"| {r['multiplier']:g} | {r['discomfort']:.1f} | {r['overcooling_mean']:.2f} +- "
@@ -54,25 +59,162 @@ def summarise(runs: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
 def write_results(out: Path, runs: Sequence[Mapping[str, Any]], tasks: Sequence[Task], *, multiplier: float,
                   only: Sequence[str] | None, sweep: Sequence[float], options: RunOptions,
                   seeds: int) -> dict[str, Any]:
-    """results.csv / runs.csv / results.md / multiplier_sweep.md and the figures from the finished runs."""
+    """results.csv / runs.csv / results.md / regret.md / regret.csv / multiplier_sweep.md and the figures from
+    the finished runs; returns {"results": summarised rows, "sweep", "runs": the benchmark runs, "references":
+    configuration -> controller -> reference run, "regret": :func:`regret_rows`} (runs.csv holds both kinds of
+    run, told apart by ``controller``)."""
 
 
     groups: dict[tuple[str, float], list] = {}
+    references: dict[str, dict[str, Mapping[str, Any]]] = {}
     for task, run in zip(tasks, runs, strict=True):
-        groups.setdefault((task.id, task.multiplier), []).append(run)
-    order = [b.id for b in BENCHMARKS if only is None or b.id in only]
-    results = [summarise(groups[(i, multiplier)]) for i in order]
-    swept = [summarise(groups[(SWEEP_ID, float(m))]) for m in sweep]
-    plain = [{k: v for k, v in r.items() if k != "trace"} for r in runs]
+        if task.controller:
+            references.setdefault(configuration(task.id), {})[task.controller] = run
+        else:
+            groups.setdefault((task.id, task.multiplier), []).append(run)
+    order = [b.id for b in BENCHMARKS if (only is None or b.id in only) and (b.id, multiplier) in groups]
+    results = [annotate(summarise(groups[(i, multiplier)]), references) for i in order]
+    swept = [summarise(groups[(SWEEP_ID, float(m))]) for m in sweep if (SWEEP_ID, float(m)) in groups]
+    plain = [{k: v for k, v in r.items() if k not in ("trace", "baseline")} for r in runs]
     pd.DataFrame(plain).to_csv(out / "runs.csv", index=False)
+    regret = regret_rows(results, references)
     if results:
         pd.DataFrame([{k: v for k, v in r.items() if k != "trace"} for r in results]).to_csv(
             out / "results.csv", index=False)
         (out / "results.md").write_text(results_table(results, options, seeds))
+    if regret:
+        pd.DataFrame(regret).to_csv(out / "regret.csv", index=False)
+        (out / "regret.md").write_text(regret_table(regret))
     if swept:
         (out / "multiplier_sweep.md").write_text(sweep_table(swept))
-    write_figures(out, results, swept)
-    return {"results": results, "sweep": swept, "runs": list(runs)}
+    write_figures(out, results, swept, references)
+    own = [run for task, run in zip(tasks, runs, strict=True) if not task.controller]
+    return {"results": results, "sweep": swept, "runs": own, "references": references, "regret": regret}
+
+
+def captured(baseline: float, value: float, best: float) -> float:
+    """The share of the oracle's saving a controller captures: (baseline - value) / (baseline - best) [-];
+    NaN when the oracle saves nothing (|baseline - best| <= 1e-9 x |baseline|) or a value is missing."""
+    saving = baseline - best
+    if not np.isfinite(saving) or not np.isfinite(value) or abs(saving) <= 1e-9 * max(abs(baseline), 1e-12):
+        return float("nan")
+    return float((baseline - value) / saving)
+
+
+def _baseline(refs: Mapping[str, Mapping[str, Any]]) -> Mapping[str, float] | None:
+    """The configuration's no-control values from its reference runs (None when none ran)."""
+    return next((refs[c]["baseline"] for c in REFERENCES if c in refs and "baseline" in refs[c]), None)
+
+
+def _objective(refs: Mapping[str, Mapping[str, Any]], controller: str, field: str) -> float:
+    """``field`` of the reference run of ``controller`` (NaN when it did not run or skipped)."""
+    run = refs.get(controller)
+    return float(run[field]) if run is not None and "skipped" not in run else float("nan")
+
+
+def annotate(row: dict[str, Any], references: Mapping[str, Mapping[str, Mapping[str, Any]]]) -> dict[str, Any]:
+    """``row`` with its configuration's ``objective`` (the paper's) and, for storage configurations,
+    ``no_control``, ``oracle`` and ``mpc`` values of that objective and the row's ``captured`` share."""
+    bench = next(b for b in BENCHMARKS if b.id == row["id"])
+    if bench.objective not in OBJECTIVE_FIELDS:
+        return row
+    field = OBJECTIVE_FIELDS[bench.objective][0]
+    refs = references.get(configuration(bench.id), {})
+    base = _baseline(refs)
+    baseline = float(base[field]) if base is not None else float("nan")
+    best = _objective(refs, "oracle", field)
+    return {**row, "objective": field, "no_control": baseline, "oracle": best,
+            "mpc": _objective(refs, "mpc", field), "captured": captured(baseline, row[field], best)}
+
+
+def regret_rows(results: Sequence[Mapping[str, Any]], references: Mapping[str, Mapping[str, Mapping[str, Any]]]
+                ) -> list[dict[str, Any]]:
+    """One row per (configuration, controller) of the controlled benchmarks: the objective's value [its unit],
+    its std over seeds (SAC), the configuration's no-control and oracle values and the captured share; a
+    configuration the references do not apply to keeps its RBC/SAC rows with the reason in ``note``."""
+    rows = []
+    for row in results:
+        bench = next(b for b in BENCHMARKS if b.id == row["id"])
+        if bench.control == "none":
+            continue
+        rows.append(_regret_row(row, bench.control, row, _note(bench)))
+    for config, refs in references.items():
+        owner = next((r for r in results if configuration(r["id"]) == config), None)
+        for controller in REFERENCES:
+            run = refs.get(controller)
+            if run is None:
+                continue
+            bench = next(b for b in BENCHMARKS if b.id == run["id"])
+            if "skipped" in run:
+                rows.append({"configuration": config, "controller": controller, "note": run["skipped"]})
+                continue
+            context = owner or annotate(dict(run), references)
+            rows.append(_regret_row(run, controller, context, _note(bench)))
+    order = {c: i for i, c in enumerate(dict.fromkeys(configuration(b.id) for b in BENCHMARKS))}
+    rank = {"rbc": 0, "sac": 1, "mpc": 2, "oracle": 3}
+    return sorted(rows, key=lambda r: (order[r["configuration"]], rank[r["controller"]]))
+
+
+def _note(bench) -> str:
+    """"no oracle: <why>" for a configuration the references do not apply to, else ""."""
+    reason = unsupported(bench)
+    return f"no oracle: {reason}" if reason else ""
+
+
+def _regret_row(run: Mapping[str, Any], controller: str, context: Mapping[str, Any], note: str) -> dict[str, Any]:
+    """A regret row of ``run`` (a summarised benchmark row or a reference run) under ``controller``; the
+    no-control and oracle values come from ``context`` (the configuration's annotated row)."""
+    bench = next(b for b in BENCHMARKS if b.id == run["id"])
+    field, unit = OBJECTIVE_FIELDS.get(bench.objective, ("discomfort", "C h"))
+    baseline, best = context.get("no_control", float("nan")), context.get("oracle", float("nan"))
+    value = float(run[field])
+    return {"configuration": configuration(bench.id), "objective": field, "unit": unit, "controller": controller,
+            "value": value, "value_sd": float(run.get(f"{field}_sd", 0.0)), "seeds": int(run.get("seeds", 1)),
+            "no_control": baseline, "oracle": best, "captured": captured(baseline, value, best), "note": note}
+
+
+def regret_table(rows: Sequence[Mapping[str, Any]]) -> str:
+    """regret.md: per configuration, each controller's objective value and the share of the oracle's saving
+    it captures, (no control - controller) / (no control - oracle)."""
+    by_config: dict[str, dict[str, Mapping[str, Any]]] = {}
+    for r in rows:
+        by_config.setdefault(r["configuration"], {})[r["controller"]] = r
+    lines = ["Objective over the test period: B1's cost [$] or emissions [kg], the district's average daily peak "
+             "[kW]; the configuration's objective for its oracle. Each cell: value (share of the oracle's saving "
+             "captured = (no control - value) / (no control - oracle)). No control: the same configuration with "
+             "its storage idle. MPC: 24-step horizon, perfect forecasts.", "",
+             "| configuration | objective | no control | RBC | SAC | MPC | oracle |", "|---|---|---|---|---|---|---|"]
+    notes = []
+    for config, controllers in by_config.items():
+        note = next((r["note"] for r in controllers.values() if r.get("note", "").startswith("no oracle")), "")
+        if note:
+            notes.append(f"{config}: {note}.")
+        else:
+            lines.append(_regret_line(config, controllers))
+    return "\n".join([*lines, *([""] + notes if notes else [])]) + "\n"
+
+
+def _regret_line(config: str, controllers: Mapping[str, Mapping[str, Any]]) -> str:
+    """One line of the regret table."""
+    full = [r for r in controllers.values() if "value" in r]
+    if not full:
+        return f"| {config} | - | - | - | - | - | - |"
+    first = full[0]
+    digits = 3 if first["objective"] != "emissions" else 2
+    cells = []
+    for c in ("rbc", "sac", "mpc", "oracle"):
+        r = controllers.get(c)
+        if r is None:
+            cells.append("-")
+        elif "value" not in r:
+            cells.append(f"n/a ({r['note']})")
+        else:
+            sd = f" ± {r['value_sd']:.{digits}f}" if r.get("seeds", 1) > 1 else ""
+            share = "" if c == "oracle" or not np.isfinite(r["captured"]) else f" ({100 * r['captured']:.1f} %)"
+            cells.append(f"{r['value']:.{digits}f}{sd}{share}")
+    base = first["no_control"]
+    base_cell = f"{base:.{digits}f}" if np.isfinite(base) else "-"
+    return f"| {config} | {first['objective']} {first['unit']} | {base_cell} | {' | '.join(cells)} |"
 
 
 def _pm(row: Mapping[str, Any], name: str, digits: int) -> str:
@@ -100,6 +242,9 @@ def results_table(results: Sequence[Mapping[str, Any]], options: RunOptions, see
         lines.append(f"| {r['id']} | {r['buildings']} | {_pm(r, 'cost', 3)} | {_pm(r, 'emissions', 2)} | "
                      f"{_pm(r, 'discomfort', 1)} | {_pm(r, 'consumption', 2)} | {_pm(r, 'average_daily_peak', 3)} | "
                      f"{changes[0]} | {changes[1]} |")
+    notes = [f"- {r['id']}: {note}" for r in results for note in r.get("notes", ())]
+    if notes:
+        lines += ["", "What the test period cannot exercise (the rows ran as configured):", *notes]
     return "\n".join(lines) + "\n"
 
 

@@ -26,38 +26,62 @@ from pipeline.paper.benchmarks import (
     SWEEP_ID,
     RunOptions,
     Task,
+    benchmark_notes,
     load_district,
     resolve_roles,
     run_benchmark,
 )
+from pipeline.paper.reference import CONTROLLERS, REFERENCES, configurations, run_reference
 from pipeline.paper.results import write_results
 from pipeline.runners import DaskRunner, InProcessRunner, ProcessRunner
 
 
 def plan_tasks(only: Sequence[str] | None, sweep: Sequence[float], *, seed: int = 0, seeds: int = 1,
-               multiplier: float = 3.0) -> list[Task]:
-    """The tasks of a run, longest first: SAC rows ``seeds`` times, the m-sweep's multipliers, the rest once.
+               multiplier: float = 3.0, controllers: Sequence[str] = CONTROLLERS) -> list[Task]:
+    """The tasks of a run, longest first: SAC rows ``seeds`` times, the m-sweep's multipliers, MPC, the rest
+    once.
 
-    ``only``: benchmark ids (None = all 17, [] = none); ``sweep``: multipliers of rlc-b1-d_o-hp.
+    ``only``: benchmark ids (None = all 17, [] = none); ``sweep``: multipliers of rlc-b1-d_o-hp (SAC runs);
+    ``controllers``: which of :data:`CONTROLLERS` run: "rbc" and "sac" keep the benchmarks of that control (the
+    no-control rows always run), "oracle" and "mpc" add one task per storage configuration of the chosen
+    benchmarks (:func:`pipeline.paper.reference.configurations`) at the first seed.
     """
 
     known = {b.id: b for b in BENCHMARKS}
     unknown = sorted(set(only or ()) - set(known))
     if unknown:
         raise InputError(f"unknown benchmark id(s) {unknown}; known: {', '.join(known)}", column="--only")
+    strange = sorted(set(controllers) - set(CONTROLLERS))
+    if strange:
+        raise InputError(f"unknown controller(s) {strange}; known: {', '.join(CONTROLLERS)}", column="--controllers")
     if seeds < 1:
         raise InputError(f"--seeds must be >= 1, got {seeds}", column="--seeds")
     chosen = [b for b in BENCHMARKS if only is None or b.id in only]
     tasks: dict[str, Task] = {}
     for b in chosen:
+        if b.control != "none" and b.control not in controllers:
+            continue
         for s in range(seed, seed + (seeds if b.control == "sac" else 1)):
             task = Task(b.id, multiplier, s)
             tasks[task.key] = task
-    for m in sweep:
+    for m in sweep if "sac" in controllers else ():
         for s in range(seed, seed + seeds):
             task = Task(SWEEP_ID, float(m), s)
             tasks[task.key] = task
-    return sorted(tasks.values(), key=lambda t: known[t.id].control != "sac")
+    tasks |= {t.key: t for t in reference_tasks(chosen, controllers, seed=seed, multiplier=multiplier)}
+    return sorted(tasks.values(), key=lambda t: task_order(known[t.id].control, t.controller))
+
+
+def reference_tasks(chosen: Sequence[Any], controllers: Sequence[str], *, seed: int, multiplier: float
+                    ) -> list[Task]:
+    """One task per reference controller in ``controllers`` and storage configuration of the benchmarks
+    ``chosen``, at ``seed``."""
+    return [Task(b.id, multiplier, seed, c) for c in REFERENCES if c in controllers for b in configurations(chosen)]
+
+
+def task_order(control: str, controller: str) -> int:
+    """Sort rank of a task (long ones first): SAC 0, MPC 1, the rest 2."""
+    return 0 if control == "sac" and not controller else 1 if controller == "mpc" else 2
 
 
 def fingerprint(schema_path: str | Path, options: RunOptions) -> dict[str, Any]:
@@ -68,12 +92,15 @@ def fingerprint(schema_path: str | Path, options: RunOptions) -> dict[str, Any]:
 
 
 def read_finished(path: Path, expected: Mapping[str, Any]) -> dict[str, Any] | None:
-    """The result in task file ``path`` when it exists and was made with ``expected``; else None."""
+    """The result in task file ``path`` when it exists, was made with ``expected`` and did not skip its
+    configuration (a skipped reference is retried); else None."""
     try:
         stored = json.loads(path.read_text())
     except (OSError, ValueError):
         return None
-    return stored["result"] if stored.get("fingerprint") == dict(expected) else None
+    if stored.get("fingerprint") != dict(expected) or "skipped" in stored["result"]:
+        return None
+    return stored["result"]
 
 
 @lru_cache(maxsize=2)
@@ -88,29 +115,40 @@ def run_task(schema_path: str, task: Task, options: RunOptions, out_file: str,
 
     bench = next(b for b in BENCHMARKS if b.id == task.id)
     print(f"running {task.key} ...", flush=True)
-    result = run_benchmark(_district(schema_path, options.settings), bench, seed=task.seed,
-                           multiplier=task.multiplier, options=options)
+    district = _district(schema_path, options.settings)
+    if task.controller:
+        result = run_reference(district, bench, task.controller, seed=task.seed, multiplier=task.multiplier,
+                               options=options)
+    else:
+        result = run_benchmark(district, bench, seed=task.seed, multiplier=task.multiplier, options=options)
     target = Path(out_file)
     scratch = target.with_suffix(f".tmp{os.getpid()}")
     scratch.write_text(json.dumps({"fingerprint": dict(expected), "result": result}))
     scratch.replace(target)
-    print(f"finished {task.key} in {result['seconds']:.1f} s", flush=True)
+    done = f"skipped ({result['skipped']})" if "skipped" in result else f"in {result['seconds']:.1f} s"
+    print(f"finished {task.key} {done}", flush=True)
     return result
 
 
 def run_paper(schema_path: str | Path, out_dir: str | Path, *, only: Sequence[str] | None = None,
               sweep: Sequence[float] = (1.0, 3.0, 6.0, 12.0), seed: int = 0, seeds: int = 1,
               multiplier: float = 3.0, options: RunOptions | None = None, workers: int = 1,
-              runner: Any = None, log: Callable[[str], Any] = print) -> dict[str, Any]:
-    """Run (or resume) the paper on ``schema_path``: the benchmarks ``only`` (None = all 17) and the m-sweep
-    ``sweep``; write ``results.csv`` (mean over seeds, ``*_std``), ``runs.csv``, ``results.md``,
-    ``multiplier_sweep.md`` and the figures into ``out_dir``. Returns {"results", "sweep", "runs"}."""
+              runner: Any = None, log: Callable[[str], Any] = print,
+              controllers: Sequence[str] = CONTROLLERS) -> dict[str, Any]:
+    """Run (or resume) the paper on ``schema_path``: the benchmarks ``only`` (None = all 17), the m-sweep
+    ``sweep`` and the reference ``controllers`` (:func:`plan_tasks`); write ``results.csv`` (mean over seeds,
+    ``*_std``), ``runs.csv``, ``results.md``, ``regret.md`` / ``regret.csv``, ``multiplier_sweep.md`` and the
+    figures into ``out_dir``. Returns :func:`pipeline.paper.results.write_results`' dict."""
 
     options = options or RunOptions()
     schema_path = str(Path(schema_path).resolve())
-    roles = resolve_roles(load_district(schema_path, options.settings), options.roles)
+    district = load_district(schema_path, options.settings)
+    roles = resolve_roles(district, options.roles)
     options = dataclasses.replace(options, roles=roles)
-    tasks = plan_tasks(only, sweep, seed=seed, seeds=seeds, multiplier=multiplier)
+    tasks = plan_tasks(only, sweep, seed=seed, seeds=seeds, multiplier=multiplier, controllers=controllers)
+    for bench in (b for b in BENCHMARKS if b.id in {t.id for t in tasks if not t.controller}):
+        for note in benchmark_notes(district, bench, roles):
+            log(f"note: {bench.id}: {note}")
     out = Path(out_dir)
     (out / "tasks").mkdir(parents=True, exist_ok=True)
     expected = fingerprint(schema_path, options)

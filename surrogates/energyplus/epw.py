@@ -8,9 +8,14 @@ from citylearn_env.errors import InputError
 
 
 def read_epw_ground_temperatures(path: Path) -> list[float]:
-    """The 12 monthly undisturbed ground temperatures (C) at the shallowest depth of the EPW header's
+    """The 12 monthly undisturbed ground temperatures (C) at the DEEPEST depth of the EPW header's
     ``GROUND TEMPERATURES`` line (field layout: count, then per depth: depth, conductivity, density,
-    specific heat, 12 temperatures)."""
+    specific heat, 12 temperatures): the boundary under the house's slab.
+
+    Not the shallowest (0.5 m) values: those follow the outdoor surface (Austin: 27.7 C in June) while the
+    soil under a conditioned slab is held near the indoor and the annual-mean ground temperature; with the
+    shallow values a 21 C house gains ~9 W per m2 of slab all June (docs/energyplus.md, "Cooling
+    realism")."""
     path = Path(path)
     if not path.is_file():
         raise InputError("EPW weather file not found", file=path)
@@ -20,10 +25,31 @@ def read_epw_ground_temperatures(path: Path) -> list[float]:
         if line.upper().startswith("GROUND TEMPERATURES"):
             fields = line.strip().split(",")
             try:
-                if int(fields[1]) < 1:
+                depths = int(fields[1])
+                if depths < 1:
                     break
-                return [float(v) for v in fields[6:18]]
+                first = 2 + 16 * (depths - 1)  # each depth: depth, conductivity, density, heat, 12 months
+                return [float(v) for v in fields[first + 4:first + 16]]
             except (ValueError, IndexError):
                 raise InputError("unreadable GROUND TEMPERATURES header line", file=path,
                                  row=number) from None
     raise InputError("EPW header has no ground temperatures", file=path, column="GROUND TEMPERATURES")
+
+
+def read_epw_latitude(path: Path) -> float:
+    """The site latitude [degrees north] of the EPW header's ``LOCATION`` line (field 7)."""
+    path = Path(path)
+    if not path.is_file():
+        raise InputError("EPW weather file not found", file=path)
+    with path.open(errors="replace") as handle:
+        line = next(handle, "")
+    fields = line.strip().split(",")
+    try:
+        if not fields[0].upper().startswith("LOCATION"):
+            raise ValueError
+        latitude = float(fields[6])
+    except (ValueError, IndexError):
+        raise InputError("unreadable LOCATION header line (latitude in field 7)", file=path, row=1) from None
+    if not -90.0 <= latitude <= 90.0:
+        raise InputError(f"latitude {latitude:g} outside -90..90", file=path, row=1, column="LOCATION")
+    return latitude

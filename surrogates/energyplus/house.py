@@ -14,14 +14,28 @@ requires).
 
 from __future__ import annotations
 
+import hashlib
+import io
 import math
+import os
+import tempfile
 from collections.abc import Sequence
+from functools import lru_cache
 from pathlib import Path
 
-from surrogates.energyplus.metadata import HouseParameters, setpoint_schedules
+import numpy as np
 
-#: Hourly fractions (hour 0 = 00:00-01:00), weekday then weekend. Engineering assumptions for a working
-#: household; see docs/energyplus.md.
+from surrogates.energyplus.metadata import HouseParameters, setpoint_schedules
+from surrogates.energyplus.schedules import (
+    AWAKE_ACTIVITY_W,
+    HouseSchedules,
+    ScheduleTargets,
+    generate_schedules,
+)
+
+#: The former fixed hourly fractions (hour 0 = 00:00-01:00), weekday then weekend (engineering assumptions
+#: for a working household). The occupant-driven schedules (:mod:`surrogates.energyplus.schedules`) keep the
+#: daily lighting and plug energies these give (:func:`schedule_targets`); docs/energyplus.md.
 OCCUPANCY = (
     [1, 1, 1, 1, 1, 1, 1, .85, .5, .35, .35, .35, .35, .35, .35, .35, .5, .7, .9, .9, .9, .9, 1, 1],
     [1, 1, 1, 1, 1, 1, 1, 1, 1, .7, .7, .7, .7, .6, .6, .6, .6, .9, .9, .9, .9, .9, 1, 1],
@@ -41,9 +55,19 @@ HOT_WATER = (
     [.02, .02, .02, .02, .02, .02, .5, 1, .6, .1, .1, .1, .1, .1, .1, .1, .1, .3, .6, .6, .6, .4, .2, .05],
     [.02, .02, .02, .02, .02, .02, .1, .5, 1, .8, .4, .3, .3, .2, .2, .2, .2, .3, .6, .6, .6, .4, .2, .05],
 )
-#: Metabolic heat per person (W), hot-water supply and mixed use temperatures (C), internal-mass area per
+#: ``Schedule:File`` columns of the occupant-driven schedules and the schedule names that read them
+SCHEDULE_COLUMNS = ("people_fraction", "activity_w", "lighting_fraction", "plug_fraction", "cooking_fraction",
+                    "dryer_fraction", "hot_water_fraction")
+SCHEDULE_NAMES = ("occupancy", "activity", "lighting", "equipment", "cooking", "dryer", "hot_water")
+#: vented appliances: (latent, radiant, lost) shares of their electricity; the rest is a convective zone gain.
+#: Sensible + latent to the zone after the Building America House Simulation Protocols' appliance gains
+#: (range 0.40 + 0.30, vented dryer 0.15 + 0.05); the lost share leaves through the hood or the dryer vent.
+VENTED_APPLIANCES = {"cooking": (0.30, 0.20, 0.30), "dryer": (0.05, 0.05, 0.80)}
+#: where :func:`build_house_model` writes the schedule CSV when given no folder (content-addressed names)
+SCHEDULE_DIR = Path(tempfile.gettempdir()) / "districtgen-schedules"
+#: Metabolic heat per person (W; the occupant-driven schedules use it for awake occupants), hot-water supply and mixed use temperatures (C), internal-mass area per
 #: floor area (m2/m2). Daily water use (``dhw_*_litres``) is at the mixed use temperature.
-ACTIVITY_W = 110.0
+ACTIVITY_W = AWAKE_ACTIVITY_W
 HOT_WATER_SUPPLY_C = 49.0
 HOT_WATER_USE_C = 43.0
 INTERNAL_MASS_PER_FLOOR = 2.0
@@ -202,40 +226,115 @@ def _geometry(house: HouseParameters) -> dict[str, dict[str, dict[str, object]]]
             "InternalMass": masses}
 
 
-def _gains(house: HouseParameters) -> dict[str, dict[str, dict[str, object]]]:
+def schedule_targets(house: HouseParameters, latitude_deg: float = 35.0) -> ScheduleTargets:
+    """The daily totals the occupant-driven schedules keep from the former fixed profiles: hot water
+    [L/day of mixed water at :data:`HOT_WATER_USE_C`] = (base + per person x occupants) x fixtures; plug and
+    lighting electricity [kWh/day] = peak density x floor area x the week-weighted mean of
+    :data:`EQUIPMENT` / :data:`LIGHTING` x 24 h."""
+    def daily_kwh(w_per_m2: float, profile: tuple[list[float], list[float]]) -> float:
+        mean = (5 * sum(profile[0]) + 2 * sum(profile[1])) / 7 / 24
+        return w_per_m2 * house.floor_area_m2 * mean * 24 / 1000.0
+
+    litres = (house.dhw_base_litres_day + house.dhw_litres_per_person_day * house.occupants) * house.dhw_scale
+    return ScheduleTargets(occupants=int(round(house.occupants)), dhw_litres_per_day=litres,
+                           plug_kwh_per_day=daily_kwh(house.equipment_w_per_m2, EQUIPMENT),
+                           lighting_kwh_per_day=daily_kwh(house.lighting_w_per_m2, LIGHTING),
+                           latitude_deg=latitude_deg)
+
+
+@lru_cache(maxsize=4)
+def house_schedules(house: HouseParameters, year: int, timesteps_per_hour: int, seed: int = 0,
+                    latitude_deg: float = 35.0) -> HouseSchedules:
+    """The house's occupant-driven schedules (:func:`surrogates.energyplus.schedules.generate_schedules`),
+    seeded with (``seed``, ``house.bldg_id``); cached, as one simulation builds the model several times."""
+    return generate_schedules(schedule_targets(house, latitude_deg), year=year, seed=seed, bldg_id=house.bldg_id,
+                              timesteps_per_hour=timesteps_per_hour)
+
+
+def _peak(values: np.ndarray) -> float:
+    return float(values.max()) if values.size and values.max() > 0 else 0.0
+
+
+def schedule_peaks(house: HouseParameters, schedules: HouseSchedules) -> dict[str, float]:
+    """Design levels the ``Schedule:File`` fractions multiply: people (occupants, rounded as the schedules
+    round them), lighting, other plug, cooking and dryer power [W], hot-water flow [m3/s], for the whole
+    house."""
+    return {"people": float(max(round(house.occupants), 0)), "lighting_w": _peak(schedules.lighting_w),
+            "plug_w": _peak(_other_plug_w(schedules)), "cooking_w": _peak(schedules.cooking_w),
+            "dryer_w": _peak(schedules.dryer_w), "dhw_m3_s": _peak(schedules.dhw_m3_s)}
+
+
+def _other_plug_w(schedules: HouseSchedules) -> np.ndarray:
+    """Plug power [W] other than cooking and the dryer (a full zone gain)."""
+    return np.clip(schedules.plug_w - schedules.cooking_w - schedules.dryer_w, 0.0, None)
+
+
+def write_schedule_file(house: HouseParameters, schedules: HouseSchedules, directory: Path) -> Path:
+    """Write the ``Schedule:File`` CSV (columns :data:`SCHEDULE_COLUMNS`: fractions of :func:`schedule_peaks`
+    and the activity in W per person) into ``directory`` under a content-addressed name; an existing
+    identical file is reused. Returns its path."""
+    peaks = schedule_peaks(house, schedules)
+
+    def fraction(values: np.ndarray, peak: float) -> np.ndarray:
+        return values / peak if peak > 0 else np.zeros_like(values)
+
+    table = np.column_stack([fraction(schedules.people, peaks["people"]), schedules.activity_w,
+                             fraction(schedules.lighting_w, peaks["lighting_w"]),
+                             fraction(_other_plug_w(schedules), peaks["plug_w"]),
+                             fraction(schedules.cooking_w, peaks["cooking_w"]),
+                             fraction(schedules.dryer_w, peaks["dryer_w"]),
+                             fraction(schedules.dhw_m3_s, peaks["dhw_m3_s"])])
+    buffer = io.StringIO()
+    np.savetxt(buffer, table, fmt="%.6g", delimiter=",", header=",".join(SCHEDULE_COLUMNS), comments="")
+    text = buffer.getvalue()
+    digest = hashlib.sha256(text.encode()).hexdigest()[:16]
+    path = Path(directory) / f"schedules_{house.bldg_id}_{digest}.csv"
+    if not path.is_file():
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=".csv", dir=path.parent)
+        with os.fdopen(fd, "w") as handle:
+            handle.write(text)
+        os.replace(tmp, path)
+    return path
+
+
+def _gains(house: HouseParameters, peaks: dict[str, float]) -> dict[str, dict[str, dict[str, object]]]:
     names = zone_names(house)
-    per_zone = house.floor_area_m2 / len(names)
     people, lights, equipment, infiltration = {}, {}, {}, {}
     for zone in names:
         people[f"{zone}_people"] = {
             "zone_or_zonelist_or_space_or_spacelist_name": zone,
             "number_of_people_schedule_name": "occupancy",
             "number_of_people_calculation_method": "People",
-            "number_of_people": round(house.occupants / len(names), 4),
+            "number_of_people": round(peaks["people"] / len(names), 4),
             "fraction_radiant": 0.3, "activity_level_schedule_name": "activity"}
         lights[f"{zone}_lights"] = {
             "zone_or_zonelist_or_space_or_spacelist_name": zone, "schedule_name": "lighting",
             "design_level_calculation_method": "LightingLevel",
-            "lighting_level": round(house.lighting_w_per_m2 * per_zone, 2),
+            "lighting_level": round(peaks["lighting_w"] / len(names), 3),
             "fraction_radiant": 0.6, "fraction_visible": 0.2, "return_air_fraction": 0.0}
         equipment[f"{zone}_equipment"] = {
             "zone_or_zonelist_or_space_or_spacelist_name": zone, "schedule_name": "equipment",
             "design_level_calculation_method": "EquipmentLevel",
-            "design_level": round(house.equipment_w_per_m2 * per_zone, 2),
+            "design_level": round(peaks["plug_w"] / len(names), 3),
             "fraction_latent": 0.0, "fraction_radiant": 0.3, "fraction_lost": 0.0}
+        for kind, (latent, radiant, lost) in VENTED_APPLIANCES.items():
+            equipment[f"{zone}_{kind}"] = {
+                "zone_or_zonelist_or_space_or_spacelist_name": zone, "schedule_name": kind,
+                "design_level_calculation_method": "EquipmentLevel",
+                "design_level": round(peaks[f"{kind}_w"] / len(names), 3),
+                "fraction_latent": latent, "fraction_radiant": radiant, "fraction_lost": lost}
         infiltration[f"{zone}_infiltration"] = {
             "zone_or_zonelist_or_space_or_spacelist_name": zone, "schedule_name": "always_on",
             "design_flow_rate_calculation_method": "AirChanges/Hour",
             "air_changes_per_hour": round(house.ach_natural, 4), "constant_term_coefficient": 1.0,
             "temperature_term_coefficient": 0.0, "velocity_term_coefficient": 0.0,
             "velocity_squared_term_coefficient": 0.0}
-    litres_per_day = (house.dhw_base_litres_day + house.dhw_litres_per_person_day * house.occupants) * house.dhw_scale
-    peak_m3_s = litres_per_day / 1000.0 / (3600.0 * sum(HOT_WATER[0]))
     return {
         "People": people, "Lights": lights, "ElectricEquipment": equipment,
         "ZoneInfiltration:DesignFlowRate": infiltration,
         "WaterUse:Equipment": {"hot_water": {
-            "end_use_subcategory": "DHW", "peak_flow_rate": peak_m3_s,
+            "end_use_subcategory": "DHW", "peak_flow_rate": peaks["dhw_m3_s"],
             "flow_rate_fraction_schedule_name": "hot_water",
             "target_temperature_schedule_name": "hot_water_target",
             "hot_water_supply_temperature_schedule_name": "hot_water_supply"}},
@@ -244,28 +343,32 @@ def _gains(house: HouseParameters) -> dict[str, dict[str, dict[str, object]]]:
     }
 
 
-def _schedules(house: HouseParameters) -> dict[str, dict[str, dict[str, object]]]:
+def _schedules(house: HouseParameters, schedule_file: Path, timesteps_per_hour: int, hours: int
+               ) -> dict[str, dict[str, dict[str, object]]]:
     def constant(value, limits="any_number"):
         return {"schedule_type_limits_name": limits, "hourly_value": value}
 
-    out: dict[str, dict[str, dict[str, object]]] = {
+    def from_file(column: str, limits: str) -> dict[str, object]:
+        return {"schedule_type_limits_name": limits, "file_name": str(schedule_file),
+                "column_number": SCHEDULE_COLUMNS.index(column) + 1, "rows_to_skip_at_top": 1,
+                "number_of_hours_of_data": hours, "column_separator": "Comma", "interpolate_to_timestep": "No",
+                "minutes_per_item": 60 // timesteps_per_hour}
+
+    cooling, heating, _ = setpoint_schedules(house)
+    return {
         "ScheduleTypeLimits": {"fraction": {"lower_limit_value": 0.0, "upper_limit_value": 1.0,
                                             "numeric_type": "Continuous"},
                                "any_number": {"numeric_type": "Continuous"}},
-        "Schedule:Compact": {
-            name: {"schedule_type_limits_name": "fraction", "data": _compact(profile)}
-            for name, profile in (("occupancy", OCCUPANCY), ("lighting", LIGHTING), ("equipment", EQUIPMENT),
-                                  ("hot_water", HOT_WATER))},
+        "Schedule:File": {name: from_file(column, "any_number" if name == "activity" else "fraction")
+                          for name, column in zip(SCHEDULE_NAMES, SCHEDULE_COLUMNS, strict=True)},
         "Schedule:Constant": {
-            "always_on": constant(1.0, "fraction"), "activity": constant(ACTIVITY_W),
+            "always_on": constant(1.0, "fraction"),
             "hot_water_supply": constant(HOT_WATER_SUPPLY_C), "hot_water_target": constant(HOT_WATER_USE_C),
             "dual_setpoint_control": constant(4.0)},
+        "Schedule:Compact": {
+            "cooling_setpoint": {"schedule_type_limits_name": "any_number", "data": _compact((cooling, cooling))},
+            "heating_setpoint": {"schedule_type_limits_name": "any_number", "data": _compact((heating, heating))}},
     }
-    cooling, heating, _ = setpoint_schedules(house)
-    out["Schedule:Compact"].update({
-        "cooling_setpoint": {"schedule_type_limits_name": "any_number", "data": _compact((cooling, cooling))},
-        "heating_setpoint": {"schedule_type_limits_name": "any_number", "data": _compact((heating, heating))}})
-    return out
 
 
 def _ideal_loads(house: HouseParameters) -> dict[str, dict[str, dict[str, object]]]:
@@ -322,12 +425,16 @@ def replay_column_names(house: HouseParameters) -> list[str]:
 def build_house_model(house: HouseParameters, *, mode: str, ground_temperatures_c: Sequence[float],
                       run_period: tuple[tuple[int, int], tuple[int, int]] = ((1, 1), (12, 31)),
                       year: int = 2018, timesteps_per_hour: int = 4, reporting_frequency: str = "Hourly",
-                      load_file: Path | None = None, dhw: bool = True) -> dict[str, object]:
+                      load_file: Path | None = None, dhw: bool = True, schedule_seed: int = 0,
+                      latitude_deg: float = 35.0, schedule_dir: Path | None = None) -> dict[str, object]:
     """The epJSON document (a dict) of ``house`` in ``mode`` ``"ideal"`` or ``"replay"``.
 
     ``ground_temperatures_c``: 12 monthly ground temperatures (C) under the slab; ``run_period``:
     ((begin month, day), (end month, day)) in calendar ``year`` (sets the weekdays); ``reporting_frequency``:
     ``"Hourly"`` or ``"Timestep"``; ``load_file``: the replay CSV (see :func:`replay_column_names`).
+    People, lighting, plug loads and hot water follow the occupant-driven schedules of the whole ``year``
+    (:func:`house_schedules` with ``schedule_seed`` and ``latitude_deg``), written as a ``Schedule:File`` CSV
+    into ``schedule_dir`` (default: the replay CSV's folder, else :data:`SCHEDULE_DIR`).
     """
     if mode not in ("ideal", "replay"):
         raise ValueError(f"mode must be 'ideal' or 'replay', got {mode!r}")
@@ -361,7 +468,12 @@ def build_house_model(house: HouseParameters, *, mode: str, ground_temperatures_
             "output_csv": "No", "output_mtr": "No", "output_eso": "No", "output_tabular": "No",
             "output_sqlite": "Yes", "output_json": "No"}},
     }
-    for part in (_materials(house), _geometry(house), _gains(house), _schedules(house)):
+    schedules = house_schedules(house, year, timesteps_per_hour, schedule_seed, latitude_deg)
+    folder = schedule_dir or (Path(load_file).parent if load_file is not None else SCHEDULE_DIR)
+    schedule_file = write_schedule_file(house, schedules, folder)
+    hours = len(schedules.people) // timesteps_per_hour
+    for part in (_materials(house), _geometry(house), _gains(house, schedule_peaks(house, schedules)),
+                 _schedules(house, schedule_file, timesteps_per_hour, hours)):
         model.update(part)
     if not dhw:
         model.pop("WaterUse:Equipment")
@@ -373,7 +485,7 @@ def build_house_model(house: HouseParameters, *, mode: str, ground_temperatures_
         if load_file is None:
             raise ValueError("replay mode needs load_file")
         replay = _replay_loads(house, load_file, timesteps_per_hour)
-        model["Schedule:File"] = replay["Schedule:File"]
+        model["Schedule:File"] = {**model["Schedule:File"], **replay["Schedule:File"]}
         model["OtherEquipment"] = replay["OtherEquipment"]
         outputs = outputs + REPLAY_OUTPUTS
     model["Output:Variable"] = {f"output_{i}": {"key_value": "*", "variable_name": name,

@@ -11,9 +11,14 @@ Passes per building (all on the same model, weather and schedules):
    reference name             multiplier per hour (shared by all zones)
    ========= ================ ==========================================================
    0         ideal            1 (replay of the ideal loads; physical check, see below)
-   1         free_float       0 (no HVAC at all)
-   2...      partial_k        U(min, max) with probability p, else 1; seeded per building
+   1         free_float       0 (no HVAC at all; left out with ``free_float=False``)
+   2...      partial_k        U(min, max) with probability p, else 1; seeded per building; each draw held
+                              for 1..``hold_hours`` hours (1: a draw per hour)
    ========= ================ ==========================================================
+
+All passes run at ``timesteps_per_hour`` zone timesteps (default 4; the tables stay hourly, EnergyPlus's
+hourly means): at 1 the hourly zone solution is 0.33-0.49 degC off the house's physics on average and a
+surrogate learns that error. :mod:`surrogates.judge` runs the same house at another count and seed.
 
 The ideal pass also gives the building's hourly loads in the same run (:func:`hourly_loads`, ``ILVResult.loads``):
 the building CSV and the ILV table come from one simulation on one weather file.
@@ -33,7 +38,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from surrogates.energyplus.epw import read_epw_ground_temperatures
+from surrogates.energyplus.epw import read_epw_ground_temperatures, read_epw_latitude
 from surrogates.energyplus.house import build_house_model, replay_column_names, zone_names
 from surrogates.energyplus.metadata import HouseParameters
 from surrogates.energyplus.runner import EnergyPlusError, run_energyplus
@@ -62,8 +67,16 @@ class ILVConfig:
     multiplier_min: float = 0.3
     multiplier_max: float = 1.7
     multiplier_probability: float = 0.6
+    #: each partial-load draw is held for a block of 1..``hold_hours`` hours (length uniform); 1: every hour
+    #: drawn independently (upstream CityLearn's design)
+    hold_hours: int = 1
     seed: int = 0
-    timesteps_per_hour: int = 1
+    #: EnergyPlus zone timesteps per hour; the tables stay hourly (means of the timesteps). 4: at 1 the zone
+    #: heat balance's hourly solution differs from the house's physics by 0.33-0.49 degC on average and a
+    #: surrogate learns that numerical error (docs/surrogates.md, section 11)
+    timesteps_per_hour: int = 4
+    #: run reference 1 (free float); the judge (:mod:`surrogates.judge`) does without it
+    free_float: bool = True
     year: int = 2018
     run_period: tuple[tuple[int, int], tuple[int, int]] = ((1, 1), (12, 31))
     cooling_setpoint_c: float | None = None
@@ -84,15 +97,27 @@ class ILVResult:
 
 
 def hourly_multipliers(reference: int, hours: int, bldg_id: int, config: ILVConfig) -> np.ndarray:
-    """Multiplier per hour for ``reference`` (0 -> ones, 1 -> zeros, >= 2 -> seeded random partial)."""
+    """Multiplier per hour for ``reference`` (0 -> ones, 1 -> zeros, >= 2 -> seeded random partial: U(min, max)
+    with probability p, else 1, each draw held for 1..``config.hold_hours`` hours)."""
     if reference == 0:
         return np.ones(hours)
     if reference == 1:
         return np.zeros(hours)
     rng = np.random.default_rng([config.seed, bldg_id, reference])
+    if config.hold_hours > 1:  # block lengths first: the hourly design's stream stays what it was
+        lengths = rng.integers(1, config.hold_hours + 1, hours)
+        blocks = np.repeat(np.arange(hours), lengths)[:hours]
+    else:
+        blocks = np.arange(hours)
     draw = rng.uniform(config.multiplier_min, config.multiplier_max, hours)
     vary = rng.random(hours) < config.multiplier_probability
-    return np.where(vary, draw, 1.0)
+    return np.where(vary, draw, 1.0)[blocks]
+
+
+def references(config: ILVConfig) -> list[int]:
+    """The reference runs of ``config``: 0 (ideal replay), 1 (free float, when ``config.free_float``) and
+    ``2 .. 1 + config.partial_runs`` (partial loads)."""
+    return [0, *([1] if config.free_float else []), *range(2, 2 + config.partial_runs)]
 
 
 def _ideal_zone_loads(ideal: pd.DataFrame, house: HouseParameters) -> pd.DataFrame:
@@ -211,7 +236,7 @@ def _check_coverage(frame: pd.DataFrame, expected_rows: int, sql: Path) -> None:
 
 def generate_ilv(house: HouseParameters, epw: Path, *, config: ILVConfig = ILVConfig(),
                  workdir: Path | None = None, dhw: bool = True) -> ILVResult:
-    """Run the ideal pass and ``2 + config.partial_runs`` replays of ``house`` on weather ``epw``.
+    """Run the ideal pass and the replays (:func:`references`) of ``house`` on weather ``epw``.
 
     Returns the ILV table (one row per reference and hour; loads in kWh of heat removed/added in the hour,
     cooling and heating netted so at most one is non-zero; temperatures in C; irradiance W/m2; timestamps
@@ -228,10 +253,11 @@ def generate_ilv(house: HouseParameters, epw: Path, *, config: ILVConfig = ILVCo
     expected_hours = int(days) * 24
     tph = config.timesteps_per_hour
     common = dict(ground_temperatures_c=ground, run_period=config.run_period, year=config.year,
-                  timesteps_per_hour=tph, dhw=dhw)
+                  timesteps_per_hour=tph, dhw=dhw, latitude_deg=read_epw_latitude(epw))
     timings: dict[str, float] = {}
     with tempfile.TemporaryDirectory(prefix="ilv_", dir=workdir) as tmp:
         tmp = Path(tmp)
+        common["schedule_dir"] = tmp  # the occupant schedules' CSV: gone with the run
         start = time.perf_counter()
         sql = run_energyplus(build_house_model(house, mode="ideal", reporting_frequency="Timestep", **common),
                              epw, tmp, "ideal")
@@ -244,7 +270,7 @@ def generate_ilv(house: HouseParameters, epw: Path, *, config: ILVConfig = ILVCo
         single = house.cooling_setpoint_c == house.heating_setpoint_c
         set_point = house.cooling_setpoint_c if single else None
         frames = []
-        for reference in range(2 + config.partial_runs):
+        for reference in references(config):
             start = time.perf_counter()
             schedule = tmp / f"loads_{reference}.csv"
             multipliers = hourly_multipliers(reference, hours, house.bldg_id, config)

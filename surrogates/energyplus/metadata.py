@@ -17,9 +17,12 @@ characteristic (``in.`` prefix)          parameter                      conversi
 ``vintage``                              ``vintage`` (decade)           ``1980s`` -> 1980, ``<1940`` -> 1930
 ``orientation``                          ``front_azimuth_deg``          8 compass points -> 0, 45, ... 315 deg
 ``window_areas`` (else window/wall ft2)  ``window_to_wall``             mean of ``F B L R`` percents / 100
-``windows``                              ``window_u``, ``window_shgc``  glazing class -> :data:`GLAZING`
-``insulation_wall`` / ``_ceiling`` /     ``wall_r_si`` / ``ceiling_r_si`` R (h ft2 F/Btu) x 0.1761102 -> m2 K/W
-``_slab``                                / ``slab_r_si``
+``windows``                              ``window_u``, ``window_shgc``  the option's U and SHGC,
+                                                                        :data:`RESSTOCK_WINDOWS` (else the
+                                                                        glazing class -> :data:`GLAZING`)
+``insulation_wall`` / ``_slab``          ``wall_r_si`` / ``slab_r_si``  R (h ft2 F/Btu) x 0.1761102 -> m2 K/W
+``insulation_ceiling``, else             ``ceiling_r_si`` (the model's  the attic floor's R; ``None`` (no attic
+``insulation_roof`` (``Finished, R-x``)  one roof assembly)             floor) -> the finished roof's R
 ``infiltration``                         ``ach50``                      ``7 ACH50`` -> 7; natural ACH = ACH50 / 20
 ``occupants``                            ``occupants``                  leading number (0 allowed: vacant)
 ``cooling_setpoint`` / ``heating_setpoint`` base set points [degC]      ``76F`` -> (76 - 32) x 5/9
@@ -80,6 +83,23 @@ GLAZING: dict[str, tuple[float, float]] = {
     "double_clear": (3.0, 0.65),
     "double_low_e": (1.9, 0.40),
     "triple": (1.4, 0.33),
+}
+
+#: 1 Btu/(h*ft2*F) (a U-factor in US units) in W/(m2*K).
+U_IP_TO_SI = 5.678263
+#: The ResStock ``Windows`` options and the whole-window U-factor [Btu/(h ft2 F)] and SHGC each one defines
+#: (ResStock's options lookup); :func:`parse_window_properties` converts U to SI.
+RESSTOCK_WINDOWS: dict[str, tuple[float, float]] = {
+    "single, clear, metal": (1.16, 0.76),
+    "single, clear, non-metal": (0.84, 0.63),
+    "single, clear, metal, exterior clear storm": (0.67, 0.56),
+    "single, clear, non-metal, exterior clear storm": (0.47, 0.54),
+    "double, clear, metal, air": (0.76, 0.67),
+    "double, clear, non-metal, air": (0.49, 0.56),
+    "double, clear, metal, air, exterior clear storm": (0.55, 0.51),
+    "double, clear, non-metal, air, exterior clear storm": (0.34, 0.49),
+    "double, low-e, non-metal, air, m-gain": (0.38, 0.44),
+    "triple, low-e, non-metal, air, l-gain": (0.29, 0.26),
 }
 
 #: ACH50 -> natural air changes per hour (the common "divide by 20" rule of thumb).
@@ -247,6 +267,36 @@ def parse_glazing(text: str) -> str:
     raise ValueError(f"expected 'Single'/'Double'/'Triple' glazing, got {text!r}")
 
 
+def parse_window_properties(text: object) -> tuple[float, float]:
+    """(U-factor [W/(m2 K)], SHGC) of an ``in.windows`` option: the values the ResStock option defines
+    (:data:`RESSTOCK_WINDOWS`, U converted from Btu/(h ft2 F)); an option not in that table -> its glazing
+    class (:func:`parse_glazing`, :data:`GLAZING`)."""
+    key = ", ".join(part.strip() for part in str(text).lower().split(","))
+    if key in RESSTOCK_WINDOWS:
+        u_ip, shgc = RESSTOCK_WINDOWS[key]
+        return u_ip * U_IP_TO_SI, shgc
+    return GLAZING[parse_glazing(str(text))]
+
+
+def parse_ceiling_r(text: object) -> float | None:
+    """Attic-floor insulation R (US units) from ``in.insulation_ceiling``; ``None`` -> None: the house has no
+    attic floor (a finished roof or cathedral ceiling, whose insulation is ``in.insulation_roof``), which is
+    not an uninsulated ceiling."""
+    if str(text).strip().lower() == "none":
+        return None
+    return parse_r_value(str(text))
+
+
+def parse_roof_r(text: object) -> float | None:
+    """Roof-deck insulation R (US units) of a finished roof from ``in.insulation_roof`` (``Finished, R-30``,
+    ``Finished, Uninsulated`` -> 0); an ``Unfinished, ...`` roof (over a vented attic: outside the thermal
+    envelope) or ``None`` -> None."""
+    s = str(text).strip()
+    if s.lower() == "none" or s.lower().startswith("unfinished"):
+        return None
+    return parse_r_value(s)
+
+
 def parse_window_to_wall(text: str) -> float:
     """Mean facade window-to-wall ratio from ``in.window_areas`` like ``'F15 B15 L15 R15'`` (percent)."""
     values = re.findall(r"[FBLR](\d+(?:\.\d+)?)", str(text))
@@ -366,11 +416,11 @@ def house_parameters_from_metadata(row: Mapping[str, object], *,
     sqft = _floor_area_ft2(field)
     vintage = field("in.vintage", parse_vintage) or 1990
     defaults = VINTAGE_DEFAULTS[min(max(vintage, 1930), 2010)]  # wall R, ceiling R, ACH50, glazing
-    window_u, window_shgc = GLAZING[field("in.windows", parse_glazing) or defaults[3]]
+    window_u, window_shgc = field("in.windows", parse_window_properties) or GLAZING[defaults[3]]
     stories = _stories(field)
     wwr = _window_to_wall(field)
     wall_r = field("in.insulation_wall", parse_r_value)
-    ceiling_r = field("in.insulation_ceiling", parse_r_value)
+    ceiling_r = _top_r(field)
     slab_r = field("in.insulation_slab", parse_r_value)
     occupants = field("in.occupants", parse_leading_number)
     lamp = field("in.lighting", parse_lighting)
@@ -423,6 +473,14 @@ def _stories(field: _Fields) -> int:
     if not 1 <= stories <= 4:
         raise field.error(f"expected 1 to 4 stories, got {stories}", "in.geometry_stories")
     return stories
+
+
+def _top_r(field: _Fields) -> float | None:
+    """R (US units) of the model's one roof assembly, the insulation between the top story and outdoors:
+    the attic floor's (``in.insulation_ceiling``) when the house has one, else the finished roof's
+    (``in.insulation_roof``); None when neither says (the vintage default applies)."""
+    ceiling = field("in.insulation_ceiling", parse_ceiling_r)
+    return ceiling if ceiling is not None else field("in.insulation_roof", parse_roof_r)
 
 
 def _window_to_wall(field: _Fields) -> float:

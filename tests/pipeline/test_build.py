@@ -353,12 +353,12 @@ def test_config_needs_one_building_source_and_complete_fmu_settings():
 
 
 def test_surrogate_section_defaults_are_the_trainers():
-    """A ``[surrogate]`` section that names no hyper-parameter trains ``TrainConfig()``'s recipe: the section's
+    """A ``[surrogate]`` section that names no hyper-parameter trains ``BUILD_RECIPE``: the section's
     defaults repeat the trainer's (pipeline/config.py must not import torch), and this keeps them together."""
     pytest.importorskip("torch", reason="the surrogate extra is not installed")
     from dataclasses import replace
 
-    from surrogates.config import TrainConfig
+    from surrogates.config import BUILD_RECIPE
 
     config = read_build_config(ROOT / "raw" / "district.toml")  # [surrogate]: source and seed only
-    assert train_config(config) == replace(TrainConfig(), progress=False, threads=1)
+    assert train_config(config) == replace(BUILD_RECIPE, progress=False, threads=1)

@@ -115,7 +115,8 @@ def test_results_name_the_buildings_and_runs_resume(district, tmp_path):
     assert results["x-b1_b2-x-pv"]["consumption"] < results["x-b1_b2-x-x"]["consumption"]
     assert results["rbc-b1-c-bess_pv"]["mean_abs_action"] > 0.02
     assert results["rlc-b1-e-dhw"]["mean_abs_action"] > 0
-    assert {p.name for p in tmp_path.glob("*.png")} == {"cost_emissions.png", "actions_soc.png", "daily_peak.png"}
+    assert {p.name for p in tmp_path.glob("*.png")} == {"cost_emissions.png", "actions_soc.png", "daily_peak.png",
+                                                       "soc_trajectories.png"}      # the oracle and MPC run by default
     # resume: a finished task file is reused as is (a marked value comes back), other options rerun it
     task = tmp_path / "tasks" / "rbc-b1-c-bess_pv-m3-s0.json"
     stored = json.loads(task.read_text())
@@ -133,7 +134,7 @@ def test_results_name_the_buildings_and_runs_resume(district, tmp_path):
 
 def test_seeds_give_mean_and_std(district, tmp_path):
     out = run_paper(district[0], tmp_path, only=["rlc-b1-c-bess_pv", "rbc-b1-c-bess_pv"], sweep=(), seeds=2,
-                    options=RunOptions(sac_episodes=1), log=lambda *_: None)
+                    options=RunOptions(sac_episodes=1), log=lambda *_: None, controllers=("rbc", "sac"))
     runs = [(r["id"], r["seed"]) for r in out["runs"]]
     assert sorted(runs) == [("rbc-b1-c-bess_pv", 0), ("rlc-b1-c-bess_pv", 0), ("rlc-b1-c-bess_pv", 1)]
     row = {r["id"]: r for r in out["results"]}["rlc-b1-c-bess_pv"]
@@ -144,7 +145,7 @@ def test_seeds_give_mean_and_std(district, tmp_path):
 
 
 def test_task_plan():
-    tasks = plan_tasks(None, (1.0, 3.0, 6.0, 12.0), seeds=3)
+    tasks = plan_tasks(None, (1.0, 3.0, 6.0, 12.0), seeds=3, controllers=("rbc", "sac"))
     # 9 deterministic rows once; 8 SAC rows x 3 seeds; the sweep adds m = 1, 6, 12 (m = 3 is the d_o row)
     assert len(tasks) == 9 + 8 * 3 + 3 * 3
     assert len({t.key for t in tasks}) == len(tasks)

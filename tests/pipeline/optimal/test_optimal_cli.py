@@ -1,12 +1,17 @@
-"""``districtgen optimal``: the bound printed, the schedule written, bad options one line."""
+"""``districtgen optimal``: the bound printed, the schedule written, bad options one line; ``--mpc`` through the
+real CLI on an upstream dataset (skipped when ../shared is absent)."""
 
 from __future__ import annotations
 
 import pandas as pd
 import pytest
 
+from citylearn_env import CityLearnEnv
 from citylearn_env.example import write_example_district
 from pipeline.cli import main
+from pipeline.controllers import run_episode
+from pipeline.optimal.command import district
+from tests.conftest import SHARED, need_shared
 
 pytest.importorskip("highspy")
 
@@ -36,3 +41,33 @@ def test_weighted_objectives_and_bad_options_are_one_line(schema, capsys):
         assert main(["optimal", str(schema), *argv]) == 2
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and says in err[0], err
+
+
+def test_mpc_through_the_cli_on_upstream_data(tmp_path, capsys):
+    # CityLearn's own 2022 phase 1 (5 buildings, battery + PV): two days after 13 training days; MPC with day-ahead
+    # forecasts printed beside the oracle's bound and no control, its actions written and replayed exactly
+    schema = SHARED / "data" / "citylearn" / "upstream" / "v2.1.2" / "citylearn_challenge_2022_phase_1" / "schema.json"
+    need_shared(schema)
+    out = tmp_path / "mpc.csv"
+    argv = ["optimal", str(schema), "--start", "312", "--end", "359", "--mpc", "--horizon", "12", "--forecast",
+            "day_ahead", "--train", "0", "311", "-o", str(out)]
+    assert main(argv) == 0
+    text = capsys.readouterr().out
+    line = next(x for x in text.splitlines() if x.strip().startswith("cost") and "oracle" in x)
+    mpc_cost, bound, none = (float(v) for v in (line.split()[1], line.split("oracle ")[1].split(",")[0],
+                                                 line.split("no control ")[1].rstrip(")")))
+    assert "mpc: horizon 12 steps, day_ahead forecasts" in text and f"MPC actions: {out}" in text
+    assert bound * (1 - 1e-4) <= mpc_cost and bound < none
+    schedule = pd.read_csv(out)
+    assert len(schedule) == 48 and schedule["time_step"].tolist() == list(range(312, 360))
+    env = CityLearnEnv(district(schema, start=312, end=359))
+    env.reset(seed=0)
+    positions = [env.building_names[b] + "." + slot + ".action" for slot, b in env.action_pairs]
+    steps = iter(schedule[positions].to_numpy()[1:])
+    run_episode(env, lambda _: next(steps), 0)
+    assert env.objectives()["cost"] == pytest.approx(mpc_cost, rel=1e-5)
+
+
+def test_mpc_options_need_mpc(schema, capsys):
+    assert main(["optimal", str(schema), "--forecast", "persistence"]) == 2
+    assert "apply to --mpc only" in capsys.readouterr().err

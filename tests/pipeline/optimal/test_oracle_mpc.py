@@ -33,8 +33,6 @@ def test_a_longer_horizon_is_not_worse(config):
     assert long <= short * (1 + 1e-4)
 
 
-def test_mpc_refuses_the_peak_and_a_bad_horizon(config):
-    with pytest.raises(InputError, match="daily peak is not supported"):
-        mpc(CityLearnEnv(config), "average_daily_peak")
+def test_mpc_refuses_a_bad_horizon(config):
     with pytest.raises(InputError, match="at least 1 step"):
         mpc(CityLearnEnv(config), "cost", horizon=0)

@@ -1,0 +1,267 @@
+"""Realism benchmark: the houses of a built district against real EULP-derived houses of the same climate and
+season.
+
+Real reference (read in place from ``../shared/data/citylearn``): the Austin TX single-family homes of the
+CityLearn 2023 challenge (ResStock/End-Use Load Profiles dwellings re-simulated in EnergyPlus by the
+CityLearn authors; June-August, hourly), in both published layouts (v2.4.2 named columns, v2.1.2 positional
+columns). The datasets repeat the same homes: house-months are de-duplicated by content, which leaves the six
+phase-3 homes (June-August, their evaluation weather) and three of them again in phase 1 (June, Austin AMY
+2018 weather, the same weather as the default district). The 2022 challenge sets (Fontana CA, no cooling
+or heating columns) and the 2020/2021 sets (DOE prototype buildings) are not EULP houses of this climate and
+are not used; the EULP county neighbourhoods are not in ../shared (only their building ids).
+
+The real sets carry no floor area (neither schema nor CSV), so the per-m2 statistics have no real band; the
+benchmark adds the absolute monthly cooling energy, which has one.
+
+Built houses: a built district folder (``artifacts/<name>/``: schema.json, the building CSVs and
+buildings.json for the floor areas), or ``--simulate``: the district's houses simulated directly (one
+EnergyPlus ideal-loads pass over the period per house, no ILV replays, no training), from the district TOML,
+the stock rows of the folder's selection.csv (or ``inputs.buildings``) and the current house model.
+
+Statistics per house and month (:mod:`pipeline.realism`): hourly DHW peak [kWh], hourly plug-load
+(``non_shiftable_load``) peak [kWh], cooling and heating [kWh/m2], cooling [kWh], daily load factor of the
+electric-equivalent total, and the L1 distance of the normalised hour-of-day profile of that total to the
+real median profile.
+
+Usage::
+
+    .venv/bin/python benchmarks/realism.py                       # artifacts/default (the make-run district)
+    .venv/bin/python benchmarks/realism.py --district artifacts/default --simulate raw/district.toml
+    .venv/bin/python benchmarks/realism.py --same-month      # real June house-months only (for a June district)
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from pipeline.realism import (  # noqa: E402
+    daily_load_factor,
+    electric_equivalent_kwh,
+    energy_per_area_kwh_m2,
+    hour_of_day_profile,
+    hourly_peak_kwh,
+    in_band,
+    median_profile,
+    median_ratio_pct,
+    percentile_band,
+    profile_l1_distance,
+)
+
+CITYLEARN = ROOT.parent / "shared" / "data" / "citylearn"
+DEFAULT_DISTRICT = ROOT / "artifacts" / "default"
+#: the v2.1 positional layout: column index of each named column
+V21_POSITIONS = {"month": 0, "hour": 1, "non_shiftable_load": 7, "dhw_demand": 8, "cooling_demand": 9,
+                 "heating_demand": 10}
+LOAD_COLUMNS = ["month", "hour", "non_shiftable_load", "dhw_demand", "cooling_demand", "heating_demand"]
+SEASONS = {12: "DJF", 1: "DJF", 2: "DJF", 3: "MAM", 4: "MAM", 5: "MAM", 6: "JJA", 7: "JJA", 8: "JJA",
+           9: "SON", 10: "SON", 11: "SON"}
+#: statistic key -> (label, decimals)
+STATISTICS = {
+    "dhw_peak_kwh": ("hourly DHW peak [kWh]", 2),
+    "plug_peak_kwh": ("hourly plug-load peak [kWh]", 2),
+    "cooling_kwh": ("cooling in the month [kWh]", 0),
+    "cooling_kwh_m2": ("cooling [kWh/m2 month]", 2),
+    "heating_kwh_m2": ("heating [kWh/m2 month]", 2),
+    "daily_load_factor": ("daily load factor (mean/peak) [-]", 3),
+    "profile_l1": ("hour-of-day shape, L1 to real median [-]", 3),
+}
+
+
+@dataclass
+class HouseMonth:
+    """One house's hourly loads in one month (CityLearn columns, kWh per hour) and its statistics."""
+
+    name: str
+    month: int
+    loads: pd.DataFrame
+    floor_area_m2: float | None = None
+    stats: dict[str, float] = field(default_factory=dict)
+
+
+def read_building_csv(path: Path) -> pd.DataFrame:
+    """A CityLearn building CSV in either layout -> :data:`LOAD_COLUMNS`."""
+    frame = pd.read_csv(path)
+    if "cooling_demand" in frame.columns:
+        return frame[LOAD_COLUMNS]
+    return pd.DataFrame({name: frame.iloc[:, i] for name, i in V21_POSITIONS.items()})[LOAD_COLUMNS]
+
+
+def split_months(name: str, loads: pd.DataFrame, floor_area_m2: float | None = None) -> list[HouseMonth]:
+    """One :class:`HouseMonth` per month present with at least 28 whole days of hours."""
+    return [HouseMonth(name, int(month), part.reset_index(drop=True), floor_area_m2)
+            for month, part in loads.groupby("month", sort=False) if len(part) >= 28 * 24]
+
+
+def fingerprint(item: HouseMonth) -> tuple[float, ...]:
+    """What identifies a house-month across dataset copies and layouts (which differ in float formatting):
+    the month and each load column's monthly total rounded to 0.1 kWh."""
+    sums = item.loads[["non_shiftable_load", "dhw_demand", "cooling_demand", "heating_demand"]].sum()
+    return (float(item.month), *(round(float(v), 1) for v in sums))
+
+
+def real_house_months(root: Path = CITYLEARN, season: str = "JJA") -> list[HouseMonth]:
+    """De-duplicated house-months of the 2023 challenge homes (Austin TX, ResStock single-family) in
+    ``season``, from every copy of the datasets under ``root``."""
+    files = sorted(root.glob("upstream/v2.4.2/citylearn_challenge_2023_*/Building_*.csv"))
+    files += sorted(root.glob("upstream/v2.1.2/citylearn_challenge_2023_*/Building_*.csv"))
+    files += sorted(root.glob("citylearn_challenge_2023_*/Building_*.csv"))
+    seen: dict[tuple[float, ...], HouseMonth] = {}
+    for path in files:
+        for item in split_months(f"{path.parent.name}/{path.stem}", read_building_csv(path)):
+            if SEASONS[item.month] != season:
+                continue
+            seen.setdefault(fingerprint(item), item)
+    return list(seen.values())
+
+
+def built_house_months(district: Path) -> list[HouseMonth]:
+    """The house-months of a built district folder (schema.json building CSVs; floor areas from
+    buildings.json when present)."""
+    schema = json.loads((district / "schema.json").read_text())
+    info_path = district / "buildings.json"
+    info = json.loads(info_path.read_text()) if info_path.is_file() else {}
+    out = []
+    for name, building in schema["buildings"].items():
+        area = info.get(name, {}).get("floor_area_m2")
+        out += split_months(name, read_building_csv(district / building["energy_simulation"]), area)
+    return out
+
+
+def simulated_house_months(config_path: Path, district: Path | None) -> list[HouseMonth]:
+    """The district's houses simulated now (ideal-loads pass over the configured period, current model)."""
+    from pipeline.build.steps import read_characteristics_row
+    from pipeline.config import read_build_config
+    from surrogates.energyplus.epw import read_epw_ground_temperatures
+    from surrogates.energyplus.house import build_house_model
+    from surrogates.energyplus.ilv import hourly_loads
+    from surrogates.energyplus.metadata import house_parameters_from_metadata
+    from surrogates.energyplus.runner import run_energyplus
+    from surrogates.energyplus.sqlite import read_report_variables, read_zone_floor_areas
+
+    config = read_build_config(config_path)
+    if district is not None and (district / "selection.csv").is_file():
+        selection = pd.read_csv(district / "selection.csv")
+        houses = list(zip(selection["building"], selection["bldg_id"], strict=True))
+    elif config.inputs.buildings:
+        houses = [(f"Building_{i + 1}", b) for i, b in enumerate(config.inputs.buildings)]
+    else:
+        raise SystemExit("--simulate needs the district folder's selection.csv or inputs.buildings")
+    start, end = config.period.start, config.period.end
+    epw = Path(config.inputs.weather)
+    out = []
+    for name, bldg_id in houses:
+        house = house_parameters_from_metadata(read_characteristics_row(config.inputs.characteristics, bldg_id))
+        model = build_house_model(house, mode="ideal", ground_temperatures_c=read_epw_ground_temperatures(epw),
+                                  run_period=((start.month, start.day), (end.month, end.day)), year=start.year,
+                                  timesteps_per_hour=config.simulation.timesteps_per_hour,
+                                  reporting_frequency="Timestep")
+        with tempfile.TemporaryDirectory(prefix="realism_") as tmp:
+            sql = run_energyplus(model, epw, Path(tmp), "ideal")
+            ideal = read_report_variables(sql, year=start.year, frequency="Zone Timestep")
+            areas = read_zone_floor_areas(sql)
+        loads = hourly_loads(ideal, areas, house)
+        frame = pd.DataFrame({"month": loads.index.month, "hour": loads.index.hour + 1,
+                              "non_shiftable_load": loads["non_shiftable_load_kwh"].to_numpy(),
+                              "dhw_demand": loads["dhw_demand_kwh"].to_numpy(),
+                              "cooling_demand": loads["cooling_demand_kwh"].to_numpy(),
+                              "heating_demand": loads["heating_demand_kwh"].to_numpy()})
+        out += split_months(name, frame, house.floor_area_m2)
+    return out
+
+
+def total_kwh(loads: pd.DataFrame) -> pd.Series:
+    """The electric-equivalent total of a house-month's loads [kWh per hour]."""
+    return electric_equivalent_kwh(loads["non_shiftable_load"], loads["cooling_demand"], loads["heating_demand"],
+                                   loads["dhw_demand"])
+
+
+def fill_statistics(items: list[HouseMonth], reference_profile: np.ndarray) -> None:
+    """Compute every statistic of :data:`STATISTICS` for each house-month (in place)."""
+    for item in items:
+        loads, area = item.loads, item.floor_area_m2
+        total = total_kwh(loads)
+        item.stats = {
+            "dhw_peak_kwh": hourly_peak_kwh(loads["dhw_demand"]),
+            "plug_peak_kwh": hourly_peak_kwh(loads["non_shiftable_load"]),
+            "cooling_kwh": float(loads["cooling_demand"].sum()),
+            "cooling_kwh_m2": energy_per_area_kwh_m2(loads["cooling_demand"], area) if area else float("nan"),
+            "heating_kwh_m2": energy_per_area_kwh_m2(loads["heating_demand"], area) if area else float("nan"),
+            "daily_load_factor": daily_load_factor(total),
+            "profile_l1": profile_l1_distance(hour_of_day_profile(total, loads["hour"]), reference_profile),
+        }
+
+
+def _fmt(value: float, decimals: int) -> str:
+    return "n/a" if not np.isfinite(value) else f"{value:,.{decimals}f}"
+
+
+def realism_table(built: list[HouseMonth], real: list[HouseMonth]) -> tuple[str, dict[str, object]]:
+    """The markdown table (one row per statistic) and a summary: houses in band and medians within 25 %."""
+    names = [f"{b.name}" + (f" m{b.month}" if len({x.month for x in built}) > 1 else "") for b in built]
+    header = ["statistic", "real 5 %", "real median", "real 95 %", *names, "built median vs real"]
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    summary: dict[str, object] = {}
+    for key, (label, decimals) in STATISTICS.items():
+        band = percentile_band([r.stats[key] for r in real])
+        values = [b.stats[key] for b in built]
+        cells = []
+        flags = []
+        for value in values:
+            flag = in_band(value, band)
+            flags.append(flag)
+            cells.append(f"{_fmt(value, decimals)} " + {True: "yes", False: "**no**", None: "-"}[flag])
+        ratio = median_ratio_pct(values, band[1])
+        ratio_cell = "n/a" if not np.isfinite(ratio) else f"{ratio:+.0f} %"
+        lines.append("| " + " | ".join([label, *(_fmt(v, decimals) for v in band), *cells, ratio_cell]) + " |")
+        summary[key] = {"band": band, "values": values, "in_band": flags, "median_vs_real_pct": ratio}
+    return "\n".join(lines), summary
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--district", type=Path, default=DEFAULT_DISTRICT,
+                        help="built district folder (default: artifacts/default, the make-run district)")
+    parser.add_argument("--simulate", type=Path, metavar="DISTRICT_TOML",
+                        help="simulate the district's houses now (ideal pass over the period) instead of "
+                             "reading the folder's building CSVs")
+    parser.add_argument("--real", type=Path, default=CITYLEARN, help="the citylearn data folder of ../shared")
+    parser.add_argument("--same-month", action="store_true",
+                        help="real house-months of the built months only (default: the whole season)")
+    args = parser.parse_args(argv)
+    if not args.real.is_dir():
+        print(f"real reference data not found: {args.real} (needs ../shared/data/citylearn)")
+        return 2
+    built = (simulated_house_months(args.simulate, args.district) if args.simulate
+             else built_house_months(args.district))
+    seasons = sorted({SEASONS[b.month] for b in built})
+    real = [r for season in seasons for r in real_house_months(args.real, season)]
+    if args.same_month:
+        real = [r for r in real if r.month in {b.month for b in built}]
+    if not real:
+        print(f"no real house-months in season(s) {seasons}")
+        return 2
+    reference = median_profile([hour_of_day_profile(total_kwh(r.loads), r.loads["hour"]) for r in real])
+    fill_statistics(real, reference)
+    fill_statistics(built, reference)
+    table, _ = realism_table(built, real)
+    source = f"simulated from {args.simulate}" if args.simulate else f"built folder {args.district}"
+    scope = f"month(s) {sorted({r.month for r in real})}" if args.same_month else f"season {', '.join(seasons)}"
+    print(f"built: {len(built)} house-months ({source}); real: {len(real)} house-months of the 2023 challenge "
+          f"homes (Austin TX, {scope})\n")
+    print(table)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,106 @@
+"""Each house of a district, its surrogate trained like the build and judged on a fresh EnergyPlus run.
+
+    .venv/bin/python benchmarks/surrogate_judge.py [raw/district.toml] [--bldg-ids 8 61] [--recipe build|default]
+        [--set hidden_size=16 pretrain_steps=2000 ...] [--data /tmp/districtgen_judge]
+
+Per house: the training ILV table (the build's ``[simulation]`` settings, :func:`pipeline.build.surrogates.ilv_config`)
+and the judge's table (:func:`surrogates.judge.judge_ilv_config`: 6 timesteps/h, another seed) are simulated
+once and kept under ``--data`` (keyed by house, settings and the generator's sources); then the recipe trains
+(float32 or what ``precision`` resolves to, one thread) and the model is scored by
+:func:`surrogates.judge.score_judge_table`. One JSON line per house: monthly RMSE median and worst month,
+mean absolute errors (partial loads, ideal loads), CPU seconds of training, best epoch, closed-loop validation
+RMSE [degC]; then the CPU model and load average.
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+import os
+import platform
+import sys
+from dataclasses import asdict, replace
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+import pandas as pd  # noqa: E402
+
+import surrogates  # noqa: E402
+from pipeline.build.cache import files_digest  # noqa: E402
+from pipeline.build.steps import read_characteristics_row  # noqa: E402
+from pipeline.build.surrogates import JUDGE_SOURCES, ilv_config  # noqa: E402
+from pipeline.config import read_build_config  # noqa: E402
+from surrogates.config import BUILD_RECIPE, TrainConfig  # noqa: E402
+from surrogates.judge import judge_ilv_config, score_judge_table  # noqa: E402
+from surrogates.sources.energyplus import energyplus_ilv_table  # noqa: E402
+from surrogates.train import train_surrogate  # noqa: E402
+
+RECIPES = {"build": BUILD_RECIPE, "default": TrainConfig()}
+
+
+def cached_table(row: dict, epw: Path, config, folder: Path) -> pd.DataFrame:
+    """The ILV table of ``row`` under ``config``, simulated once per (row, EPW, config, generator sources)."""
+    package = Path(surrogates.__file__).parent
+    key = hashlib.sha256(json.dumps([row, str(epw), asdict(config), files_digest(
+        [package / f for f in JUDGE_SOURCES], package)], sort_keys=True, default=str).encode()).hexdigest()[:16]
+    path = folder / f"{row['bldg_id']}_{config.timesteps_per_hour}tph_{key}.parquet"
+    if not path.exists():
+        folder.mkdir(parents=True, exist_ok=True)
+        energyplus_ilv_table(row, epw, config=config).table.to_parquet(path, index=False)
+    return pd.read_parquet(path)
+
+
+def parse_settings(pairs: list[str]) -> dict:
+    """``key=value`` pairs typed after the :class:`TrainConfig` field's default."""
+    out = {}
+    for pair in pairs:
+        key, value = pair.split("=", 1)
+        default = getattr(TrainConfig(), key)
+        out[key] = value.lower() == "true" if isinstance(default, bool) else type(default)(value)
+    return out
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("config", nargs="?", default="raw/district.toml")
+    parser.add_argument("--bldg-ids", type=int, nargs="+", help="default: the district's houses (selection)")
+    parser.add_argument("--recipe", choices=sorted(RECIPES), default="build")
+    parser.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE", help="TrainConfig overrides")
+    parser.add_argument("--data", type=Path, default=Path(os.environ.get("TMPDIR", "/tmp")) / "districtgen_judge")
+    args = parser.parse_args()
+    config = read_build_config(args.config)
+    if args.bldg_ids is None:
+        from pipeline.build.steps import resolve_selection
+
+        config, _ = resolve_selection(config)
+    ids = args.bldg_ids or list(config.inputs.buildings)
+    recipe = replace(RECIPES[args.recipe], progress=False, threads=1, **parse_settings(args.set))
+    training_ilv = ilv_config(config)
+    for number, bldg_id in enumerate(ids, 1):
+        row = read_characteristics_row(config.inputs.characteristics, bldg_id)
+        table = cached_table(row, config.inputs.weather, training_ilv, args.data)
+        fresh = cached_table(row, config.inputs.weather, judge_ilv_config(training_ilv), args.data)
+        trained = train_surrogate(table, recipe)
+        s = score_judge_table(trained.model, trained.normalization, trained.inputs, trained.config.lookback, fresh)
+        print(json.dumps({"house": bldg_id, "building": f"Building_{number}" if args.bldg_ids is None else None,
+                          "recipe": args.recipe, "set": args.set, "median_c": s["median_c"], "worst_c": s["worst_c"],
+                          "mean_abs_c": s["mean_abs_c"], "ideal_mean_abs_c": s["ideal_mean_abs_c"],
+                          "train_cpu_s": round(trained.cpu_seconds, 1), "best_epoch": trained.best_epoch,
+                          "val_closed_loop_rmse_c": trained.history[trained.best_epoch]["val_closed_loop_rmse_c"]}),
+              flush=True)
+    print(json.dumps({"cpu": cpu_model(), "load_average": os.getloadavg()}))
+
+
+def cpu_model() -> str:
+    """The CPU's model name (``lscpu``'s "Model name", from /proc/cpuinfo), else the machine type."""
+    try:
+        lines = Path("/proc/cpuinfo").read_text().splitlines()
+    except OSError:
+        return platform.machine()
+    return next((line.split(":", 1)[1].strip() for line in lines if line.startswith("model name")), platform.machine())
+
+
+if __name__ == "__main__":
+    main()

