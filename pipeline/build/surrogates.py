@@ -41,6 +41,7 @@ TRAINER_SOURCES = ("config.py", "train.py", "model.py", "export.py", "evaluate.p
 
 #: what turns EULP metadata + EPW into an ILV table: part of the key for ``surrogate.source = "energyplus"``
 ENERGYPLUS_SOURCES = ("sources/energyplus.py", "energyplus/ilv.py", "energyplus/house.py",
+                      "energyplus/house_schedules.py", "energyplus/schedules.py", "energyplus/occupancy.py",
                       "energyplus/metadata.py", "energyplus/runner.py", "energyplus/sqlite.py", "energyplus/epw.py")
 
 

@@ -14,62 +14,32 @@ requires).
 
 from __future__ import annotations
 
-import hashlib
-import io
 import math
-import os
-import tempfile
 from collections.abc import Sequence
-from functools import lru_cache
 from pathlib import Path
 
-import numpy as np
-
+from surrogates.energyplus.house_schedules import (
+    HOT_WATER_USE_C,
+    SCHEDULE_COLUMNS,
+    SCHEDULE_DIR,
+    house_schedules,
+    schedule_peaks,
+    write_schedule_file,
+)
 from surrogates.energyplus.metadata import HouseParameters, setpoint_schedules
-from surrogates.energyplus.schedules import (
-    AWAKE_ACTIVITY_W,
-    HouseSchedules,
-    ScheduleTargets,
-    generate_schedules,
-)
+from surrogates.energyplus.schedules import AWAKE_ACTIVITY_W
 
-#: The former fixed hourly fractions (hour 0 = 00:00-01:00), weekday then weekend (engineering assumptions
-#: for a working household). The occupant-driven schedules (:mod:`surrogates.energyplus.schedules`) keep the
-#: daily lighting and plug energies these give (:func:`schedule_targets`); docs/energyplus.md.
-OCCUPANCY = (
-    [1, 1, 1, 1, 1, 1, 1, .85, .5, .35, .35, .35, .35, .35, .35, .35, .5, .7, .9, .9, .9, .9, 1, 1],
-    [1, 1, 1, 1, 1, 1, 1, 1, 1, .7, .7, .7, .7, .6, .6, .6, .6, .9, .9, .9, .9, .9, 1, 1],
-)
-LIGHTING = (
-    [.05, .05, .05, .05, .05, .05, .3, .3, .1, .1, .1, .1, .1, .1, .1, .1, .1, .4, .7, .7, .7, .7, .4, .1],
-    [.05, .05, .05, .05, .05, .05, .1, .3, .3, .15, .15, .15,
-     .15, .15, .15, .15, .2, .4, .7, .7, .7, .7, .4, .1],
-)
-EQUIPMENT = (
-    [.45, .45, .45, .45, .45, .45, .6, .6, .6, .5, .5, .5,
-     .5, .5, .5, .5, .6, .85, .85, .85, .85, .85, .6, .6],
-    [.45, .45, .45, .45, .45, .45, .5, .6, .7, .7, .7, .7,
-     .7, .7, .7, .7, .7, .85, .85, .85, .85, .85, .6, .6],
-)
-HOT_WATER = (
-    [.02, .02, .02, .02, .02, .02, .5, 1, .6, .1, .1, .1, .1, .1, .1, .1, .1, .3, .6, .6, .6, .4, .2, .05],
-    [.02, .02, .02, .02, .02, .02, .1, .5, 1, .8, .4, .3, .3, .2, .2, .2, .2, .3, .6, .6, .6, .4, .2, .05],
-)
-#: ``Schedule:File`` columns of the occupant-driven schedules and the schedule names that read them
-SCHEDULE_COLUMNS = ("people_fraction", "activity_w", "lighting_fraction", "plug_fraction", "cooking_fraction",
-                    "dryer_fraction", "hot_water_fraction")
+#: the schedule names that read the ``Schedule:File`` columns :data:`SCHEDULE_COLUMNS`
 SCHEDULE_NAMES = ("occupancy", "activity", "lighting", "equipment", "cooking", "dryer", "hot_water")
 #: vented appliances: (latent, radiant, lost) shares of their electricity; the rest is a convective zone gain.
 #: Sensible + latent to the zone after the Building America House Simulation Protocols' appliance gains
 #: (range 0.40 + 0.30, vented dryer 0.15 + 0.05); the lost share leaves through the hood or the dryer vent.
 VENTED_APPLIANCES = {"cooking": (0.30, 0.20, 0.30), "dryer": (0.05, 0.05, 0.80)}
-#: where :func:`build_house_model` writes the schedule CSV when given no folder (content-addressed names)
-SCHEDULE_DIR = Path(tempfile.gettempdir()) / "districtgen-schedules"
-#: Metabolic heat per person (W; the occupant-driven schedules use it for awake occupants), hot-water supply and mixed use temperatures (C), internal-mass area per
+#: Metabolic heat per person (W; the occupant-driven schedules use it for awake occupants), hot-water supply
+#: temperature (C; the mixed use temperature is :data:`house_schedules.HOT_WATER_USE_C`), internal-mass area per
 #: floor area (m2/m2). Daily water use (``dhw_*_litres``) is at the mixed use temperature.
 ACTIVITY_W = AWAKE_ACTIVITY_W
 HOT_WATER_SUPPLY_C = 49.0
-HOT_WATER_USE_C = 43.0
 INTERNAL_MASS_PER_FLOOR = 2.0
 
 ZONE_OUTPUTS = ["Zone Mean Air Temperature", "Zone Air Relative Humidity", "Zone People Occupant Count",
@@ -224,78 +194,6 @@ def _geometry(house: HouseParameters) -> dict[str, dict[str, dict[str, object]]]
                                   "surface_area": round(INTERNAL_MASS_PER_FLOOR * width * depth, 3)}
     return {"Zone": zones, "BuildingSurface:Detailed": surfaces, "FenestrationSurface:Detailed": windows,
             "InternalMass": masses}
-
-
-def schedule_targets(house: HouseParameters, latitude_deg: float = 35.0) -> ScheduleTargets:
-    """The daily totals the occupant-driven schedules keep from the former fixed profiles: hot water
-    [L/day of mixed water at :data:`HOT_WATER_USE_C`] = (base + per person x occupants) x fixtures; plug and
-    lighting electricity [kWh/day] = peak density x floor area x the week-weighted mean of
-    :data:`EQUIPMENT` / :data:`LIGHTING` x 24 h."""
-    def daily_kwh(w_per_m2: float, profile: tuple[list[float], list[float]]) -> float:
-        mean = (5 * sum(profile[0]) + 2 * sum(profile[1])) / 7 / 24
-        return w_per_m2 * house.floor_area_m2 * mean * 24 / 1000.0
-
-    litres = (house.dhw_base_litres_day + house.dhw_litres_per_person_day * house.occupants) * house.dhw_scale
-    return ScheduleTargets(occupants=int(round(house.occupants)), dhw_litres_per_day=litres,
-                           plug_kwh_per_day=daily_kwh(house.equipment_w_per_m2, EQUIPMENT),
-                           lighting_kwh_per_day=daily_kwh(house.lighting_w_per_m2, LIGHTING),
-                           latitude_deg=latitude_deg)
-
-
-@lru_cache(maxsize=4)
-def house_schedules(house: HouseParameters, year: int, timesteps_per_hour: int, seed: int = 0,
-                    latitude_deg: float = 35.0) -> HouseSchedules:
-    """The house's occupant-driven schedules (:func:`surrogates.energyplus.schedules.generate_schedules`),
-    seeded with (``seed``, ``house.bldg_id``); cached, as one simulation builds the model several times."""
-    return generate_schedules(schedule_targets(house, latitude_deg), year=year, seed=seed, bldg_id=house.bldg_id,
-                              timesteps_per_hour=timesteps_per_hour)
-
-
-def _peak(values: np.ndarray) -> float:
-    return float(values.max()) if values.size and values.max() > 0 else 0.0
-
-
-def schedule_peaks(house: HouseParameters, schedules: HouseSchedules) -> dict[str, float]:
-    """Design levels the ``Schedule:File`` fractions multiply: people (occupants, rounded as the schedules
-    round them), lighting, other plug, cooking and dryer power [W], hot-water flow [m3/s], for the whole
-    house."""
-    return {"people": float(max(round(house.occupants), 0)), "lighting_w": _peak(schedules.lighting_w),
-            "plug_w": _peak(_other_plug_w(schedules)), "cooking_w": _peak(schedules.cooking_w),
-            "dryer_w": _peak(schedules.dryer_w), "dhw_m3_s": _peak(schedules.dhw_m3_s)}
-
-
-def _other_plug_w(schedules: HouseSchedules) -> np.ndarray:
-    """Plug power [W] other than cooking and the dryer (a full zone gain)."""
-    return np.clip(schedules.plug_w - schedules.cooking_w - schedules.dryer_w, 0.0, None)
-
-
-def write_schedule_file(house: HouseParameters, schedules: HouseSchedules, directory: Path) -> Path:
-    """Write the ``Schedule:File`` CSV (columns :data:`SCHEDULE_COLUMNS`: fractions of :func:`schedule_peaks`
-    and the activity in W per person) into ``directory`` under a content-addressed name; an existing
-    identical file is reused. Returns its path."""
-    peaks = schedule_peaks(house, schedules)
-
-    def fraction(values: np.ndarray, peak: float) -> np.ndarray:
-        return values / peak if peak > 0 else np.zeros_like(values)
-
-    table = np.column_stack([fraction(schedules.people, peaks["people"]), schedules.activity_w,
-                             fraction(schedules.lighting_w, peaks["lighting_w"]),
-                             fraction(_other_plug_w(schedules), peaks["plug_w"]),
-                             fraction(schedules.cooking_w, peaks["cooking_w"]),
-                             fraction(schedules.dryer_w, peaks["dryer_w"]),
-                             fraction(schedules.dhw_m3_s, peaks["dhw_m3_s"])])
-    buffer = io.StringIO()
-    np.savetxt(buffer, table, fmt="%.6g", delimiter=",", header=",".join(SCHEDULE_COLUMNS), comments="")
-    text = buffer.getvalue()
-    digest = hashlib.sha256(text.encode()).hexdigest()[:16]
-    path = Path(directory) / f"schedules_{house.bldg_id}_{digest}.csv"
-    if not path.is_file():
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=".csv", dir=path.parent)
-        with os.fdopen(fd, "w") as handle:
-            handle.write(text)
-        os.replace(tmp, path)
-    return path
 
 
 def _gains(house: HouseParameters, peaks: dict[str, float]) -> dict[str, dict[str, dict[str, object]]]:

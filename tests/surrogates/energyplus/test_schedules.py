@@ -11,12 +11,12 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from surrogates.energyplus.house import (
+from surrogates.energyplus.house import build_house_model
+from surrogates.energyplus.house_schedules import (
     EQUIPMENT,
     HOT_WATER,
     LIGHTING,
     SCHEDULE_COLUMNS,
-    build_house_model,
     house_schedules,
     schedule_peaks,
     schedule_targets,
