@@ -26,6 +26,19 @@ os.environ.setdefault("PREFECT_SERVER_DATABASE_CONNECTION_URL", "sqlite+aiosqlit
 os.environ.setdefault("PREFECT_SERVER_EPHEMERAL_STARTUP_TIMEOUT_SECONDS", "180")
 
 
+#: Python source that makes the top-level packages named in ``sys.argv[1]`` (comma-separated) unimportable, as
+#: in an install without them; a test appends what it runs (``python -c BLOCK_IMPORTS + "..." NAMES ...``)
+BLOCK_IMPORTS = """
+import importlib.abc, sys
+BLOCKED = set(sys.argv[1].split(","))
+class Missing(importlib.abc.MetaPathFinder):
+    def find_spec(self, name, path=None, target=None):
+        if name.partition(".")[0] in BLOCKED:
+            raise ModuleNotFoundError(f"No module named {name!r}", name=name)
+sys.meta_path.insert(0, Missing())
+"""
+
+
 def need_shared(*paths: Path) -> None:
     """Skip the calling test when a ../shared file it needs is absent (fresh clone without shared/)."""
     for path in paths:

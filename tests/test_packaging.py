@@ -17,6 +17,8 @@ from pathlib import Path
 
 import pytest
 
+from tests.conftest import BLOCK_IMPORTS
+
 REPO = Path(__file__).resolve().parents[1]
 PROJECT = tomllib.loads((REPO / "pyproject.toml").read_text())["project"]
 EXTRAS: dict[str, list[str]] = PROJECT["optional-dependencies"]
@@ -122,14 +124,7 @@ def test_environment_imports_and_steps_without_the_heavy_stack() -> None:
     assert result["import_cpu_s"] < 2.0
 
 
-BLOCKER = """
-import importlib.abc, sys
-BLOCKED = set(sys.argv[1].split(","))
-class Missing(importlib.abc.MetaPathFinder):
-    def find_spec(self, name, path=None, target=None):
-        if name.partition(".")[0] in BLOCKED:
-            raise ModuleNotFoundError(f"No module named {name!r}", name=name)
-sys.meta_path.insert(0, Missing())
+BLOCKER = BLOCK_IMPORTS + """
 from pipeline.cli import main
 sys.exit(main(sys.argv[2:]))
 """

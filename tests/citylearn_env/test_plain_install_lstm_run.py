@@ -11,21 +11,15 @@ import subprocess
 import sys
 from pathlib import Path
 
-from tests.conftest import ROOT, SHARED, need_shared
+from tests.conftest import BLOCK_IMPORTS, ROOT, SHARED, need_shared
 
 DATASET = SHARED / "data" / "citylearn" / "upstream" / "v2.4.2" / "citylearn_challenge_2023_phase_3_1"
 #: the extras' import names a plain install lacks (pipeline extra, torch, numba)
 ABSENT = ("prefect", "pydantic", "fastapi", "pvlib", "pyarrow", "openpyxl", "sklearn", "torch", "tqdm",
           "matplotlib", "rich", "highspy", "numba")
 #: runs the CLI with ABSENT unimportable, then reports which of them got imported anyway (none can)
-RUNNER = """
-import importlib.abc, json, sys
-ABSENT = set(sys.argv[1].split(","))
-class Missing(importlib.abc.MetaPathFinder):
-    def find_spec(self, name, path=None, target=None):
-        if name.partition(".")[0] in ABSENT:
-            raise ModuleNotFoundError(f"No module named {name!r}", name=name)
-sys.meta_path.insert(0, Missing())
+RUNNER = BLOCK_IMPORTS + """
+import json
 from pipeline.cli import main
 status = main(sys.argv[2:])
 from citylearn_env import lstm_kernels
