@@ -28,6 +28,7 @@ Usage::
     .venv/bin/python benchmarks/realism.py                       # artifacts/default (the make-run district)
     .venv/bin/python benchmarks/realism.py --district artifacts/default --simulate raw/district.toml
     .venv/bin/python benchmarks/realism.py --same-month      # real June house-months only (for a June district)
+    .venv/bin/python benchmarks/realism.py --simulate raw/district.toml --own-row   # + each row's own year
 """
 
 from __future__ import annotations
@@ -138,39 +139,51 @@ def built_house_months(district: Path) -> list[HouseMonth]:
     return out
 
 
-def simulated_house_months(config_path: Path, district: Path | None) -> list[HouseMonth]:
-    """The district's houses simulated now (ideal-loads pass over the configured period, current model)."""
-    from pipeline.build.steps import read_characteristics_row
-    from pipeline.config import read_build_config
-    from surrogates.energyplus.epw import read_epw_ground_temperatures
+def _district_houses(config, district: Path | None) -> list[tuple[str, int]]:
+    """(building name, stock bldg_id) of the district: its folder's selection.csv, else ``inputs.buildings``."""
+    if district is not None and (district / "selection.csv").is_file():
+        selection = pd.read_csv(district / "selection.csv")
+        return list(zip(selection["building"], selection["bldg_id"], strict=True))
+    if config.inputs.buildings:
+        return [(f"Building_{i + 1}", b) for i, b in enumerate(config.inputs.buildings)]
+    raise SystemExit("--simulate needs the district folder's selection.csv or inputs.buildings")
+
+
+def _ideal_loads(config, row: dict, run_period, year: int) -> tuple[pd.DataFrame, object]:
+    """One EnergyPlus ideal-loads pass of a stock row (the build's house model, schedules and timestep):
+    (hourly loads of :func:`surrogates.energyplus.ilv.hourly_loads`, the house parameters)."""
+    from surrogates.energyplus.epw import read_epw_ground_temperatures, read_epw_latitude, read_epw_mains_mean
     from surrogates.energyplus.house import build_house_model
     from surrogates.energyplus.ilv import hourly_loads
     from surrogates.energyplus.metadata import house_parameters_from_metadata
     from surrogates.energyplus.runner import run_energyplus
     from surrogates.energyplus.sqlite import read_report_variables, read_zone_floor_areas
 
-    config = read_build_config(config_path)
-    if district is not None and (district / "selection.csv").is_file():
-        selection = pd.read_csv(district / "selection.csv")
-        houses = list(zip(selection["building"], selection["bldg_id"], strict=True))
-    elif config.inputs.buildings:
-        houses = [(f"Building_{i + 1}", b) for i, b in enumerate(config.inputs.buildings)]
-    else:
-        raise SystemExit("--simulate needs the district folder's selection.csv or inputs.buildings")
-    start, end = config.period.start, config.period.end
     epw = Path(config.inputs.weather)
+    house = house_parameters_from_metadata(row)
+    model = build_house_model(house, mode="ideal", ground_temperatures_c=read_epw_ground_temperatures(epw),
+                              run_period=run_period, year=year,
+                              timesteps_per_hour=config.simulation.timesteps_per_hour,
+                              reporting_frequency="Timestep", latitude_deg=read_epw_latitude(epw),
+                              mains_mean_c=read_epw_mains_mean(epw))
+    with tempfile.TemporaryDirectory(prefix="realism_") as tmp:
+        sql = run_energyplus(model, epw, Path(tmp), "ideal")
+        ideal = read_report_variables(sql, year=year, frequency="Zone Timestep")
+        areas = read_zone_floor_areas(sql)
+    return hourly_loads(ideal, areas, house), house
+
+
+def simulated_house_months(config_path: Path, district: Path | None) -> list[HouseMonth]:
+    """The district's houses simulated now (ideal-loads pass over the configured period, current model)."""
+    from pipeline.build.steps import read_characteristics_row
+    from pipeline.config import read_build_config
+
+    config = read_build_config(config_path)
+    start, end = config.period.start, config.period.end
     out = []
-    for name, bldg_id in houses:
-        house = house_parameters_from_metadata(read_characteristics_row(config.inputs.characteristics, bldg_id))
-        model = build_house_model(house, mode="ideal", ground_temperatures_c=read_epw_ground_temperatures(epw),
-                                  run_period=((start.month, start.day), (end.month, end.day)), year=start.year,
-                                  timesteps_per_hour=config.simulation.timesteps_per_hour,
-                                  reporting_frequency="Timestep")
-        with tempfile.TemporaryDirectory(prefix="realism_") as tmp:
-            sql = run_energyplus(model, epw, Path(tmp), "ideal")
-            ideal = read_report_variables(sql, year=start.year, frequency="Zone Timestep")
-            areas = read_zone_floor_areas(sql)
-        loads = hourly_loads(ideal, areas, house)
+    for name, bldg_id in _district_houses(config, district):
+        row = read_characteristics_row(config.inputs.characteristics, bldg_id)
+        loads, house = _ideal_loads(config, row, ((start.month, start.day), (end.month, end.day)), start.year)
         frame = pd.DataFrame({"month": loads.index.month, "hour": loads.index.hour + 1,
                               "non_shiftable_load": loads["non_shiftable_load_kwh"].to_numpy(),
                               "dhw_demand": loads["dhw_demand_kwh"].to_numpy(),
@@ -178,6 +191,45 @@ def simulated_house_months(config_path: Path, district: Path | None) -> list[Hou
                               "heating_demand": loads["heating_demand_kwh"].to_numpy()})
         out += split_months(name, frame, house.floor_area_m2)
     return out
+
+
+#: the stock row's own annual results compared with a full-year ideal pass: (our column, row column, label)
+OWN_ROW = (("cooling_demand_kwh", "report_simulation_output.load_cooling_delivered_m_btu", "cooling"),
+           ("heating_demand_kwh", "report_simulation_output.load_heating_delivered_m_btu", "heating"),
+           ("dhw_demand_kwh", "report_simulation_output.load_hot_water_delivered_m_btu", "hot water"),
+           ("non_shiftable_load_kwh", None, "plug + lighting"))
+
+
+def own_row_table(config_path: Path, district: Path | None) -> str:
+    """Markdown table: each house's full-year ideal pass (calendar year of the period) against the annual
+    results ResStock published for the same row [kWh/year]. ResStock's delivered loads count latent heat and
+    duct losses, our ideal loads are sensible zone loads: ours should be the smaller."""
+    from pipeline.build.steps import read_characteristics_row
+    from pipeline.config import read_build_config
+    from surrogates.energyplus.end_uses import END_USE_GROUPS, KWH_PER_MBTU
+
+    config = read_build_config(config_path)
+    stock = pd.read_parquet(config.inputs.characteristics)
+    id_column = "bldg_id" if "bldg_id" in stock.columns else "building_id"
+    lines = ["| house | bldg_id | " + " | ".join(f"{label}: ours / stock's [kWh]" for *_, label in OWN_ROW) + " |",
+             "|" + "---|" * (2 + len(OWN_ROW))]
+    for name, bldg_id in _district_houses(config, district):
+        row = read_characteristics_row(config.inputs.characteristics, bldg_id)
+        loads, _ = _ideal_loads(config, row, ((1, 1), (12, 31)), config.period.start.year)
+        raw = stock[stock[id_column] == bldg_id].iloc[0]
+        cells = []
+        for ours, column, _label in OWN_ROW:
+            if column is None:  # plug + lighting: the groups the schedules keep, minus outdoor equipment
+                uses = [u for g in ("plug", "cooking", "dryer", "lighting", "exterior") for u in END_USE_GROUPS[g]]
+                columns = [f"report_simulation_output.end_use_electricity_{u}_m_btu" for u in uses]
+                theirs = sum(float(raw[c]) for c in columns if c in raw.index) * KWH_PER_MBTU
+            else:
+                theirs = float(raw[column]) * KWH_PER_MBTU if column in raw.index else float("nan")
+            mine = float(loads[ours].sum())
+            ratio = f" ({mine / theirs:.2f}x)" if theirs > 0 else ""
+            cells.append(f"{mine:,.0f} / {theirs:,.0f}{ratio}")
+        lines.append(f"| {name} | {bldg_id} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
 
 
 def total_kwh(loads: pd.DataFrame) -> pd.Series:
@@ -236,6 +288,9 @@ def main(argv: list[str] | None = None) -> int:
                         help="simulate the district's houses now (ideal pass over the period) instead of "
                              "reading the folder's building CSVs")
     parser.add_argument("--real", type=Path, default=CITYLEARN, help="the citylearn data folder of ../shared")
+    parser.add_argument("--own-row", action="store_true",
+                        help="with --simulate: also a full-year pass per house against the stock row's own "
+                             "annual results (cooling, heating, hot water, plug + lighting)")
     parser.add_argument("--same-month", action="store_true",
                         help="real house-months of the built months only (default: the whole season)")
     args = parser.parse_args(argv)
@@ -260,6 +315,9 @@ def main(argv: list[str] | None = None) -> int:
     print(f"built: {len(built)} house-months ({source}); real: {len(real)} house-months of the 2023 challenge "
           f"homes (Austin TX, {scope})\n")
     print(table)
+    if args.own_row and args.simulate:
+        print(f"\nFull year {args.simulate}: the ideal pass against the stock row's own annual results\n")
+        print(own_row_table(args.simulate, args.district))
     return 0
 
 

@@ -24,6 +24,7 @@ from pipeline.ingest.timeindex import period_index
 from pipeline.ingest.weather import ForecastSpec, citylearn_weather
 from pipeline.pv import site_pv_yield
 from pipeline.select import read_stock_table, select_from_file
+from surrogates.energyplus.end_uses import RESULT_PREFIXES
 from surrogates.energyplus.metadata import normalise_characteristics
 
 OBSERVATIONS_SHARED = ("month", "day_type", "hour", "outdoor_dry_bulb_temperature",
@@ -196,7 +197,7 @@ def period_hours(config: BuildConfig) -> int:
 
 def read_characteristics_row(path: Path, bldg_id: int) -> dict[str, object]:
     """One stock row (either metadata layout) as plain JSON values in the published layout (``bldg_id``,
-    ``in.*``); NaN -> None."""
+    ``in.*``) with its annual end uses (:data:`surrogates.energyplus.end_uses.RESULT_PREFIXES`); NaN -> None."""
 
     path = Path(path)
     raw = read_stock_table(path)
@@ -207,5 +208,6 @@ def read_characteristics_row(path: Path, bldg_id: int) -> dict[str, object]:
     if rows.empty:
         raise InputError(f"building {bldg_id} not in the characteristics", file=path, column=id_column)
     keep = {k: v for k, v in rows.iloc[0].to_dict().items()
-            if str(k).startswith(("bldg_id", "building_id", "in.", "build_existing_model.", "upgrade_costs.floor"))}
+            if str(k).startswith(("bldg_id", "building_id", "in.", "build_existing_model.", "upgrade_costs.floor",
+                                  *RESULT_PREFIXES))}
     return {k: plain_value(v) for k, v in normalise_characteristics(keep).items()}

@@ -1,4 +1,5 @@
-"""What the house model needs from an EPW header: monthly ground temperatures."""
+"""What the house model needs from an EPW: monthly ground temperatures and the latitude (header), and the
+annual mean mains water temperature (data rows)."""
 
 from __future__ import annotations
 
@@ -53,3 +54,31 @@ def read_epw_latitude(path: Path) -> float:
     if not -90.0 <= latitude <= 90.0:
         raise InputError(f"latitude {latitude:g} outside -90..90", file=path, row=1, column="LOCATION")
     return latitude
+
+
+#: the mains-temperature correlation's offset of the annual mean over the annual mean air temperature [K]
+#: (6 F; the correlation EnergyPlus's ``Site:WaterMainsTemperature`` ``CorrelationFromWeatherFile`` uses)
+MAINS_OFFSET_K = 6.0 * 5.0 / 9.0
+
+
+def read_epw_mains_mean(path: Path) -> float:
+    """The annual mean mains water temperature [C] the house model's EnergyPlus runs see: the mean outdoor
+    dry-bulb temperature of the EPW's data rows (field 7) plus :data:`MAINS_OFFSET_K` (the sine term of the
+    correlation averages to zero over the year)."""
+    path = Path(path)
+    if not path.is_file():
+        raise InputError("EPW weather file not found", file=path)
+    total, count = 0.0, 0
+    with path.open(errors="replace") as handle:
+        for number, line in enumerate(handle, start=1):
+            if number <= 8:
+                continue
+            fields = line.split(",", 7)
+            try:
+                total += float(fields[6])
+            except (ValueError, IndexError):
+                raise InputError("unreadable dry-bulb temperature", file=path, row=number, column="field 7") from None
+            count += 1
+    if count == 0:
+        raise InputError("EPW has no data rows", file=path)
+    return total / count + MAINS_OFFSET_K

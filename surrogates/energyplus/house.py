@@ -30,11 +30,12 @@ from surrogates.energyplus.metadata import HouseParameters, setpoint_schedules
 from surrogates.energyplus.schedules import AWAKE_ACTIVITY_W
 
 #: the schedule names that read the ``Schedule:File`` columns :data:`SCHEDULE_COLUMNS`
-SCHEDULE_NAMES = ("occupancy", "activity", "lighting", "equipment", "cooking", "dryer", "hot_water")
+SCHEDULE_NAMES = ("occupancy", "activity", "lighting", "equipment", "cooking", "dryer", "exterior", "hot_water")
 #: vented appliances: (latent, radiant, lost) shares of their electricity; the rest is a convective zone gain.
 #: Sensible + latent to the zone after the Building America House Simulation Protocols' appliance gains
 #: (range 0.40 + 0.30, vented dryer 0.15 + 0.05); the lost share leaves through the hood or the dryer vent.
-VENTED_APPLIANCES = {"cooking": (0.30, 0.20, 0.30), "dryer": (0.05, 0.05, 0.80)}
+#: Outdoor equipment (pool, spa and well pumps) draws electricity with no zone gain: all lost.
+VENTED_APPLIANCES = {"cooking": (0.30, 0.20, 0.30), "dryer": (0.05, 0.05, 0.80), "exterior": (0.0, 0.0, 1.0)}
 #: Metabolic heat per person (W; the occupant-driven schedules use it for awake occupants), hot-water supply
 #: temperature (C; the mixed use temperature is :data:`house_schedules.HOT_WATER_USE_C`), internal-mass area per
 #: floor area (m2/m2). Daily water use (``dhw_*_litres``) is at the mixed use temperature.
@@ -264,8 +265,8 @@ def _schedules(house: HouseParameters, schedule_file: Path, timesteps_per_hour: 
             "hot_water_supply": constant(HOT_WATER_SUPPLY_C), "hot_water_target": constant(HOT_WATER_USE_C),
             "dual_setpoint_control": constant(4.0)},
         "Schedule:Compact": {
-            "cooling_setpoint": {"schedule_type_limits_name": "any_number", "data": _compact((cooling, cooling))},
-            "heating_setpoint": {"schedule_type_limits_name": "any_number", "data": _compact((heating, heating))}},
+            "cooling_setpoint": {"schedule_type_limits_name": "any_number", "data": _compact(cooling)},
+            "heating_setpoint": {"schedule_type_limits_name": "any_number", "data": _compact(heating)}},
     }
 
 
@@ -324,14 +325,16 @@ def build_house_model(house: HouseParameters, *, mode: str, ground_temperatures_
                       run_period: tuple[tuple[int, int], tuple[int, int]] = ((1, 1), (12, 31)),
                       year: int = 2018, timesteps_per_hour: int = 4, reporting_frequency: str = "Hourly",
                       load_file: Path | None = None, dhw: bool = True, schedule_seed: int = 0,
-                      latitude_deg: float = 35.0, schedule_dir: Path | None = None) -> dict[str, object]:
+                      latitude_deg: float = 35.0, mains_mean_c: float = 20.0, schedule_dir: Path | None = None
+                      ) -> dict[str, object]:
     """The epJSON document (a dict) of ``house`` in ``mode`` ``"ideal"`` or ``"replay"``.
 
     ``ground_temperatures_c``: 12 monthly ground temperatures (C) under the slab; ``run_period``:
     ((begin month, day), (end month, day)) in calendar ``year`` (sets the weekdays); ``reporting_frequency``:
     ``"Hourly"`` or ``"Timestep"``; ``load_file``: the replay CSV (see :func:`replay_column_names`).
     People, lighting, plug loads and hot water follow the occupant-driven schedules of the whole ``year``
-    (:func:`house_schedules` with ``schedule_seed`` and ``latitude_deg``), written as a ``Schedule:File`` CSV
+    (:func:`house_schedules` with ``schedule_seed``, ``latitude_deg`` and the annual mean mains temperature
+    ``mains_mean_c`` [C]), written as a ``Schedule:File`` CSV
     into ``schedule_dir`` (default: the replay CSV's folder, else :data:`SCHEDULE_DIR`).
     """
     if mode not in ("ideal", "replay"):
@@ -366,7 +369,7 @@ def build_house_model(house: HouseParameters, *, mode: str, ground_temperatures_
             "output_csv": "No", "output_mtr": "No", "output_eso": "No", "output_tabular": "No",
             "output_sqlite": "Yes", "output_json": "No"}},
     }
-    schedules = house_schedules(house, year, timesteps_per_hour, schedule_seed, latitude_deg)
+    schedules = house_schedules(house, year, timesteps_per_hour, schedule_seed, latitude_deg, mains_mean_c)
     folder = schedule_dir or (Path(load_file).parent if load_file is not None else SCHEDULE_DIR)
     schedule_file = write_schedule_file(house, schedules, folder)
     hours = len(schedules.people) // timesteps_per_hour

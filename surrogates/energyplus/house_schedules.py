@@ -20,6 +20,10 @@ from surrogates.energyplus.schedules import HouseSchedules, ScheduleTargets, gen
 
 #: mixed hot-water use temperature (C) the daily litres are counted at
 HOT_WATER_USE_C = 43.0
+#: volumetric heat capacity of water [kJ/(L K)]
+WATER_KJ_PER_L_K = 4.186
+#: smallest use-minus-mains temperature difference [K] the delivered-heat conversion divides by
+MIN_HOT_WATER_RISE_K = 5.0
 
 #: The former fixed hourly fractions (hour 0 = 00:00-01:00), weekday then weekend (engineering assumptions
 #: for a working household). The occupant-driven schedules (:mod:`surrogates.energyplus.schedules`) keep the
@@ -45,20 +49,37 @@ HOT_WATER = (
 )
 #: ``Schedule:File`` columns of the occupant-driven schedules and the schedule names that read them
 SCHEDULE_COLUMNS = ("people_fraction", "activity_w", "lighting_fraction", "plug_fraction", "cooking_fraction",
-                    "dryer_fraction", "hot_water_fraction")
+                    "dryer_fraction", "exterior_fraction", "hot_water_fraction")
 #: where :func:`build_house_model` writes the schedule CSV when given no folder (content-addressed names)
 SCHEDULE_DIR = Path(tempfile.gettempdir()) / "districtgen-schedules"
 
-def schedule_targets(house: HouseParameters, latitude_deg: float = 35.0) -> ScheduleTargets:
-    """The daily totals the occupant-driven schedules keep from the former fixed profiles: hot water
-    [L/day of mixed water at :data:`HOT_WATER_USE_C`] = (base + per person x occupants) x fixtures; plug and
-    lighting electricity [kWh/day] = peak density x floor area x the week-weighted mean of
-    :data:`EQUIPMENT` / :data:`LIGHTING` x 24 h."""
+def schedule_targets(house: HouseParameters, latitude_deg: float = 35.0,
+                     mains_mean_c: float = 20.0) -> ScheduleTargets:
+    """The daily totals of the house's occupant-driven schedules.
+
+    With the stock row's own end uses (``house.end_uses``): plug, cooking, dryer, lighting and exterior
+    electricity [kWh/day] as the row says, and hot water [L/day of mixed water at :data:`HOT_WATER_USE_C`] =
+    the delivered hot-water heat / (:data:`WATER_KJ_PER_L_K` x (use - ``mains_mean_c``, the annual mean
+    mains temperature [C]; at least :data:`MIN_HOT_WATER_RISE_K`)).
+
+    Otherwise the former fixed profiles' totals: hot water = (base + per person x occupants) x fixtures; plug
+    and lighting = peak density x floor area x the week-weighted mean of :data:`EQUIPMENT` /
+    :data:`LIGHTING` x 24 h.
+    """
     def daily_kwh(w_per_m2: float, profile: tuple[list[float], list[float]]) -> float:
         mean = (5 * sum(profile[0]) + 2 * sum(profile[1])) / 7 / 24
         return w_per_m2 * house.floor_area_m2 * mean * 24 / 1000.0
 
     litres = (house.dhw_base_litres_day + house.dhw_litres_per_person_day * house.occupants) * house.dhw_scale
+    uses = house.end_uses
+    if uses is not None:
+        if uses.dhw_delivered is not None:
+            rise = max(HOT_WATER_USE_C - mains_mean_c, MIN_HOT_WATER_RISE_K)
+            litres = uses.dhw_delivered * 3600.0 / (WATER_KJ_PER_L_K * rise)
+        return ScheduleTargets(occupants=int(round(house.occupants)), dhw_litres_per_day=litres,
+                               plug_kwh_per_day=uses.plug, lighting_kwh_per_day=uses.lighting,
+                               latitude_deg=latitude_deg, cooking_kwh_per_day=uses.cooking,
+                               dryer_kwh_per_day=uses.dryer, exterior_kwh_per_day=uses.exterior)
     return ScheduleTargets(occupants=int(round(house.occupants)), dhw_litres_per_day=litres,
                            plug_kwh_per_day=daily_kwh(house.equipment_w_per_m2, EQUIPMENT),
                            lighting_kwh_per_day=daily_kwh(house.lighting_w_per_m2, LIGHTING),
@@ -67,10 +88,11 @@ def schedule_targets(house: HouseParameters, latitude_deg: float = 35.0) -> Sche
 
 @lru_cache(maxsize=4)
 def house_schedules(house: HouseParameters, year: int, timesteps_per_hour: int, seed: int = 0,
-                    latitude_deg: float = 35.0) -> HouseSchedules:
-    """The house's occupant-driven schedules (:func:`surrogates.energyplus.schedules.generate_schedules`),
-    seeded with (``seed``, ``house.bldg_id``); cached, as one simulation builds the model several times."""
-    return generate_schedules(schedule_targets(house, latitude_deg), year=year, seed=seed, bldg_id=house.bldg_id,
+                    latitude_deg: float = 35.0, mains_mean_c: float = 20.0) -> HouseSchedules:
+    """The house's occupant-driven schedules (:func:`surrogates.energyplus.schedules.generate_schedules` of
+    :func:`schedule_targets`), seeded with (``seed``, ``house.bldg_id``); cached, as one simulation builds the
+    model several times."""
+    return generate_schedules(schedule_targets(house, latitude_deg, mains_mean_c), year=year, seed=seed, bldg_id=house.bldg_id,
                               timesteps_per_hour=timesteps_per_hour)
 
 
@@ -80,16 +102,17 @@ def _peak(values: np.ndarray) -> float:
 
 def schedule_peaks(house: HouseParameters, schedules: HouseSchedules) -> dict[str, float]:
     """Design levels the ``Schedule:File`` fractions multiply: people (occupants, rounded as the schedules
-    round them), lighting, other plug, cooking and dryer power [W], hot-water flow [m3/s], for the whole
-    house."""
+    round them), lighting, other plug, cooking, dryer and exterior power [W], hot-water flow [m3/s], for the
+    whole house."""
     return {"people": float(max(round(house.occupants), 0)), "lighting_w": _peak(schedules.lighting_w),
             "plug_w": _peak(_other_plug_w(schedules)), "cooking_w": _peak(schedules.cooking_w),
-            "dryer_w": _peak(schedules.dryer_w), "dhw_m3_s": _peak(schedules.dhw_m3_s)}
+            "dryer_w": _peak(schedules.dryer_w), "exterior_w": _peak(schedules.exterior_w),
+            "dhw_m3_s": _peak(schedules.dhw_m3_s)}
 
 
 def _other_plug_w(schedules: HouseSchedules) -> np.ndarray:
-    """Plug power [W] other than cooking and the dryer (a full zone gain)."""
-    return np.clip(schedules.plug_w - schedules.cooking_w - schedules.dryer_w, 0.0, None)
+    """Plug power [W] other than cooking, the dryer and outdoor equipment (a full zone gain)."""
+    return np.clip(schedules.plug_w - schedules.cooking_w - schedules.dryer_w - schedules.exterior_w, 0.0, None)
 
 
 def write_schedule_file(house: HouseParameters, schedules: HouseSchedules, directory: Path) -> Path:
@@ -106,6 +129,7 @@ def write_schedule_file(house: HouseParameters, schedules: HouseSchedules, direc
                              fraction(_other_plug_w(schedules), peaks["plug_w"]),
                              fraction(schedules.cooking_w, peaks["cooking_w"]),
                              fraction(schedules.dryer_w, peaks["dryer_w"]),
+                             fraction(schedules.exterior_w, peaks["exterior_w"]),
                              fraction(schedules.dhw_m3_s, peaks["dhw_m3_s"])])
     buffer = io.StringIO()
     np.savetxt(buffer, table, fmt="%.6g", delimiter=",", header=",".join(SCHEDULE_COLUMNS), comments="")

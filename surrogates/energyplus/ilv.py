@@ -38,7 +38,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from surrogates.energyplus.epw import read_epw_ground_temperatures, read_epw_latitude
+from surrogates.energyplus.epw import read_epw_ground_temperatures, read_epw_latitude, read_epw_mains_mean
 from surrogates.energyplus.house import build_house_model, replay_column_names, zone_names
 from surrogates.energyplus.metadata import HouseParameters
 from surrogates.energyplus.runner import EnergyPlusError, run_energyplus
@@ -253,7 +253,8 @@ def generate_ilv(house: HouseParameters, epw: Path, *, config: ILVConfig = ILVCo
     expected_hours = int(days) * 24
     tph = config.timesteps_per_hour
     common = dict(ground_temperatures_c=ground, run_period=config.run_period, year=config.year,
-                  timesteps_per_hour=tph, dhw=dhw, latitude_deg=read_epw_latitude(epw))
+                  timesteps_per_hour=tph, dhw=dhw, latitude_deg=read_epw_latitude(epw),
+                  mains_mean_c=read_epw_mains_mean(epw))
     timings: dict[str, float] = {}
     with tempfile.TemporaryDirectory(prefix="ilv_", dir=workdir) as tmp:
         tmp = Path(tmp)

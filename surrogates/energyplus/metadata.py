@@ -26,21 +26,22 @@ characteristic (``in.`` prefix)          parameter                      conversi
 ``infiltration``                         ``ach50``                      ``7 ACH50`` -> 7; natural ACH = ACH50 / 20
 ``occupants``                            ``occupants``                  leading number (0 allowed: vacant)
 ``cooling_setpoint`` / ``heating_setpoint`` base set points [degC]      ``76F`` -> (76 - 32) x 5/9
-``*_setpoint_has_offset``, ``*_offset_   hourly set-point schedules     offset degF x 5/9 [K] in the night
-magnitude``, ``*_offset_period``                                        window 22:00-07:00 shifted by the period's
-                                                                        ``+Nh``/``-Nh``: cooling raised, heating
-                                                                        lowered; crossed hours repaired (below)
+``*_setpoint_has_offset``, ``*_offset_   hourly set-point schedules     offset degF x 5/9 [K], raised (setup) or
+magnitude``, ``*_offset_period``         (weekday, weekend)             lowered (setback) in the night 22:00-07:00
+                                                                        and weekday 09:00-17:00 windows the period
+                                                                        names, shifted by its ``+Nh``/``-Nh``
+                                                                        (:mod:`surrogates.energyplus.setpoints`);
+                                                                        crossed hours repaired (below)
 ``lighting``                             ``lighting_w_per_m2``          :data:`LIGHTING_W_PER_M2` by lamp type
 ``plug_loads``                           ``equipment_w_per_m2``         3.5 W/m2 x the percent / 100
 ``hot_water_fixtures``                   ``dhw_scale``                  the percent / 100 (scales daily litres)
+annual end uses (results columns)        ``end_uses``                   :mod:`surrogates.energyplus.end_uses`
 ``heating_fuel``, ``hvac_heating_type_   ``heating_system``             :func:`parse_heating_system`
 and_fuel`` / ``hvac_heating_efficiency``
 ======================================== ============================== ==========================================
 
-Set-point repair: EnergyPlus's dual set point refuses a heating set point at or above the cooling one.
-In every hour where heating >= cooling, both move to their mean m: heating = m - 0.5 K, cooling = m + 0.5 K
-(a 1 K dead band centred where the household asked for). :func:`setpoint_schedules` reports how many hours
-were repaired.
+Set-point repair (:mod:`surrogates.energyplus.setpoints`): where heating >= cooling, both move 0.5 K either
+side of their mean; :func:`setpoint_schedules` reports how many hours were repaired.
 """
 
 from __future__ import annotations
@@ -52,6 +53,9 @@ from dataclasses import dataclass
 from typing import TypeVar
 
 from citylearn_env.errors import InputError
+from surrogates.energyplus.end_uses import EndUses, parse_end_uses
+from surrogates.energyplus.setpoints import OffsetPeriod, parse_offset_period
+from surrogates.energyplus.setpoints import setpoint_schedules as schedules_with_offsets
 
 T = TypeVar("T")
 FT2_TO_M2 = 0.09290304
@@ -107,10 +111,6 @@ ACH50_TO_ACH_NATURAL = 1.0 / 20.0
 #: peak lighting power density [W/m2] by lamp type (engineering assumption: the same light output, lamp
 #: efficacies of about 90 (LED), 60 (CFL) and 15 (incandescent) lm/W)
 LIGHTING_W_PER_M2 = {"led": 1.0, "cfl": 1.5, "incandescent": 6.0}
-#: the night window of set-point offsets: hours of the day (0 = 00:00-01:00) before shifting
-NIGHT_HOURS = (22, 23, 0, 1, 2, 3, 4, 5, 6)
-#: half the dead band the repair leaves between heating and cooling set points [K]
-REPAIR_HALF_BAND_K = 0.5
 #: heating systems: what the house's space heating is, as far as the schema's devices go
 HEATING_SYSTEMS = ("heat_pump", "electric_resistance", "fuel", "none")
 
@@ -146,13 +146,16 @@ class HouseParameters:
     dhw_litres_per_person_day: float = 45.0
     dhw_base_litres_day: float = 30.0
     dhw_scale: float = 1.0
-    #: night set-point offsets (cooling, heating): cooling raised / heating lowered by ``offsets_k`` [K] in the
-    #: window :data:`NIGHT_HOURS` shifted by ``offset_shifts_h`` hours
+    #: set-point offsets (cooling, heating): magnitudes [K] and where they apply
+    #: (:mod:`surrogates.energyplus.setpoints`)
     offsets_k: tuple[float, float] = (0.0, 0.0)
-    offset_shifts_h: tuple[int, int] = (0, 0)
+    offset_periods: tuple[OffsetPeriod, OffsetPeriod] = (OffsetPeriod(), OffsetPeriod())
     #: the stock's heating fuel (``in.heating_fuel``) and system (one of :data:`HEATING_SYSTEMS`)
     heating_fuel: str = "Electricity"
     heating_system: str = "heat_pump"
+    #: the row's own annual end uses [kWh/day] (:mod:`surrogates.energyplus.end_uses`); None: the schedules'
+    #: daily totals come from the floor-area densities above
+    end_uses: EndUses | None = None
 
     @property
     def ach_natural(self) -> float:
@@ -326,40 +329,13 @@ def parse_offset_f(text: object) -> float:
     return _number(r"\s*(\d+(?:\.\d+)?)\s*F?\s*", text, "expected e.g. '2F'", whole=True) * 5.0 / 9.0
 
 
-def parse_offset_shift(text: object) -> int:
-    """Hours the night window is shifted by, from ``'Night Setback +3h'`` / ``'Night -5h'``; ``'None'`` or
-    a period without a shift -> 0. Day-time periods are refused (not in the ResStock options used here)."""
-    s = str(text).strip()
-    if s.lower() == "none":
-        return 0
-    if not s.lower().startswith("night"):
-        raise ValueError(f"expected a 'Night ...' offset period, got {text!r}")
-    match = re.search(r"([+-]\d+)\s*h", s)
-    return int(match.group(1)) if match else 0
-
-
-def offset_hours(shift_h: int) -> list[int]:
-    """Hours of the day (0..23) of the night window :data:`NIGHT_HOURS` shifted by ``shift_h``."""
-    return sorted((h + shift_h) % 24 for h in NIGHT_HOURS)
-
-
-def setpoint_schedules(house: HouseParameters) -> tuple[list[float], list[float], int]:
-    """Hourly (0..23) cooling and heating set points [degC] with offsets and the repair rule applied, and the
-    number of repaired hours of the day (0 = the row's set points were usable as given)."""
-    cooling = [house.cooling_setpoint_c] * 24
-    heating = [house.heating_setpoint_c] * 24
-    (cooling_k, heating_k), (cooling_shift, heating_shift) = house.offsets_k, house.offset_shifts_h
-    for h in offset_hours(cooling_shift) if cooling_k else []:
-        cooling[h] += cooling_k
-    for h in offset_hours(heating_shift) if heating_k else []:
-        heating[h] -= heating_k
-    repaired = 0
-    for h in range(24):
-        if heating[h] >= cooling[h]:
-            mean = (heating[h] + cooling[h]) / 2.0
-            heating[h], cooling[h] = mean - REPAIR_HALF_BAND_K, mean + REPAIR_HALF_BAND_K
-            repaired += 1
-    return [round(v, 4) for v in cooling], [round(v, 4) for v in heating], repaired
+def setpoint_schedules(house: HouseParameters) -> tuple[tuple[list[float], list[float]],
+                                                       tuple[list[float], list[float]], int]:
+    """The house's hourly set points [degC], ``(weekday, weekend)`` for cooling then heating, with its offsets
+    and the repair rule applied, and the hours of the day repaired
+    (:func:`surrogates.energyplus.setpoints.setpoint_schedules`)."""
+    return schedules_with_offsets(house.cooling_setpoint_c, house.heating_setpoint_c, house.offsets_k,
+                                  house.offset_periods)
 
 
 def parse_heating_system(fuel: object, system: object) -> str:
@@ -450,9 +426,10 @@ def house_parameters_from_metadata(row: Mapping[str, object], *,
         lighting_w_per_m2=LIGHTING_W_PER_M2[lamp] if lamp else 2.0,
         equipment_w_per_m2=3.5 * (1.0 if plug is None else plug),
         dhw_scale=1.0 if fixtures is None else fixtures,
-        offsets_k=(cooling_offset[0], heating_offset[0]), offset_shifts_h=(cooling_offset[1], heating_offset[1]),
+        offsets_k=(cooling_offset[0], heating_offset[0]), offset_periods=(cooling_offset[1], heating_offset[1]),
         heating_fuel="Electricity" if _missing(fuel) else str(fuel),
         heating_system=_heating_system(row),
+        end_uses=parse_end_uses(row, source=source),
     )
 
 
@@ -502,13 +479,14 @@ def _heating_system(row: Mapping[str, object]) -> str:
     return parse_heating_system(fuel, "" if _missing(system) else system)
 
 
-def _setpoint_offset(field: _Fields, kind: str) -> tuple[float, int]:
-    """Night set-point offset of ``kind`` (``cooling`` or ``heating``): (magnitude K, shift h); (0, 0) unless
-    ``in.<kind>_setpoint_has_offset`` is ``Yes``."""
+def _setpoint_offset(field: _Fields, kind: str) -> tuple[float, OffsetPeriod]:
+    """Set-point offset of ``kind`` (``cooling`` or ``heating``): (magnitude K, :class:`OffsetPeriod`); none
+    unless ``in.<kind>_setpoint_has_offset`` is ``Yes``."""
     if str(field.row.get(f"in.{kind}_setpoint_has_offset", "No")).strip().lower() != "yes":
-        return 0.0, 0
+        return 0.0, OffsetPeriod()
     return (field(f"in.{kind}_setpoint_offset_magnitude", parse_offset_f) or 0.0,
-            field(f"in.{kind}_setpoint_offset_period", parse_offset_shift) or 0)
+            field(f"in.{kind}_setpoint_offset_period", lambda text: parse_offset_period(text, kind))
+            or OffsetPeriod())
 
 
 def parse_lighting(text: object) -> str:

@@ -14,7 +14,9 @@ Method (docs/energyplus.md, "Occupant-driven schedules", gives the sources):
    volume equals the target (the shape is the events', the volume the house's);
 3. appliance cycles as events (cooking, dishwasher, clothes washer and dryer, evening TV) plus a small
    per-awake-person electronics load and an always-on base (refrigerator, standby) that takes up the rest
-   of the daily plug target; the year's mean equals the target;
+   of the daily plug target; the year's mean equals the target. With the stock's own end uses
+   (:mod:`surrogates.energyplus.end_uses`) the range and the dryer keep their own daily electricity (their
+   events' power scaled to it) and outdoor equipment (pool, spa and well pumps) runs as a daytime block;
 4. lighting: lit share of the house from the awake occupants at home times a darkness factor from the
    sun's elevation; scaled so the year's mean equals the target.
 """
@@ -36,15 +38,17 @@ from surrogates.energyplus.occupancy import (
 )
 
 #: bump when the method changes: part of the simulation cache key (pipeline/build/houses.py)
-SCHEDULE_VERSION = 1
+SCHEDULE_VERSION = 2
 #: third element of the seed sequence (keeps this stream apart from the ILV multipliers' streams)
 SEED_TAG = 27
 #: metabolic heat per person at home [W]: asleep (about 0.7 met) and awake (light domestic activity)
 SLEEP_ACTIVITY_W = 72.0
 AWAKE_ACTIVITY_W = 110.0
 
-#: hot-water draw kinds: (mean duration [min], duration standard deviation [min], flow [L/min] of mixed water)
-SHOWER = (8.0, 3.0, 7.6)
+#: hot-water draw kinds: (mean duration [min], duration standard deviation [min], flow [L/min] of mixed water);
+#: showers: 7.8 min at 2.1 gpm (7.9 L/min) on average with a long tail of long showers (Residential End Uses of
+#: Water, 2016)
+SHOWER = (7.8, 4.5, 7.9)
 BATH = (5.0, 1.5, 16.0)
 SINK = (0.8, 0.6, 4.0)
 DISHWASHER_FILL = (1.0, 0.0, 5.5)
@@ -83,7 +87,10 @@ MIN_BASE_SHARE = 0.15
 LIT_PER_PERSON = 0.45
 NIGHT_LIGHT = 0.02
 DAYLIGHT_ELEVATION_DEG = 8.0
-DAYLIGHT_FLOOR = 0.15
+DAYLIGHT_FLOOR = 0.35
+#: hours of the day [h] outdoor equipment (pool, spa, well pumps) runs: one daily block (engineering
+#: assumption: a single-speed pool pump's 8-hour daytime run)
+EXTERIOR_HOURS = (8.0, 16.0)
 #: time-of-day weights of sink draws: (start h, end h, extra weight) around meals and getting ready
 SINK_PEAKS = ((6.0, 9.0, 1.5), (11.5, 13.5, 1.0), (17.0, 21.0, 1.5))
 
@@ -98,6 +105,12 @@ class ScheduleTargets:
     plug_kwh_per_day: float
     lighting_kwh_per_day: float
     latitude_deg: float = 35.0
+    #: the range's and the dryer's own daily electricity [kWh/day]; then ``plug_kwh_per_day`` is the rest of
+    #: the indoor plug loads. None (both): one plug total that includes them
+    cooking_kwh_per_day: float | None = None
+    dryer_kwh_per_day: float | None = None
+    #: outdoor equipment [kWh/day] (no zone gain), run in :data:`EXTERIOR_HOURS`
+    exterior_kwh_per_day: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -105,7 +118,8 @@ class HouseSchedules:
     """Per-timestep series over the calendar year (interval-beginning rows from Jan 1 00:00).
 
     ``people``: occupants at home; ``activity_w``: metabolic heat per person at home [W]; ``lighting_w`` and
-    ``plug_w``: house electricity [W], of which ``cooking_w`` (range/oven) and ``dryer_w`` (clothes dryer);
+    ``plug_w``: house electricity [W], of which ``cooking_w`` (range/oven), ``dryer_w`` (clothes dryer) and
+    ``exterior_w`` (outdoor pumps);
     ``dhw_m3_s``: mixed hot-water flow [m3/s]; ``events``: counts per event kind over the year.
     """
 
@@ -116,6 +130,7 @@ class HouseSchedules:
     plug_w: np.ndarray
     cooking_w: np.ndarray
     dryer_w: np.ndarray
+    exterior_w: np.ndarray
     dhw_m3_s: np.ndarray
     events: dict[str, int] = field(default_factory=dict)
 
@@ -239,6 +254,23 @@ def _per_timestep(minutes: np.ndarray, timesteps_per_hour: int) -> np.ndarray:
     return minutes.reshape(-1, 60 // timesteps_per_hour).mean(axis=1)
 
 
+def _fill_to_target(power: dict[str, np.ndarray], kinds: tuple[str, ...], target_w: float) -> None:
+    """Scale the events of ``kinds`` plus an always-on base (added to ``kinds[0]``, at least
+    :data:`MIN_BASE_SHARE` of the target) so their mean is ``target_w`` [W]; in place."""
+    events_w = sum(power[kind].mean() for kind in kinds)
+    base_w = max(target_w - events_w, MIN_BASE_SHARE * target_w)
+    power[kinds[0]] += base_w
+    scale = target_w / (events_w + base_w) if target_w > 0 else 0.0
+    for kind in kinds:
+        power[kind] *= scale
+
+
+def _scale_events(series: np.ndarray, target_w: float) -> np.ndarray:
+    """``series`` [W] scaled to the mean ``target_w``; a flat ``target_w`` when the series has no event."""
+    mean = series.mean()
+    return series * (target_w / mean) if mean > 0 else np.full_like(series, target_w)
+
+
 def _scale_monthly(flow: np.ndarray, year: int, litres_per_day: float) -> np.ndarray:
     """``flow`` [L/min per minute] scaled month by month so each month's mean daily volume is the target."""
     days = len(flow) // MINUTES_PER_DAY
@@ -256,8 +288,10 @@ def generate_schedules(targets: ScheduleTargets, *, year: int, seed: int, bldg_i
                        timesteps_per_hour: int = 1) -> HouseSchedules:
     """The house's occupant-driven schedules over calendar ``year`` (see the module docstring).
 
-    Means over the year: ``plug_w`` = ``targets.plug_kwh_per_day`` x 1000/24 W, ``lighting_w`` likewise; each
-    month's mean daily hot-water volume = ``targets.dhw_litres_per_day`` L (when the month has any draw).
+    Means over the year [W = kWh/day x 1000/24]: ``plug_w`` = the plug target (plus the cooking, dryer and
+    exterior targets when given), ``cooking_w`` / ``dryer_w`` / ``exterior_w`` = their targets when given,
+    ``lighting_w`` = the lighting target; each month's mean daily hot-water volume =
+    ``targets.dhw_litres_per_day`` L (when the month has any draw).
     """
     if 60 % timesteps_per_hour:
         raise ValueError(f"timesteps_per_hour must divide 60, got {timesteps_per_hour}")
@@ -279,12 +313,16 @@ def generate_schedules(targets: ScheduleTargets, *, year: int, seed: int, bldg_i
             counts[kind] = counts.get(kind, 0) + n
     awake = awake_home.reshape(-1).astype(float)
     power["other"] += ELECTRONICS_PER_AWAKE_W * awake
-    target_w = targets.plug_kwh_per_day * 1000.0 / 24.0
-    events_w = sum(series.mean() for series in power.values())
-    base_w = max(target_w - events_w, MIN_BASE_SHARE * target_w)
-    power["other"] += base_w
-    scale = target_w / (events_w + base_w) if target_w > 0 else 0.0
-    power = {kind: _per_timestep(series * scale, timesteps_per_hour) for kind, series in power.items()}
+    w_per_kwh_day = 1000.0 / 24.0
+    if targets.cooking_kwh_per_day is None and targets.dryer_kwh_per_day is None:
+        _fill_to_target(power, ("other", "cooking", "dryer"), targets.plug_kwh_per_day * w_per_kwh_day)
+    else:
+        _fill_to_target(power, ("other",), targets.plug_kwh_per_day * w_per_kwh_day)
+        for kind, daily in (("cooking", targets.cooking_kwh_per_day), ("dryer", targets.dryer_kwh_per_day)):
+            power[kind] = _scale_events(power[kind], (daily or 0.0) * w_per_kwh_day)
+    block = np.tile(_window(*EXTERIOR_HOURS), len(weekend))
+    power["exterior"] = block * (targets.exterior_kwh_per_day * 1000.0 / (EXTERIOR_HOURS[1] - EXTERIOR_HOURS[0]))
+    power = {kind: _per_timestep(series, timesteps_per_hour) for kind, series in power.items()}
     minute_of_day = np.tile(np.arange(MINUTES_PER_DAY), len(weekend))
     day_of_year = np.repeat(np.arange(1, len(weekend) + 1), MINUTES_PER_DAY)
     lit = (1.0 - (1.0 - LIT_PER_PERSON) ** awake) * darkness(day_of_year, minute_of_day, targets.latitude_deg)
@@ -299,5 +337,6 @@ def generate_schedules(targets: ScheduleTargets, *, year: int, seed: int, bldg_i
     dhw = _scale_monthly(flow, year, targets.dhw_litres_per_day) / 1000.0 / 60.0
     return HouseSchedules(timesteps_per_hour=tph, people=people, activity_w=activity,
                           lighting_w=_per_timestep(lighting, tph), plug_w=sum(power.values()),
-                          cooking_w=power["cooking"], dryer_w=power["dryer"], dhw_m3_s=_per_timestep(dhw, tph),
+                          cooking_w=power["cooking"], dryer_w=power["dryer"], exterior_w=power["exterior"],
+                          dhw_m3_s=_per_timestep(dhw, tph),
                           events=counts)

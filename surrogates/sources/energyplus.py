@@ -68,7 +68,8 @@ def house_summary(house: HouseParameters) -> dict[str, object]:
     return {"bldg_id": house.bldg_id, "floor_area_m2": round(house.floor_area_m2, 1), "stories": house.stories,
             "vintage": house.vintage, "occupants": house.occupants, "heating_fuel": house.heating_fuel,
             "heating_system": house.heating_system,
-            "cooling_set_point_c": [min(cooling), max(cooling)], "heating_set_point_c": [min(heating), max(heating)],
+            "cooling_set_point_c": [min(map(min, cooling)), max(map(max, cooling))],
+            "heating_set_point_c": [min(map(min, heating)), max(map(max, heating))],
             "set_point_hours_repaired": repaired,
             "stock_set_points_c": [round(house.heating_setpoint_c, 2), round(house.cooling_setpoint_c, 2)]}
 

@@ -13,7 +13,6 @@ import pytest
 from surrogates.energyplus.metadata import (
     house_parameters_from_metadata,
     normalise_characteristics,
-    offset_hours,
     setpoint_schedules,
 )
 
@@ -48,21 +47,50 @@ def test_crossed_set_points_are_repaired_by_the_rule(rows):
     cooling, heating, repaired = setpoint_schedules(house)
     mean = (f_to_c(75) + f_to_c(72)) / 2
     assert repaired == 24
-    assert heating == pytest.approx([mean - 0.5] * 24, abs=1e-4)
-    assert cooling == pytest.approx([mean + 0.5] * 24, abs=1e-4)
+    for day_type in (0, 1):
+        assert heating[day_type] == pytest.approx([mean - 0.5] * 24, abs=1e-4)
+        assert cooling[day_type] == pytest.approx([mean + 0.5] * 24, abs=1e-4)
 
 
 def test_night_offsets_by_hand(rows):
-    # building 69: heating 68F with a 3F setback "Night +2h"; cooling 78F with a 2F setup "Night Setback +4h"
+    # building 69: heating 68F with a 3F setback "Night +2h"; cooling 78F with a 2F "Night Setback +4h".
+    # ResStock's options table: the night window is 22:00-07:00; "Night Setback +4h" LOWERS the cooling set
+    # point (-1 x magnitude) in hours 2..10, "Night +2h" lowers heating in hours 0..8, every day.
     house = house_parameters_from_metadata(rows[69])
     cooling, heating, repaired = setpoint_schedules(house)
     assert repaired == 0
-    assert offset_hours(2) == [0, 1, 2, 3, 4, 5, 6, 7, 8]            # 22:00-07:00 shifted by 2 h
-    night_heat = [h for h in range(24) if heating[h] < f_to_c(68) - 1e-3]
-    assert night_heat == offset_hours(2)
-    assert min(heating) == pytest.approx(f_to_c(68) - 3 * 5 / 9, abs=1e-4)
-    assert [h for h in range(24) if cooling[h] > f_to_c(78) + 1e-3] == offset_hours(4) == list(range(2, 11))
-    assert max(cooling) == pytest.approx(f_to_c(78) + 2 * 5 / 9, abs=1e-4)
+    for day_type in (0, 1):
+        assert [h for h in range(24) if heating[day_type][h] < f_to_c(68) - 1e-3] == list(range(0, 9))
+        assert min(heating[day_type]) == pytest.approx(f_to_c(68) - 3 * 5 / 9, abs=1e-4)
+        assert [h for h in range(24) if cooling[day_type][h] < f_to_c(78) - 1e-3] == list(range(2, 11))
+        assert min(cooling[day_type]) == pytest.approx(f_to_c(78) - 2 * 5 / 9, abs=1e-4)
+        assert max(cooling[day_type]) == pytest.approx(f_to_c(78), abs=1e-4)
+
+
+@pytest.mark.parametrize(("text", "kind", "weekday", "weekend"), [
+    # ResStock's options table (one row per period; +1 raise, -1 lower, weekday then weekend)
+    ("Day Setup", "cooling", {9: 1, 16: 1, 8: 0, 17: 0, 23: 0}, {12: 0}),
+    ("Night Setup -1h", "cooling", {21: 1, 5: 1, 6: 0, 12: 0}, {21: 1, 6: 0}),
+    ("Day Setup and Night Setback +1h", "cooling", {10: 1, 17: 1, 9: 0, 23: -1, 7: -1, 8: 0}, {10: 0, 23: -1}),
+    ("Day and Night Setup", "cooling", {9: 1, 2: 1, 7: 0, 20: 0}, {9: 0, 2: 1}),
+    ("Day and Night -2h", "heating", {7: -1, 14: -1, 20: -1, 4: -1, 15: 0, 5: 0}, {7: 0, 20: -1}),
+    ("Day", "heating", {9: -1, 3: 0}, {9: 0}),
+])
+def test_offset_periods_follow_resstock_windows_and_directions(text, kind, weekday, weekend):
+    from surrogates.energyplus.setpoints import offset_profile, parse_offset_period
+
+    period = parse_offset_period(text, kind)
+    for day_type, expected in ((False, weekday), (True, weekend)):
+        profile = offset_profile(period, 1.0, day_type)
+        assert {h: profile[h] for h in expected} == expected, (text, day_type)
+
+
+def test_an_unknown_offset_period_names_the_column(rows):
+    from citylearn_env.errors import InputError
+
+    row = {**rows[69], "build_existing_model.cooling_setpoint_offset_period": "Whenever"}
+    with pytest.raises(InputError, match="cooling_setpoint_offset_period"):
+        house_parameters_from_metadata(row)
 
 
 def test_heating_system_follows_the_fuel(rows):

@@ -117,14 +117,16 @@ def test_house_model_reads_the_schedules_from_one_csv(tmp_path):
     model = build_house_model(HOUSE, mode="ideal", ground_temperatures_c=[20.0] * 12, timesteps_per_hour=2,
                               schedule_seed=5, schedule_dir=tmp_path)
     files = model["Schedule:File"]
-    assert set(files) == {"occupancy", "activity", "lighting", "equipment", "cooking", "dryer", "hot_water"}
+    assert set(files) == {"occupancy", "activity", "lighting", "equipment", "cooking", "dryer", "exterior",
+                          "hot_water"}
     path = Path(files["occupancy"]["file_name"])
     assert path.parent == tmp_path and files["hot_water"]["minutes_per_item"] == 30
     table = pd.read_csv(path)
     assert list(table.columns) == list(SCHEDULE_COLUMNS) and len(table) == 2 * 8760
     schedules = house_schedules(HOUSE, 2018, 2, 5)
     peaks = schedule_peaks(HOUSE, schedules)
-    column = {"equipment": "plug_fraction", "cooking": "cooking_fraction", "dryer": "dryer_fraction"}
+    column = {"equipment": "plug_fraction", "cooking": "cooking_fraction", "dryer": "dryer_fraction",
+              "exterior": "exterior_fraction"}
     plug_w = sum(table[column[e["schedule_name"]]] * e["design_level"] for e in model["ElectricEquipment"].values())
     np.testing.assert_allclose(plug_w, schedules.plug_w, rtol=1e-4, atol=2e-3)
     # cooking and the dryer are vented: most of the dryer's heat leaves the house
