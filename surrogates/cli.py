@@ -15,11 +15,13 @@ from surrogates.sources.csv import read_ilv_table
 
 def train(table_path: str | os.PathLike, out_dir: str | os.PathLike, name: str | None = None,
           config: TrainConfig | None = None) -> dict:
-    """Read an ILV table (CSV/parquet), train, evaluate and export; returns the metrics report."""
+    """Read an ILV table (CSV/parquet), train, evaluate and export; returns the metrics report. ``name``
+    defaults to the table's file stem without ``.ilv`` (a district's ``surrogates/Building_1.ilv.parquet`` ->
+    ``Building_1``)."""
     from surrogates.export import train_and_export  # torch: the CLI builds its parser without it
 
     table = read_ilv_table(table_path)
-    name = name or Path(table_path).stem
+    name = name or Path(table_path).stem.removesuffix(".ilv")
     return train_and_export(table, out_dir, name, config, source=table_path)
 
 
@@ -88,7 +90,7 @@ def register(subparsers: argparse._SubParsersAction) -> argparse._SubParsersActi
     train_parser.add_argument("table", help="ILV table (.csv or .parquet), see docs/surrogates.md")
     train_parser.add_argument("-o", "--out-dir", required=True, help="folder for <name>.pth, .dynamics.json, "
                               ".metrics.json, .png")
-    train_parser.add_argument("--name", help="building name (default: the table's file stem)")
+    train_parser.add_argument("--name", help="building name (default: the table's file stem without .ilv)")
     train_parser.add_argument("--hidden", type=int, default=defaults.hidden_size, help="LSTM hidden size")
     train_parser.add_argument("--layers", type=int, default=defaults.num_layers, help="stacked LSTM layers")
     train_parser.add_argument("--lookback", type=int, default=defaults.lookback,

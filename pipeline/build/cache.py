@@ -1,7 +1,9 @@
 """A content-addressed cache of trained surrogates: plain files, checked by sha256, written atomically.
 
-Layout: ``<root>/surrogates/<key>/`` holds the entry's files (``Building_1.pth``,
-``surrogates/Building_1.dynamics.json``, ``.metrics.json``, ``.png``) and ``entry.json``::
+Layout: ``<root>/surrogates/<key>/`` holds a trained surrogate's files (``Building_1.pth``,
+``surrogates/Building_1.dynamics.json``, ``.metrics.json``, ``.png``, ``.ilv.parquet``: the training table),
+``<root>/judgements/<key>/`` a judge's record (``judge.json``), ``<root>/simulations/<key>/`` a house's
+EnergyPlus pass; every entry folder also holds ``entry.json``::
 
     {"key": "<64 hex>", "files": {"<relative path>": {"sha256": "<64 hex>", "bytes": n}, ...},
      "inputs": {... what the key was computed from, for people ...}}
@@ -13,7 +15,8 @@ An entry is used only when ``entry.json`` parses, names the same key, and every 
 entry folder with the listed sha256; anything else is a miss and the entry is rebuilt. Entries are written to
 a temporary sibling folder and renamed into place. Nothing is pickled: the cache holds bytes and JSON only.
 The key is the sha256 of a canonical JSON of its parts (see :func:`cache_key`); what goes into it for a
-surrogate is decided by :func:`pipeline.build.surrogate_cache_parts`.
+surrogate is decided by :func:`pipeline.build.surrogates.surrogate_cache_parts`, for a judgement by
+:func:`pipeline.build.surrogates.judge_cache_parts`.
 """
 
 from __future__ import annotations

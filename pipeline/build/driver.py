@@ -9,8 +9,9 @@ Steps (inputs -> in-memory tables -> outputs)::
     simulate_building a real stock row -> ONE full-year EnergyPlus pass on the district's weather: hourly
                       loads + the ILV table (per building, cached); house_table -> the building table
     size_buildings    building tables + outdoor temperature -> device attributes (cooling and heating)
-    surrogate_files   ILV table (or EnergyPlus inputs) -> trained LSTM files, through the surrogate cache
-                      (per building; see pipeline.build.cache)
+    surrogate_files   ILV table (or EnergyPlus inputs) -> trained LSTM files and the training table, through the
+                      surrogate cache; a house's judge through the judgement cache (per building; see
+                      pipeline.build.cache)
     schema_dict       -> schema.json;  validate_district -> report/;  write_manifest -> manifest.json
 
 Tables are ``pandas.DataFrame`` of internal (v2.2) column names, one row per hour from ``period.start``
@@ -59,6 +60,7 @@ from pipeline.build.steps import (
 from pipeline.build.surrogates import (
     SurrogateFiles,
     annotate_schema,
+    cache_hits,
     check_cache_root,
     check_surrogate_errors,
     fmu_ilv,
@@ -75,10 +77,11 @@ def run_build(config: BuildConfig, output_root: str | Path = "artifacts", runner
     """THE build: every step in order, per-building work through ``runner`` (default: in-process).
 
     Writes into a hidden sibling folder of ``output_root/<name>`` and renames it into place only when the
-    schema validated; returns ``output_root/<name>``. Hashes, versions and the surrogate cache keys go into
-    ``manifest.json`` (reproducible); timings [s], training seconds and cache hits into ``timings.json``
-    (:mod:`pipeline.build.manifest`); every file 0644, every folder 0755; the selection, each house's heating
-    system and device and its set-point repair go into ``selection.csv`` / ``buildings.json`` and the report.
+    schema validated; returns ``output_root/<name>``. Hashes, versions and the surrogate (and judgement) cache
+    keys go into ``manifest.json`` (reproducible); timings [s], training seconds and cache hits into
+    ``timings.json`` (:mod:`pipeline.build.manifest`); every file 0644, every folder 0755; the selection, each
+    house's heating system and device and its set-point repair go into ``selection.csv`` / ``buildings.json``
+    and the report.
     """
 
     runner = runner or InProcessRunner()
@@ -126,7 +129,7 @@ def run_build(config: BuildConfig, output_root: str | Path = "artifacts", runner
                 progress.end("surrogate")
             split = {n: split_surrogate_timings(trained[n].files) for n in names}  # seconds -> timings.json
             dynamics = {n: write_surrogate_files(out, split[n][0]) for n in names}
-            cache_use = {n: {"hit": trained[n].hit, **split[n][1]} for n in names}
+            cache_use = {n: {**cache_hits(trained[n]), **split[n][1]} for n in names}
         timings["surrogates"] = time.perf_counter() - started
         judged = surrogate_errors({n: trained[n].files for n in trained})  # the judge's record per house
         check_surrogate_errors(judged, config.surrogate.strict)  # a warning per house, or refused (--strict)
@@ -144,7 +147,8 @@ def run_build(config: BuildConfig, output_root: str | Path = "artifacts", runner
         progress.end("validate")
         append_building_report(out / "report" / "summary.md", buildings, selection)
         timings["validate"] = time.perf_counter() - started
-        write_manifest(out, config, {n: trained[n].key for n in cache_use})
+        write_manifest(out, config, {n: trained[n].key for n in cache_use},
+                       {n: trained[n].judge_key for n in cache_use if trained[n].judge_key is not None})
         write_timings(out, config, timings, cache_use)
         make_world_readable(out)
     return Path(output_root) / config.name

@@ -39,6 +39,7 @@ from pipeline.build.staging import (
 from pipeline.build.validate import validate_district
 from pipeline.errors import InputError
 from surrogates.export import load_surrogate
+from surrogates.ilv import read_ilv, table_digest
 
 
 @dataclass(frozen=True)
@@ -131,9 +132,22 @@ def place_model(folder: Path, building: str, files: ModelFiles, schema: dict, bl
                         {**metrics, "building": building, "source": source})
     if files.plot is not None:
         replace_file(folder / "surrogates" / f"{building}.png", files.plot.read_bytes())
+    drop_foreign_table(folder, building, files)
     schema["buildings"][building]["dynamics"] = block
     write_json_file(folder / "schema.json", schema)
     return seconds
+
+
+def drop_foreign_table(folder: Path, building: str, files: ModelFiles) -> None:
+    """Remove the district's ``surrogates/<building>.ilv.parquet`` when the installed model was not trained on
+    it (its metrics record another ``table_sha256``, or none): the file is the table the building's CURRENT
+    model was trained on, or absent."""
+    table = folder / "surrogates" / f"{building}.ilv.parquet"
+    if not table.is_file():
+        return
+    recorded = json.loads(files.metrics.read_text()).get("table_sha256") if files.metrics is not None else None
+    if recorded is None or recorded != table_digest(read_ilv(table)):
+        table.unlink()
 
 
 def replace_file(path: Path, data: bytes) -> None:

@@ -7,11 +7,12 @@ A district folder holds two record files:
   relative to the configuration file's folder, no cache location), the sha256 and size of every input file
   the build read (weather, tariff, fuel mix, stock / characteristics file, EULP files, ILV tables of
   ``surrogate.source = "csv"``, the FMU) and of every artifact (building timeseries, weather, pricing,
-  carbon, schema, surrogates, report, selection, ...), package versions, seeds and each building's surrogate
-  cache key. Two builds of the same configuration write the same bytes.
+  carbon, schema, surrogates and their training tables, report, selection, ...), package versions, seeds and
+  each building's surrogate cache key (and, for a judged house, its judgement cache key). Two builds of the
+  same configuration write the same bytes.
 * ``timings.json`` -- what only this run knows: seconds per stage, the surrogates' training seconds (taken
-  out of their ``.metrics.json``), surrogate cache hits, where the configuration file and the cache were.
-  It differs between two builds, so the manifest does not hash it.
+  out of their ``.metrics.json``), surrogate and judgement cache hits, where the configuration file and the
+  cache were. It differs between two builds, so the manifest does not hash it.
 
 A third record, ``manifest.sha256``, holds the sha256 of both in ``sha256sum`` format (``sha256sum -c
 manifest.sha256`` checks them too). The first line is the *manifest digest*: the district's whole identity
@@ -178,22 +179,30 @@ def write_json_file(path: Path, data: Mapping[str, Any]) -> Path:
     return write_atomically(path, lambda stream: stream.write(json.dumps(data, indent=2, default=str) + "\n"))
 
 
-def manifest_document(out: Path, config: BuildConfig,
-                      surrogate_keys: Mapping[str, str | None] | None = None) -> dict[str, Any]:
-    """The manifest of the district in ``out`` (see the module docstring); deterministic."""
+def manifest_document(out: Path, config: BuildConfig, surrogate_keys: Mapping[str, str | None] | None = None,
+                      judge_keys: Mapping[str, str] | None = None) -> dict[str, Any]:
+    """The manifest of the district in ``out`` (see the module docstring); deterministic. ``surrogate_keys``:
+    each building's surrogate cache key; ``judge_keys``: each judged house's judgement cache key."""
     return {"district": config.name, "config": portable_config(config), "inputs": input_hashes(config),
             "outputs": output_hashes(out), "versions": {d: package_version(d) for d in VERSIONED},
             "python": platform.python_version(),
             "seeds": {"build": config.seed, "surrogate": config.surrogate.seed},
-            "surrogate_cache": {name: {"key": key} for name, key in (surrogate_keys or {}).items()},
+            "surrogate_cache": {name: surrogate_cache_entry(key, (judge_keys or {}).get(name))
+                                for name, key in (surrogate_keys or {}).items()},
             "run_record": TIMINGS}
 
 
-def write_manifest(out: Path, config: BuildConfig,
-                   surrogate_keys: Mapping[str, str | None] | None = None) -> Path:
+def surrogate_cache_entry(key: str | None, judge_key: str | None = None) -> dict[str, str | None]:
+    """A building's ``surrogate_cache`` entry of the manifest: ``{"key": ...}`` and, for a judged house,
+    ``"judge_key"``."""
+    return {"key": key} if judge_key is None else {"key": key, "judge_key": judge_key}
+
+
+def write_manifest(out: Path, config: BuildConfig, surrogate_keys: Mapping[str, str | None] | None = None,
+                   judge_keys: Mapping[str, str] | None = None) -> Path:
     """Write ``out/manifest.json`` (:func:`manifest_document`) and the sidecar (:func:`write_sidecar`);
     returns the manifest's path."""
-    path = write_json_file(out / MANIFEST, manifest_document(out, config, surrogate_keys))
+    path = write_json_file(out / MANIFEST, manifest_document(out, config, surrogate_keys, judge_keys))
     write_sidecar(out)
     return path
 

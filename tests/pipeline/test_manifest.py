@@ -164,7 +164,7 @@ def test_install_a_retrained_surrogate_then_verify(tmp_path, capsys):
     path = district_config(tmp_path, source="csv")
     config = read_build_config(path).model_copy(update={"cache_dir": tmp_path / "cache"})
     district = build_district_local(config, tmp_path / "out")
-    table = tmp_path / "inputs" / "ilv" / "900001.parquet"
+    table = district / "surrogates" / "Building_1.ilv.parquet"   # kept with the district: no cache, no inputs
     model = tiny_model(table, tmp_path / "model")
 
     assert main(["surrogate", "install", str(district), "Building_1", str(model.parent)]) == 0
@@ -205,9 +205,13 @@ def test_install_a_retrained_surrogate_then_verify(tmp_path, capsys):
     capsys.readouterr()
     assert outside.read_bytes() == b"precious" and not (district / "Building_2.pth").is_symlink()
     assert (district / "Building_2.pth").read_bytes() == model.read_bytes()
+    # the district keeps the table each CURRENT model was trained on: Building_1's stays (it is the one),
+    # Building_2's goes (its model now comes from Building_1's table)
+    assert table.is_file() and not (district / "surrogates" / "Building_2.ilv.parquet").exists()
+    assert verify_lines(district, capsys)[0] == 0
     summary = (district / "report" / "summary.md").read_text()
     digest = json.loads((district / "surrogates/Building_1.metrics.json").read_text())["table_sha256"]
-    assert f"900001.parquet `{digest[:12]}`" in summary   # which table each model was trained and scored on
+    assert f"Building_1.ilv.parquet `{digest[:12]}`" in summary   # which table each model was trained and scored on
 
 
 def test_training_table_check_names_both_tables(tmp_path):
