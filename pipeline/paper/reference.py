@@ -33,12 +33,12 @@ from citylearn_env import CityLearnEnv
 from citylearn_env.errors import InputError
 from pipeline.controllers import run_episode
 from pipeline.paper.benchmarks import (
-    TRAIN_DAYS,
     Benchmark,
     RunOptions,
     benchmark_schema,
     configuration,
     episode_result,
+    test_period,
 )
 
 #: the controllers of ``districtgen paper --controllers`` (default: all): the benchmarks' own, then references
@@ -86,8 +86,7 @@ def run_reference(district, b: Benchmark, controller: str, *, seed: int = 0, mul
                          column="--controllers")
     options = options or RunOptions()
     started = time.perf_counter()
-    n = district.simulation_end_time_step - district.simulation_start_time_step + 1
-    env = CityLearnEnv(benchmark_schema(district, b, (TRAIN_DAYS * 24, n - 1), multiplier, options.roles),
+    env = CityLearnEnv(benchmark_schema(district, b, test_period(district), multiplier, options.roles),
                        settings=options.settings)
     baseline = no_control(env, seed)
     objective = ORACLE_OBJECTIVES[b.objective]
