@@ -122,9 +122,9 @@ class Surrogate(_Frozen):
     hidden_size: int = Field(16, ge=1, le=1024)
     num_layers: int = Field(2, ge=1, le=8)
     lookback: int = Field(1, ge=1, le=720)
-    epochs: int = Field(24, ge=1, le=10_000, description="closed-loop epochs; the last long_chunk_epochs on 168-h chunks")
-    pretrain_steps: int = Field(2000, ge=0, le=1_000_000, description="teacher-forced warm-start updates")
-    long_chunk_epochs: int = Field(8, ge=0, le=10_000, description="last closed-loop epochs on 168-h chunks")
+    epochs: int = Field(16, ge=1, le=10_000, description="closed-loop epochs; the last long_chunk_epochs on 168-h chunks")
+    pretrain_steps: int = Field(5000, ge=0, le=1_000_000, description="teacher-forced warm-start updates")
+    long_chunk_epochs: int = Field(6, ge=0, le=10_000, description="last closed-loop epochs on 168-h chunks")
     max_seconds: float | None = Field(None, gt=0, description="optional wall-clock cap (makes training machine-dependent)")
     seed: int = Field(0, ge=0, lt=SEED_LIMIT)
     precision: Literal["auto", "float32", "bfloat16"] = Field(
