@@ -193,11 +193,25 @@ def simulated_house_months(config_path: Path, district: Path | None) -> list[Hou
     return out
 
 
-#: the stock row's own annual results compared with a full-year ideal pass: (our column, row column, label)
-OWN_ROW = (("cooling_demand_kwh", "report_simulation_output.load_cooling_delivered_m_btu", "cooling"),
-           ("heating_demand_kwh", "report_simulation_output.load_heating_delivered_m_btu", "heating"),
-           ("dhw_demand_kwh", "report_simulation_output.load_hot_water_delivered_m_btu", "hot water"),
-           ("non_shiftable_load_kwh", None, "plug + lighting"))
+def _stock_kwh(column: str):
+    """The stock row's annual ``column`` [MBtu] in kWh (NaN when the row does not carry it)."""
+    from surrogates.energyplus.end_uses import KWH_PER_MBTU
+
+    return lambda raw, uses: float(raw[column]) * KWH_PER_MBTU if column in raw.index else float("nan")
+
+
+def _end_uses_kwh(*groups: str):
+    """The house's own end uses of ``groups`` (:class:`surrogates.energyplus.end_uses.EndUses`) in kWh/year."""
+    return lambda raw, uses: sum(getattr(uses, g) for g in groups) * 365.0 if uses else float("nan")
+
+
+#: the stock row's own annual results compared with a full-year ideal pass: (our column, the row's kWh/year
+#: from (the raw stock row, the house's end uses), label)
+OWN_ROW = (("cooling_demand_kwh", _stock_kwh("report_simulation_output.load_cooling_delivered_m_btu"), "cooling"),
+           ("heating_demand_kwh", _stock_kwh("report_simulation_output.load_heating_delivered_m_btu"), "heating"),
+           ("dhw_demand_kwh", _end_uses_kwh("dhw_delivered"), "hot water"),
+           ("non_shiftable_load_kwh", _end_uses_kwh("plug", "cooking", "dryer", "lighting", "exterior"),
+            "plug + lighting"))
 
 
 def own_row_table(config_path: Path, district: Path | None) -> str:
@@ -206,7 +220,6 @@ def own_row_table(config_path: Path, district: Path | None) -> str:
     duct losses, our ideal loads are sensible zone loads: ours should be the smaller."""
     from pipeline.build.steps import read_characteristics_row
     from pipeline.config import read_build_config
-    from surrogates.energyplus.end_uses import END_USE_GROUPS, KWH_PER_MBTU
 
     config = read_build_config(config_path)
     stock = pd.read_parquet(config.inputs.characteristics)
@@ -215,17 +228,11 @@ def own_row_table(config_path: Path, district: Path | None) -> str:
              "|" + "---|" * (2 + len(OWN_ROW))]
     for name, bldg_id in _district_houses(config, district):
         row = read_characteristics_row(config.inputs.characteristics, bldg_id)
-        loads, _ = _ideal_loads(config, row, ((1, 1), (12, 31)), config.period.start.year)
+        loads, house = _ideal_loads(config, row, ((1, 1), (12, 31)), config.period.start.year)
         raw = stock[stock[id_column] == bldg_id].iloc[0]
         cells = []
-        for ours, column, _label in OWN_ROW:
-            if column is None:  # plug + lighting: the groups the schedules keep, minus outdoor equipment
-                uses = [u for g in ("plug", "cooking", "dryer", "lighting", "exterior") for u in END_USE_GROUPS[g]]
-                columns = [f"report_simulation_output.end_use_electricity_{u}_m_btu" for u in uses]
-                theirs = sum(float(raw[c]) for c in columns if c in raw.index) * KWH_PER_MBTU
-            else:
-                theirs = float(raw[column]) * KWH_PER_MBTU if column in raw.index else float("nan")
-            mine = float(loads[ours].sum())
+        for ours, stock_kwh, _label in OWN_ROW:
+            theirs, mine = stock_kwh(raw, house.end_uses), float(loads[ours].sum())
             ratio = f" ({mine / theirs:.2f}x)" if theirs > 0 else ""
             cells.append(f"{mine:,.0f} / {theirs:,.0f}{ratio}")
         lines.append(f"| {name} | {bldg_id} | " + " | ".join(cells) + " |")
