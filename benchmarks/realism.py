@@ -214,27 +214,56 @@ OWN_ROW = (("cooling_demand_kwh", _stock_kwh("report_simulation_output.load_cool
             "plug + lighting"))
 
 
+#: the stock row's Manual J heating design loads [Btu/h] by component (buildstockbatch results layout)
+DESIGN_LOAD_COLUMN = "report_simulation_output.hvac_design_load_heating_{}_btu_h"
+DESIGN_TEMPERATURE_COLUMN = "report_simulation_output.hvac_design_temperature_heating_f"
+WEATHER_CITY_COLUMN = "build_existing_model.weather_file_city"
+
+
+def stock_row_heat_loss(raw: pd.Series):
+    """The row's heat-loss coefficients (:func:`surrogates.energyplus.envelope.stock_heat_loss`), or None when
+    the row carries no design loads."""
+    from surrogates.energyplus.envelope import stock_heat_loss
+
+    if DESIGN_TEMPERATURE_COLUMN not in raw.index or not np.isfinite(float(raw[DESIGN_TEMPERATURE_COLUMN])):
+        return None
+    loads = {k: float(raw.get(DESIGN_LOAD_COLUMN.format(k), 0.0))
+             for k in ("walls", "doors", "windows", "ceilings", "roofs", "infiltration_ventilation")}
+    loads["infiltration"] = loads.pop("infiltration_ventilation")
+    return stock_heat_loss(loads, float(raw[DESIGN_TEMPERATURE_COLUMN]))
+
+
 def own_row_table(config_path: Path, district: Path | None) -> str:
-    """Markdown table: each house's full-year ideal pass (calendar year of the period) against the annual
-    results ResStock published for the same row [kWh/year]. ResStock's delivered loads count latent heat and
-    duct losses, our ideal loads are sensible zone loads: ours should be the smaller."""
+    """Markdown table: each house's full-year ideal pass (calendar year of the period, the district's weather)
+    against the annual results ResStock published for the same row [kWh/year], which were simulated on the
+    row's own weather (named in the table with its heating design temperature), and the climate-independent
+    heat-loss coefficient [W/K] of the house model against the row's Manual J design loads. ResStock's
+    delivered loads count latent heat and duct losses, our ideal loads are sensible zone loads."""
     from pipeline.build.steps import read_characteristics_row
     from pipeline.config import read_build_config
+    from surrogates.energyplus.envelope import house_heat_loss
 
     config = read_build_config(config_path)
     stock = pd.read_parquet(config.inputs.characteristics)
     id_column = "bldg_id" if "bldg_id" in stock.columns else "building_id"
-    lines = ["| house | bldg_id | " + " | ".join(f"{label}: ours / stock's [kWh]" for *_, label in OWN_ROW) + " |",
-             "|" + "---|" * (2 + len(OWN_ROW))]
+    header = ["house", "bldg_id", "row's weather (heating design F)",
+              *(f"{label}: ours / stock's [kWh]" for *_, label in OWN_ROW),
+              "heat loss w/o slab, ducts: ours / stock's [W/K]"]
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     for name, bldg_id in _district_houses(config, district):
         row = read_characteristics_row(config.inputs.characteristics, bldg_id)
         loads, house = _ideal_loads(config, row, ((1, 1), (12, 31)), config.period.start.year)
         raw = stock[stock[id_column] == bldg_id].iloc[0]
-        cells = []
+        weather = (f"{raw[WEATHER_CITY_COLUMN]} ({float(raw[DESIGN_TEMPERATURE_COLUMN]):.0f})"
+                   if WEATHER_CITY_COLUMN in raw.index and DESIGN_TEMPERATURE_COLUMN in raw.index else "n/a")
+        cells = [weather]
         for ours, stock_kwh, _label in OWN_ROW:
             theirs, mine = stock_kwh(raw, house.end_uses), float(loads[ours].sum())
             ratio = f" ({mine / theirs:.2f}x)" if theirs > 0 else ""
             cells.append(f"{mine:,.0f} / {theirs:,.0f}{ratio}")
+        theirs_ua, mine_ua = stock_row_heat_loss(raw), house_heat_loss(house)
+        cells.append(f"{mine_ua.total:,.0f} / {theirs_ua.total:,.0f} ({mine_ua.total / theirs_ua.total:.2f}x)"
+                     if theirs_ua else f"{mine_ua.total:,.0f} / n/a")
         lines.append(f"| {name} | {bldg_id} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
 

@@ -42,6 +42,9 @@ VENTED_APPLIANCES = {"cooking": (0.30, 0.20, 0.30), "dryer": (0.05, 0.05, 0.80),
 ACTIVITY_W = AWAKE_ACTIVITY_W
 HOT_WATER_SUPPLY_C = 49.0
 INTERNAL_MASS_PER_FLOOR = 2.0
+#: resistance of an uninsulated stud cavity [m2 K/W]: a closed vertical air space of ~90 mm (ASHRAE
+#: Fundamentals' air-space table, ~0.17-0.18 for heat flow across a wall cavity with ordinary surfaces)
+EMPTY_CAVITY_R_SI = 0.17
 
 ZONE_OUTPUTS = ["Zone Mean Air Temperature", "Zone Air Relative Humidity", "Zone People Occupant Count",
                 "Zone Lights Electricity Rate", "Zone Electric Equipment Electricity Rate"]
@@ -82,7 +85,10 @@ def _compact(hourly: tuple[list[float], list[float]]) -> list[dict[str, object]]
     return data
 
 
-def _materials(house: HouseParameters) -> dict[str, dict[str, dict[str, object]]]:
+def house_materials(house: HouseParameters) -> dict[str, dict[str, dict[str, object]]]:
+    """The epJSON ``Material``, ``Material:NoMass``, glazing and ``Construction`` objects of ``house`` (its
+    insulation R values on fixed bare assemblies; :mod:`surrogates.energyplus.envelope` reads them too)."""
+
     def mat(thickness, k, rho, cp, absorptance=0.7):
         return {"roughness": "MediumRough", "thickness": thickness, "conductivity": k, "density": rho,
                 "specific_heat": cp, "thermal_absorptance": 0.9, "solar_absorptance": absorptance,
@@ -102,8 +108,9 @@ def _materials(house: HouseParameters) -> dict[str, dict[str, dict[str, object]]
             "furnishing": mat(0.025, 0.15, 600.0, 1300.0),
         },
         "Material:NoMass": {
-            # cavity insulation plus ~0.15 m2K/W of sheathing and air films in the assembly
-            "wall_insulation": nomass(house.wall_r_si + 0.15),
+            # cavity insulation (an empty stud cavity is an air space, not R-0) plus ~0.15 m2K/W of
+            # sheathing and framing layers in the assembly
+            "wall_insulation": nomass(max(house.wall_r_si, EMPTY_CAVITY_R_SI) + 0.15),
             "ceiling_insulation": nomass(house.ceiling_r_si + 0.1),
             # 0.5 m2K/W of soil between the slab and the ground-temperature boundary
             "slab_insulation": nomass(house.slab_r_si + 0.5),
@@ -373,7 +380,7 @@ def build_house_model(house: HouseParameters, *, mode: str, ground_temperatures_
     folder = schedule_dir or (Path(load_file).parent if load_file is not None else SCHEDULE_DIR)
     schedule_file = write_schedule_file(house, schedules, folder)
     hours = len(schedules.people) // timesteps_per_hour
-    for part in (_materials(house), _geometry(house), _gains(house, schedule_peaks(house, schedules)),
+    for part in (house_materials(house), _geometry(house), _gains(house, schedule_peaks(house, schedules)),
                  _schedules(house, schedule_file, timesteps_per_hour, hours)):
         model.update(part)
     if not dhw:
