@@ -11,7 +11,8 @@ from citylearn_env.errors import InputError
 def read_epw_ground_temperatures(path: Path) -> list[float]:
     """The 12 monthly undisturbed ground temperatures (C) at the DEEPEST depth of the EPW header's
     ``GROUND TEMPERATURES`` line (field layout: count, then per depth: depth, conductivity, density,
-    specific heat, 12 temperatures): the boundary under the house's slab.
+    specific heat, 12 temperatures); the boundary under the house's slab is their annual mean
+    (:func:`surrogates.energyplus.house.slab_boundary_c`).
 
     Not the shallowest (0.5 m) values: those follow the outdoor surface (Austin: 27.7 C in June) while the
     soil under a conditioned slab is held near the indoor and the annual-mean ground temperature; with the

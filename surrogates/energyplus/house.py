@@ -328,6 +328,17 @@ def replay_column_names(house: HouseParameters) -> list[str]:
     return [f"{zone} ILV {kind}" for zone in zone_names(house) for kind in ("cool", "heat")]
 
 
+def slab_boundary_c(ground_temperatures_c: Sequence[float]) -> list[float]:
+    """The 12 monthly temperatures [C] of the boundary under the slab: the annual mean of the site's undisturbed
+    (deep) ground temperatures in every month. The soil under a conditioned slab sits between the house, held
+    near its set points all year, and the deep ground; the house damps the annual cycle that the undisturbed
+    values carry (Austin's deep ground: 15.5 C in February, 24.2 C in August; the mean, 19.8 C, all year).
+    With the undisturbed cycle a slab lost ~1 kW to 15.8 C soil all January and gained heat all summer
+    (docs/energyplus.md, "Cooling realism")."""
+    mean = sum(float(t) for t in ground_temperatures_c) / len(ground_temperatures_c)
+    return [round(mean, 3)] * len(ground_temperatures_c)
+
+
 def build_house_model(house: HouseParameters, *, mode: str, ground_temperatures_c: Sequence[float],
                       run_period: tuple[tuple[int, int], tuple[int, int]] = ((1, 1), (12, 31)),
                       year: int = 2018, timesteps_per_hour: int = 4, reporting_frequency: str = "Hourly",
@@ -336,7 +347,8 @@ def build_house_model(house: HouseParameters, *, mode: str, ground_temperatures_
                       ) -> dict[str, object]:
     """The epJSON document (a dict) of ``house`` in ``mode`` ``"ideal"`` or ``"replay"``.
 
-    ``ground_temperatures_c``: 12 monthly ground temperatures (C) under the slab; ``run_period``:
+    ``ground_temperatures_c``: 12 monthly undisturbed ground temperatures (C; the slab's boundary is
+    :func:`slab_boundary_c` of them); ``run_period``:
     ((begin month, day), (end month, day)) in calendar ``year`` (sets the weekdays); ``reporting_frequency``:
     ``"Hourly"`` or ``"Timestep"``; ``load_file``: the replay CSV (see :func:`replay_column_names`).
     People, lighting, plug loads and hot water follow the occupant-driven schedules of the whole ``year``
@@ -369,7 +381,7 @@ def build_house_model(house: HouseParameters, *, mode: str, ground_temperatures_
                                                           "vertex_entry_direction": "Counterclockwise",
                                                           "coordinate_system": "Relative"}},
         "Site:GroundTemperature:BuildingSurface": {"Site:GroundTemperature:BuildingSurface 1": {
-            f"{month}_ground_temperature": float(t) for month, t in zip(months, ground_temperatures_c,
+            f"{month}_ground_temperature": float(t) for month, t in zip(months, slab_boundary_c(ground_temperatures_c),
                                                                         strict=True)}},
         "Output:SQLite": {"Output:SQLite 1": {"option_type": "Simple"}},
         "OutputControl:Files": {"OutputControl:Files 1": {

@@ -60,3 +60,14 @@ def test_stock_heat_loss_divides_by_the_design_difference():
 def test_stock_heat_loss_refuses_a_warm_design_temperature():
     with pytest.raises(ValueError, match="72"):
         stock_heat_loss({"walls": 1000.0}, 72.0)
+
+
+def test_slab_boundary_is_the_annual_mean_of_the_ground():
+    from surrogates.energyplus.house import build_house_model, slab_boundary_c
+
+    monthly = [10.0, 12.0, 14.0, 16.0, 18.0, 20.0, 22.0, 24.0, 26.0, 28.0, 30.0, 32.0]
+    assert slab_boundary_c(monthly) == [21.0] * 12
+    model = build_house_model(HouseParameters(bldg_id=1, floor_area_m2=100.0), mode="ideal",
+                              ground_temperatures_c=monthly, run_period=((1, 1), (1, 2)))
+    ground = model["Site:GroundTemperature:BuildingSurface"]["Site:GroundTemperature:BuildingSurface 1"]
+    assert ground["january_ground_temperature"] == ground["july_ground_temperature"] == 21.0
