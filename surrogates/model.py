@@ -22,6 +22,7 @@ runtime used 8, which is an upstream bug.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -133,6 +134,26 @@ class LSTMModel(nn.Module):
         zeros = rows.new_zeros(self.num_layers, rows.shape[0], self.hidden_size)
         out, _, _ = torch.lstm(rows, (zeros, zeros), weights, True, self.num_layers, 0.0, self.training, False, True)
         return nn.functional.linear(out, self.l_linear.weight, self.l_linear.bias).squeeze(-1)
+
+
+def seeded_model(input_size: int, hidden_size: int, num_layers: int, seed: int) -> LSTMModel:
+    """An :class:`LSTMModel` with PyTorch's default initialisation (``nn.LSTM``'s and ``nn.Linear``'s
+    ``reset_parameters``, in their order) drawn from a local generator seeded with ``seed``: bit-identical to
+    ``torch.manual_seed(seed); LSTMModel(...)`` run alone, but it neither reads nor changes torch's global
+    random state, which every thread of the process shares (two trainings in a thread pool seeding and drawing
+    from it at once got each other's numbers). Built on the meta device first: no global draw at all."""
+    with torch.device("meta"):
+        model = LSTMModel(input_size, hidden_size, num_layers)
+    model = model.to_empty(device="cpu")
+    generator = torch.Generator().manual_seed(seed)
+    stdv = 1.0 / math.sqrt(hidden_size)
+    with torch.no_grad():
+        for weight in model.l_lstm.parameters():
+            nn.init.uniform_(weight, -stdv, stdv, generator=generator)
+        nn.init.kaiming_uniform_(model.l_linear.weight, a=math.sqrt(5), generator=generator)
+        bound = 1 / math.sqrt(hidden_size)  # the head's fan-in
+        nn.init.uniform_(model.l_linear.bias, -bound, bound, generator=generator)
+    return model
 
 
 def rollout(model: LSTMModel, x: torch.Tensor, lookback: int, closed_loop: bool = True,

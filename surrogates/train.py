@@ -38,6 +38,7 @@ from surrogates.model import (
     feature_matrix,
     merge_ensemble,
     rollout,
+    seeded_model,
     torch_threads,
 )
 from surrogates.precision import Choice, Probe, choose
@@ -176,7 +177,9 @@ def check_trainable(table: pd.DataFrame, splits: dict[str, list[Segment]], confi
 def train_surrogate(table: pd.DataFrame, config: TrainConfig | None = None,
                     source: object = "<ILV table>", progress: Callable[[int, int], None] | None = None) -> Trained:
     """Validate ``table``, split it, and train one LSTM; deterministic on CPU for a given ``config.seed``
-    (default: ``TrainConfig()``).
+    (default: ``TrainConfig()``), also with other trainings running in other threads of the process: every
+    draw comes from the config's seed through local generators, none from torch's global random state, and
+    torch runs ``config.threads`` intra-op threads in the calling thread (:func:`torch_threads`).
 
     ``progress``: optional ``progress(done, total)`` in units of :func:`progress_units` (a tenth of the warm
     start's updates, then one per closed-loop epoch), called after each unit (progress bars)."""
@@ -219,8 +222,7 @@ def update_precision(config: TrainConfig) -> Choice:
 def _update_probe(layers: int, hidden: int, n_inputs: int, batch: int, hours: int) -> Probe:
     generator = torch.Generator().manual_seed(0)
     rows = torch.rand(batch, hours, n_inputs, generator=generator)
-    with torch.random.fork_rng():  # the probe's initialisation leaves the caller's random stream alone
-        model = LSTMModel(n_inputs, hidden, layers)
+    model = seeded_model(n_inputs, hidden, layers, 0)  # global random state untouched (other threads train)
     weights = model.flat_weights()
 
     def run(dtype: torch.dtype) -> None:
@@ -247,12 +249,12 @@ def _fit(table, inputs, splits, config: TrainConfig, started: float, progress=No
     precision = precision or update_precision(config)
     config = replace(config, precision=precision.precision)  # what runs, for the updates below
     cpu_started = time.process_time()
-    torch.manual_seed(config.seed)
     rng = np.random.default_rng(config.seed)
     norm, x = _normalised(table, inputs, splits["train"])
     scale = float(norm.maximum[-1] - norm.minimum[-1])
     val = _validation_chunks(x, splits["validation"], config)
-    model = LSTMModel(len(inputs), config.hidden_size, config.num_layers)
+    # local generator, not torch.manual_seed: the global stream is shared with concurrent trainings (threads)
+    model = seeded_model(len(inputs), config.hidden_size, config.num_layers, config.seed)
     run_starts = {run.start for run in run_segments(table).values()}
     anchors = [seg for seg in splits["train"] if seg.start in run_starts]  # training segments starting a run
     optimizer = _adam(model, config.learning_rate, _bf16(config))
