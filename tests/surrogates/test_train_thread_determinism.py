@@ -71,3 +71,27 @@ def test_training_alongside_a_thread_using_the_global_stream(table):
         stop.set()
         other.join()
     assert all(same_weights(model, alone) for model in busy)
+
+
+def test_cpu_seconds_count_the_training_thread_only(table):
+    """The build's timings record each house's training CPU; another thread's work in the same process (here
+    numpy products, which run outside the GIL) is not this training's cost. A single thread cannot use more
+    CPU time than the wall time it ran."""
+    import numpy as np
+
+    stop = threading.Event()
+
+    def other_work():
+        a = np.random.default_rng(0).random((400, 400))
+        while not stop.is_set():
+            a = a @ a
+            a /= np.abs(a).max()
+
+    other = threading.Thread(target=other_work, daemon=True)
+    other.start()
+    try:
+        trained = train_surrogate(table, TINY)
+    finally:
+        stop.set()
+        other.join()
+    assert 0 < trained.cpu_seconds <= trained.seconds * 1.05 + 0.05
