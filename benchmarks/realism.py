@@ -29,6 +29,7 @@ Usage::
     .venv/bin/python benchmarks/realism.py --district artifacts/default --simulate raw/district.toml
     .venv/bin/python benchmarks/realism.py --same-month      # real June house-months only (for a June district)
     .venv/bin/python benchmarks/realism.py --simulate raw/district.toml --own-row   # + each row's own year
+                                                                              # and heat-loss coefficient
 """
 
 from __future__ import annotations
@@ -326,7 +327,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--real", type=Path, default=CITYLEARN, help="the citylearn data folder of ../shared")
     parser.add_argument("--own-row", action="store_true",
                         help="with --simulate: also a full-year pass per house against the stock row's own "
-                             "annual results (cooling, heating, hot water, plug + lighting)")
+                             "annual results (cooling, heating, hot water, plug + lighting; the row's weather) and "
+                             "the heat-loss coefficient against the row's Manual J design loads")
     parser.add_argument("--same-month", action="store_true",
                         help="real house-months of the built months only (default: the whole season)")
     args = parser.parse_args(argv)
