@@ -79,7 +79,7 @@ class TrainConfig:
     threads: int = 1
     progress: bool = True
     #: numeric mode of the one-step and closed-loop updates (:data:`surrogates.precision.PRECISIONS`):
-    #: ``bfloat16`` runs them under bfloat16 autocast with a fused Adam (validation and the exported weights
+    #: ``bfloat16`` runs them under bfloat16 autocast (float32 Adam; validation and the exported weights
     #: stay float32; not bit-identical to float32); ``auto`` picks bfloat16 only where the CPU multiplies it
     #: natively and a short measurement of this network's update finds it faster (:func:`update_precision`)
     precision: str = "auto"

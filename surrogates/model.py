@@ -174,9 +174,12 @@ def rollout(model: LSTMModel, x: torch.Tensor, lookback: int, closed_loop: bool 
     Closed loop with autograd (training): the exogenous rows of every window are views of one ``unfold`` of
     ``x`` (window ``k`` predicts hour ``lookback + k`` from exogenous hours ``k+1 .. k+lookback``); the fed-back
     temperatures are kept as a list and stacked per window (no in-place write into a tensor autograd saved).
-    Otherwise (one-step mode, or no autograd) :func:`_rollout_rows`.
+    Otherwise (one-step mode, or no autograd) :func:`_rollout_rows`. Lookback 1 in closed loop (float32):
+    :func:`_rollout_cells`, the same network stepped as cells.
     """
     weights = model.flat_weights()
+    if closed_loop and lookback == 1 and not torch.is_autocast_enabled("cpu"):
+        return _rollout_cells(model, x, state, weights)
     if not closed_loop or not torch.is_grad_enabled():
         return _rollout_rows(model, x, lookback, state, weights, feed_back=closed_loop)
     windows = x[:, 1:, :-1].unfold(1, lookback, 1).transpose(2, 3)  # (batch, hours - lookback, L, inputs - 1)
@@ -188,6 +191,38 @@ def rollout(model: LSTMModel, x: torch.Tensor, lookback: int, closed_loop: bool 
         predictions.append(y)
         history.append(y)
     return torch.stack(predictions, dim=1)
+
+
+def _rollout_cells(model: LSTMModel, x: torch.Tensor, state, weights: Sequence[torch.Tensor]) -> torch.Tensor:
+    """Closed-loop :func:`rollout` with lookback 1, the LSTM stepped hour by hour as its cell equations
+    (gates ``i, f, g, o`` in PyTorch's order; ``c = sigmoid(f) c + sigmoid(i) tanh(g)``, ``h = sigmoid(o)
+    tanh(c)``) with the two bias vectors summed once: the same function as one ``torch.lstm`` call per hour
+    (to float rounding, ~1e-7), without that kernel's fixed cost per call, which dominates at one timestep
+    and 16 units (AMD EPYC, one thread: 1.6x faster per training update, 2x without autograd). With or
+    without autograd; nothing is written in place."""
+    layers, hidden = model.num_layers, model.hidden_size
+    w_ih = [weights[4 * k].t() for k in range(layers)]
+    w_hh = [weights[4 * k + 1].t() for k in range(layers)]
+    bias = [weights[4 * k + 2] + weights[4 * k + 3] for k in range(layers)]
+    if state is None:
+        h = [x.new_zeros(x.shape[0], hidden) for _ in range(layers)]
+        c = list(h)
+    else:
+        h, c = list(state[0].unbind(0)), list(state[1].unbind(0))
+    head_w, head_b = model.l_linear.weight.t(), model.l_linear.bias
+    temperature = x[:, 0, -1:]
+    predictions = []
+    for k in range(1, x.shape[1]):
+        layer_input = torch.cat([x[:, k, :-1], temperature], dim=1)
+        for j in range(layers):
+            gates = torch.addmm(torch.addmm(bias[j], layer_input, w_ih[j]), h[j], w_hh[j])
+            i, f, g, o = gates.chunk(4, dim=1)
+            c[j] = torch.sigmoid(f) * c[j] + torch.sigmoid(i) * torch.tanh(g)
+            h[j] = torch.sigmoid(o) * torch.tanh(c[j])
+            layer_input = h[j]
+        temperature = torch.addmm(head_b, layer_input, head_w)
+        predictions.append(temperature)
+    return torch.cat(predictions, dim=1)
 
 
 def _rollout_rows(model: LSTMModel, x: torch.Tensor, lookback: int, state, weights: Sequence[torch.Tensor], *,

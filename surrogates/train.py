@@ -41,6 +41,7 @@ from surrogates.model import (
     seeded_model,
     torch_threads,
 )
+from surrogates.optim import FlatAdam
 from surrogates.precision import Choice, Probe, choose
 
 ROLES = ("train", "validation", "test")
@@ -258,7 +259,7 @@ def _fit(table, inputs, splits, config: TrainConfig, started: float, progress=No
     model = seeded_model(len(inputs), config.hidden_size, config.num_layers, config.seed)
     run_starts = {run.start for run in run_segments(table).values()}
     anchors = [seg for seg in splits["train"] if seg.start in run_starts]  # training segments starting a run
-    optimizer = _adam(model, config.learning_rate, _bf16(config))
+    optimizer = FlatAdam(model, config.learning_rate)
     bar = _progress(config)
     warm = WARM_START_UNITS if config.pretrain_steps > 0 else 0
     total = progress_units(config)
@@ -313,7 +314,7 @@ def _closed_loop_phase(model: LSTMModel, x: np.ndarray, segments: Sequence[Segme
     exponential moving average is validated after every epoch; returns the best epoch's averaged weights, that
     epoch and the history (RMSE in degC: ``scale`` is the training temperature range). ``tick(epochs_done)``
     after each epoch; ``bar`` shows the last epoch's RMSE."""
-    optimizer = _adam(model, config.finetune_learning_rate, _bf16(config))
+    optimizer = FlatAdam(model, config.finetune_learning_rate)
     averaged = copy.deepcopy(model)
     lr = config.finetune_learning_rate
     longest = max(s.stop - s.start for s in segments)  # check_trainable: >= lookback + chunk_hours
@@ -323,8 +324,7 @@ def _closed_loop_phase(model: LSTMModel, x: np.ndarray, segments: Sequence[Segme
         if epoch == config.long_start:
             hours = min(config.long_chunk_hours, longest - config.lookback)
             lr = config.long_chunk_learning_rate
-        for group in optimizer.param_groups:
-            group["lr"] = lr
+        optimizer.lr = lr
         train_rmse, updates = closed_loop_epoch(model, optimizer, x, segments, config, hours, rng, averaged,
                                                 updates)
         train_rmse *= scale
@@ -340,14 +340,6 @@ def _closed_loop_phase(model: LSTMModel, x: np.ndarray, segments: Sequence[Segme
         if config.max_seconds and time.perf_counter() - started > config.max_seconds:
             break
     return best, best_epoch, history
-
-
-def _adam(model: LSTMModel, lr: float, fused: bool) -> torch.optim.Adam:
-    """Adam with the multi-tensor (``foreach``) update, bit-identical to the per-tensor loop with fewer kernel
-    launches; ``fused``: the single fused CPU kernel (faster still, rounds differently; used with bf16)."""
-    if fused:
-        return torch.optim.Adam(model.parameters(), lr=lr, fused=True)
-    return torch.optim.Adam(model.parameters(), lr=lr, foreach=True)
 
 
 def _bf16(config: TrainConfig) -> bool:
@@ -376,7 +368,7 @@ def ema_update(averaged: Sequence[torch.Tensor], values: Sequence[torch.Tensor],
         torch._foreach_add_(averaged, values, alpha=1.0 - decay)
 
 
-def closed_loop_epoch(model: LSTMModel, optimizer, x: np.ndarray, segments: Sequence[Segment],
+def closed_loop_epoch(model: LSTMModel, optimizer: FlatAdam, x: np.ndarray, segments: Sequence[Segment],
                       config: TrainConfig, hours: int, rng: np.random.Generator, averaged: LSTMModel,
                       updates: int) -> tuple[float, int]:
     """One epoch of closed-loop training on chunks of ``hours`` predicted hours (+ lookback warm-up), batch
@@ -397,7 +389,7 @@ def closed_loop_epoch(model: LSTMModel, optimizer, x: np.ndarray, segments: Sequ
         loss = torch.mean((prediction.float() - batch[:, config.lookback:, -1]) ** 2)
         optimizer.zero_grad()
         loss.backward()
-        torch.nn.utils.clip_grad_norm_(parameters, 1.0, foreach=True)
+        optimizer.clip_grad_norm(1.0)
         optimizer.step()
         updates += 1
         # debiased start: the average follows closely over the first updates
@@ -406,7 +398,7 @@ def closed_loop_epoch(model: LSTMModel, optimizer, x: np.ndarray, segments: Sequ
     return math.sqrt(float(np.mean(losses))), updates
 
 
-def warm_start(model: LSTMModel, optimizer, x: np.ndarray, segments: Sequence[Segment], config: TrainConfig,
+def warm_start(model: LSTMModel, optimizer: FlatAdam, x: np.ndarray, segments: Sequence[Segment], config: TrainConfig,
                rng: np.random.Generator, anchors: Sequence[Segment] = (),
                tick: Callable[[int], None] | None = None) -> None:
     """Teacher-forced warm start (fast, batched): brings the weights near a good one-step predictor before
@@ -436,7 +428,7 @@ def warm_start(model: LSTMModel, optimizer, x: np.ndarray, segments: Sequence[Se
         windows = torch.from_numpy(_chunks(x, segments, config.lookback + 1, None, 1))
         def draw() -> torch.Tensor:
             return windows
-    weights, parameters = model.flat_weights(), list(model.parameters())
+    weights = model.flat_weights()
     model.train()
     marks = {max(1, round(config.pretrain_steps * k / WARM_START_UNITS)): k for k in range(1, WARM_START_UNITS + 1)}
     for done, batch in enumerate(_batches(draw, config.pretrain_batch_size, config.pretrain_steps, rng), 1):
@@ -449,7 +441,7 @@ def warm_start(model: LSTMModel, optimizer, x: np.ndarray, segments: Sequence[Se
         optimizer.zero_grad()
         loss.backward()
         if sequences:
-            torch.nn.utils.clip_grad_norm_(parameters, 1.0, foreach=True)
+            optimizer.clip_grad_norm(1.0)
         optimizer.step()
         if tick is not None and done in marks:
             tick(marks[done])

@@ -68,6 +68,32 @@ def test_rollout_is_the_citylearn_loop(lookback):
     assert len(ours) == 30 - lookback
 
 
+def test_closed_loop_cells_match_the_lstm_module_with_gradients():
+    """The lookback-1 closed loop runs the cell equations itself (training and validation): its predictions
+    from a given state and the gradients they give every parameter are those of the ``nn.LSTM`` module
+    called hour by hour with the prediction fed back."""
+    torch.manual_seed(0)
+    model = LSTMModel(4, hidden_size=6, num_layers=2)
+    x = torch.from_numpy(np.random.default_rng(4).random((3, 25, 4)).astype(np.float32))
+    h0 = torch.randn(2, 3, 6) * 0.5
+    state = (h0, torch.randn(2, 3, 6) * 0.5)
+    ours = rollout(model, x, 1, state=state)
+    ours.square().mean().backward()
+    grads = [p.grad.clone() for p in model.parameters()]
+    model.zero_grad()
+    temperature, carried, reference = x[:, 0, -1], state, []
+    for k in range(1, x.shape[1]):
+        window = torch.cat([x[:, k, :-1], temperature[:, None]], dim=1)[:, None]
+        out, carried = model.l_lstm(window, carried)
+        temperature = model.l_linear(out[:, -1]).squeeze(-1)
+        reference.append(temperature)
+    reference = torch.stack(reference, dim=1)
+    reference.square().mean().backward()
+    torch.testing.assert_close(ours, reference, atol=1e-6, rtol=1e-5)
+    for ours_grad, parameter in zip(grads, model.parameters(), strict=True):
+        torch.testing.assert_close(ours_grad, parameter.grad, atol=1e-6, rtol=1e-4)
+
+
 def test_state_dict_keys_are_upstream():
     keys = list(LSTMModel(13, 16, 2).state_dict())
     assert keys == [f"l_lstm.{w}_l{k}" for k in (0, 1) for w in ("weight_ih", "weight_hh", "bias_ih", "bias_hh")] \
