@@ -4,11 +4,14 @@ multipliers; train references 0-5 as in benchmarks/surrogate_suite.py).
 
     .venv/bin/python benchmarks/surrogate_train_speed.py [--old 428fd94] [--repeats 3] [--hidden 16 32]
                                                          [--variants old new new_bf16]
+                                                         [--recipe default|build] [--table ILV.parquet]
 
 Per (hidden size, variant) it reports the median process CPU seconds of ``repeats`` trainings (each the
 whole ``train_surrogate`` call: setup, warm start, closed-loop epochs, validation), the wall seconds, the
 epochs run, the best epoch and its validation RMSE, and whether the weights equal the old trainer's bit for
-bit. Every variant trains its own ``TrainConfig()`` at the hidden size asked for, with the suite's splits,
+bit. Every variant trains its own ``TrainConfig()`` (``--recipe build``: ``BUILD_RECIPE``, hidden 16 unless
+``--hidden`` says otherwise) at the hidden size asked for, with the suite's splits (``--table``: any ILV
+table instead, e.g. a district's ``surrogates/Building_6.ilv.parquet``),
 in float32 (``new_bf16``: ``precision="auto"``, bfloat16 where the CPU runs it natively and faster), so with
 a revision whose default recipe is the working tree's (the eighth pass's, ``c69e254`` and later; the
 ``precision`` field needs ``3063899`` or later) only the implementation differs. Rounds interleave the
@@ -26,6 +29,7 @@ import statistics
 import sys
 import tempfile
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import torch
@@ -36,6 +40,7 @@ sys.path.insert(0, str(ROOT))
 from revisions import import_source, source_at  # noqa: E402
 
 from surrogates import train as new_train  # noqa: E402
+from surrogates.config import BUILD_RECIPE  # noqa: E402
 from surrogates.ilv import read_ilv  # noqa: E402
 
 CACHE = Path(os.environ.get("DISTRICTGEN_SUITE_CACHE", "/tmp/districtgen_surrogate_suite"))
@@ -49,11 +54,12 @@ def load_revision(revision: str, folder: Path):
         "from surrogates.model import", "from old_surrogates_model import"), folder)
 
 
-def run_once(trainer, table, hidden: int, bf16: bool) -> dict:
-    """One training of ``trainer``'s default recipe at ``hidden`` (float32, or ``auto`` with ``bf16``); CPU
-    and wall seconds of the whole call."""
-    config = trainer.TrainConfig(progress=False, test_runs=0, hidden_size=hidden,
-                                 precision="auto" if bf16 else "float32")
+def run_once(trainer, table, hidden: int, bf16: bool, recipe: str = "default") -> dict:
+    """One training of ``trainer``'s default recipe (``build``: ``BUILD_RECIPE``) at ``hidden`` (float32, or
+    ``auto`` with ``bf16``); CPU and wall seconds of the whole call."""
+    base = BUILD_RECIPE if recipe == "build" else trainer.TrainConfig()
+    config = replace(base, progress=False, test_runs=0, hidden_size=hidden,
+                     precision="auto" if bf16 else "float32")
     cpu, wall = time.process_time(), time.perf_counter()
     trained = trainer.train_surrogate(table, config)
     cpu, wall = time.process_time() - cpu, time.perf_counter() - wall
@@ -67,22 +73,27 @@ def main() -> None:
     parser.add_argument("--old", default="428fd94", help="git revision of the previous trainer (3063899 or "
                                                           "later: it has TrainConfig.precision)")
     parser.add_argument("--repeats", type=int, default=3)
-    parser.add_argument("--hidden", type=int, nargs="*", default=[16, 32])
+    parser.add_argument("--hidden", type=int, nargs="*", default=None, help="default: 16 32 (build: 16)")
     parser.add_argument("--variants", nargs="*", default=["old", "new", "new_bf16"])
+    parser.add_argument("--recipe", choices=["default", "build"], default="default")
+    parser.add_argument("--table", type=Path, default=TABLE, help="ILV table (default: the suite's office)")
     args = parser.parse_args()
-    if not TABLE.is_file():
-        raise SystemExit(f"{TABLE} missing: run benchmarks/surrogate_suite.py generate first")
-    table = read_ilv(TABLE)
+    if args.hidden is None:
+        args.hidden = [BUILD_RECIPE.hidden_size] if args.recipe == "build" else [16, 32]
+    if not args.table.is_file():
+        raise SystemExit(f"{args.table} missing: run benchmarks/surrogate_suite.py generate first")
+    table = read_ilv(args.table)
     table = table[table["reference"].isin(range(6))].reset_index(drop=True)
     torch.optim.Adam([torch.zeros(1, requires_grad=True)])  # torch.optim's one-time import, outside the timings
-    print(f"load average before: {os.getloadavg()}; torch {torch.__version__}; old = {args.old}", flush=True)
+    print(f"load average before: {os.getloadavg()}; torch {torch.__version__}; old = {args.old}; recipe "
+          f"{args.recipe}; table {args.table}", flush=True)
     with tempfile.TemporaryDirectory() as folder:
         trainers = {"old": load_revision(args.old, Path(folder)), "new": new_train, "new_bf16": new_train}
         runs: dict[tuple[int, str], list[dict]] = {}
         for hidden in args.hidden:
             for repeat in range(args.repeats):
                 for variant in args.variants:
-                    result = run_once(trainers[variant], table, hidden, variant.endswith("bf16"))
+                    result = run_once(trainers[variant], table, hidden, variant.endswith("bf16"), args.recipe)
                     runs.setdefault((hidden, variant), []).append(result)
                     print(f"hidden {hidden} {variant} #{repeat}: {result['cpu']:.2f} s CPU, {result['wall']:.2f} s "
                           f"wall, load {os.getloadavg()[0]:.2f}", flush=True)
