@@ -13,15 +13,23 @@ class LocatedError(ValueError):
     def __init__(self, message: str, *, file: object = None, column: object = None, row: object = None):
         parts = []
         if file is not None:
-            parts.append(f"{file}")
+            parts.append(_printable(f"{file}"))
         if column is not None:
             parts.append(f"column/key {column!r}")
         if row is not None:
-            parts.append(f"row {row}")
+            parts.append(f"row {_printable(str(row))}")
         where = ", ".join(parts)
         message = " ".join(line.strip() for line in str(message).splitlines() if line.strip())  # one line
         super().__init__(f"{where}: {message}" if where else message)
         self.file, self.column, self.row = file, column, row
+
+
+def _printable(text: str) -> str:
+    """``text`` with each non-printable character (a newline in a file name, say) written as its escape
+    (``\\n``): the location stays on the message's one line."""
+    if text.isprintable():
+        return text
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
 
 
 class SchemaError(LocatedError):

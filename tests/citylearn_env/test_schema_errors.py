@@ -120,3 +120,15 @@ def test_nan_action(district):
     env.reset()
     with pytest.raises(SchemaError, match=r"'Building_2.dhw_storage'.*not finite"):
         env.step(np.array([0.0, 0.0, np.nan, 0.0]))
+
+
+def test_a_file_name_with_a_newline_stays_on_one_line():
+    """A data file named with a control character (found by the schema fuzzer) is located on the message's one
+    line, the character written as its escape."""
+    from citylearn_env.errors import SchemaError
+
+    error = SchemaError("data file not found", file="/tmp/district/0\n", column="buildings.B.energy_simulation",
+                        row="2\t")
+    text = str(error)
+    assert "\n" not in text and "\t" not in text
+    assert text.startswith("/tmp/district/0\\n, column/key 'buildings.B.energy_simulation', row 2\\t: ")
