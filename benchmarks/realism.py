@@ -27,6 +27,7 @@ Usage::
 
     .venv/bin/python benchmarks/realism.py                       # artifacts/default (the make-run district)
     .venv/bin/python benchmarks/realism.py --district artifacts/default --simulate raw/district.toml
+    .venv/bin/python benchmarks/realism.py --simulate raw/district.toml --schedule-seeds 1 2 3 4
     .venv/bin/python benchmarks/realism.py --same-month      # real June house-months only (for a June district)
     .venv/bin/python benchmarks/realism.py --simulate raw/district.toml --own-row   # + each row's own year
                                                                               # and heat-loss coefficient
@@ -150,9 +151,10 @@ def _district_houses(config, district: Path | None) -> list[tuple[str, int]]:
     raise SystemExit("--simulate needs the district folder's selection.csv or inputs.buildings")
 
 
-def _ideal_loads(config, row: dict, run_period, year: int) -> tuple[pd.DataFrame, object]:
-    """One EnergyPlus ideal-loads pass of a stock row (the build's house model, schedules and timestep):
-    (hourly loads of :func:`surrogates.energyplus.ilv.hourly_loads`, the house parameters)."""
+def _ideal_loads(config, row: dict, run_period, year: int, schedule_seed: int = 0) -> tuple[pd.DataFrame, object]:
+    """One EnergyPlus ideal-loads pass of a stock row (the build's house model and timestep; the build's
+    schedules at ``schedule_seed`` 0, other draws of the same method otherwise): (hourly loads of
+    :func:`surrogates.energyplus.ilv.hourly_loads`, the house parameters)."""
     from surrogates.energyplus.epw import read_epw_ground_temperatures, read_epw_latitude, read_epw_mains_mean
     from surrogates.energyplus.house import build_house_model
     from surrogates.energyplus.ilv import hourly_loads
@@ -166,7 +168,7 @@ def _ideal_loads(config, row: dict, run_period, year: int) -> tuple[pd.DataFrame
                               run_period=run_period, year=year,
                               timesteps_per_hour=config.simulation.timesteps_per_hour,
                               reporting_frequency="Timestep", latitude_deg=read_epw_latitude(epw),
-                              mains_mean_c=read_epw_mains_mean(epw))
+                              mains_mean_c=read_epw_mains_mean(epw), schedule_seed=schedule_seed)
     with tempfile.TemporaryDirectory(prefix="realism_") as tmp:
         sql = run_energyplus(model, epw, Path(tmp), "ideal")
         ideal = read_report_variables(sql, year=year, frequency="Zone Timestep")
@@ -174,8 +176,9 @@ def _ideal_loads(config, row: dict, run_period, year: int) -> tuple[pd.DataFrame
     return hourly_loads(ideal, areas, house), house
 
 
-def simulated_house_months(config_path: Path, district: Path | None) -> list[HouseMonth]:
-    """The district's houses simulated now (ideal-loads pass over the configured period, current model)."""
+def simulated_house_months(config_path: Path, district: Path | None, schedule_seed: int = 0) -> list[HouseMonth]:
+    """The district's houses simulated now (ideal-loads pass over the configured period, current model;
+    occupant schedules drawn with ``schedule_seed``, 0 = the build's)."""
     from pipeline.build.steps import read_characteristics_row
     from pipeline.config import read_build_config
 
@@ -184,7 +187,8 @@ def simulated_house_months(config_path: Path, district: Path | None) -> list[Hou
     out = []
     for name, bldg_id in _district_houses(config, district):
         row = read_characteristics_row(config.inputs.characteristics, bldg_id)
-        loads, house = _ideal_loads(config, row, ((start.month, start.day), (end.month, end.day)), start.year)
+        loads, house = _ideal_loads(config, row, ((start.month, start.day), (end.month, end.day)), start.year,
+                                    schedule_seed)
         frame = pd.DataFrame({"month": loads.index.month, "hour": loads.index.hour + 1,
                               "non_shiftable_load": loads["non_shiftable_load_kwh"].to_numpy(),
                               "dhw_demand": loads["dhw_demand_kwh"].to_numpy(),
@@ -317,6 +321,29 @@ def realism_table(built: list[HouseMonth], real: list[HouseMonth]) -> tuple[str,
     return "\n".join(lines), summary
 
 
+def seed_table(runs: dict[int, list[HouseMonth]], real: list[HouseMonth]) -> str:
+    """How often each built house is inside the real 5-95 % band over schedule draws: one row per statistic,
+    per house "k/n" (draws in band), and the range over draws of the built median against the real one."""
+    seeds = sorted(runs)
+    first = runs[seeds[0]]
+    names = [b.name + (f" m{b.month}" if len({x.month for x in first}) > 1 else "") for b in first]
+    header = ["statistic", *names, "built median vs real (min..max)"]
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    for key, (label, _) in STATISTICS.items():
+        band = percentile_band([r.stats[key] for r in real])
+        if in_band(first[0].stats[key], band) is None:
+            continue
+        hits = np.zeros(len(first), dtype=int)
+        ratios = []
+        for seed in seeds:
+            values = [b.stats[key] for b in runs[seed]]
+            hits += [bool(in_band(v, band)) for v in values]
+            ratios.append(median_ratio_pct(values, band[1]))
+        cells = [f"{h}/{len(seeds)}" for h in hits]
+        lines.append("| " + " | ".join([label, *cells, f"{min(ratios):+.0f} .. {max(ratios):+.0f} %"]) + " |")
+    return "\n".join(lines)
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--district", type=Path, default=DEFAULT_DISTRICT,
@@ -329,6 +356,10 @@ def main(argv: list[str] | None = None) -> int:
                         help="with --simulate: also a full-year pass per house against the stock row's own "
                              "annual results (cooling, heating, hot water, plug + lighting; the row's weather) and "
                              "the heat-loss coefficient against the row's Manual J design loads")
+    parser.add_argument("--schedule-seeds", type=int, nargs="+", metavar="SEED",
+                        help="with --simulate: also simulate the houses with these occupant-schedule seeds (0 = "
+                             "the build's) and tabulate how often each house is in band: single-month peaks "
+                             "are extremes of a random draw")
     parser.add_argument("--same-month", action="store_true",
                         help="real house-months of the built months only (default: the whole season)")
     args = parser.parse_args(argv)
@@ -353,6 +384,14 @@ def main(argv: list[str] | None = None) -> int:
     print(f"built: {len(built)} house-months ({source}); real: {len(real)} house-months of the 2023 challenge "
           f"homes (Austin TX, {scope})\n")
     print(table)
+    if args.schedule_seeds and args.simulate:
+        runs = {0: built}
+        for seed in args.schedule_seeds:
+            if seed not in runs:
+                runs[seed] = simulated_house_months(args.simulate, args.district, seed)
+                fill_statistics(runs[seed], reference)
+        print(f"\nOver occupant-schedule seeds {sorted(runs)}: draws with the house in the real 5-95 % band\n")
+        print(seed_table(runs, real))
     if args.own_row and args.simulate:
         print(f"\nFull year {args.simulate}: the ideal pass against the stock row's own annual results\n")
         print(own_row_table(args.simulate, args.district))

@@ -10,8 +10,10 @@ Method (docs/energyplus.md, "Occupant-driven schedules", gives the sources):
 1. per-minute occupant states (:mod:`surrogates.energyplus.occupancy`): asleep, at home awake, away;
 2. hot-water draws as events (showers, baths, sinks, dishwasher fills, clothes-washer fills): counts per day
    from per-person and per-household rates, start times from the occupants' states and time-of-day
-   weights, durations and flow rates per kind; the month's draws are then scaled so the month's mean daily
-   volume equals the target (the shape is the events', the volume the house's);
+   weights, durations and flow rates per kind. A house that uses more or less hot water than these rates
+   give (the stock's fixture usage multiplier) draws more or less often: the fixtures' rates (showers,
+   baths, sinks) are multiplied by :func:`fixture_rate`, the shower head's flow stays. The month's draws
+   are then scaled so the month's mean daily volume equals the target (a residual of a few per cent);
 3. appliance cycles as events (cooking, dishwasher, clothes washer and dryer, evening TV) plus a small
    per-awake-person electronics load and an always-on base (refrigerator, standby) that takes up the rest
    of the daily plug target; the year's mean equals the target. With the stock's own end uses
@@ -38,7 +40,10 @@ from surrogates.energyplus.occupancy import (
 )
 
 #: bump when the method changes: part of the simulation cache key (pipeline/build/houses.py)
-SCHEDULE_VERSION = 2
+SCHEDULE_VERSION = 3
+#: the fixtures' draws are at least this share of the daily hot-water target (when the appliances' fills
+#: alone would exceed it)
+MIN_FIXTURE_SHARE = 0.25
 #: third element of the seed sequence (keeps this stream apart from the ILV multipliers' streams)
 SEED_TAG = 27
 #: metabolic heat per person at home [W]: asleep (about 0.7 met) and awake (light domestic activity)
@@ -133,6 +138,8 @@ class HouseSchedules:
     exterior_w: np.ndarray
     dhw_m3_s: np.ndarray
     events: dict[str, int] = field(default_factory=dict)
+    #: the multiplier of the fixtures' event rates (:func:`fixture_rate`) the draws were generated at [-]
+    fixture_rate: float = 1.0
 
 
 def _add(series: np.ndarray, start: int, minutes: float, rate: float) -> None:
@@ -166,21 +173,32 @@ def _window(start_h: float, end_h: float) -> np.ndarray:
     return out
 
 
-def _showers_and_baths(rng: np.random.Generator, day: np.ndarray, base: int, flow: np.ndarray) -> tuple[int, int]:
-    """Each occupant's shower (morning or before bed) and bath of one day ``day`` (occupants x minutes);
-    adds to ``flow`` [L/min] from minute ``base``; returns (showers, baths)."""
+def _times(rng: np.random.Generator, rate: float) -> int:
+    """How many times an event of mean ``rate`` per day happens on one day: floor(``rate``) plus one more with
+    probability frac(``rate``) (the count's variance is as small as its mean allows)."""
+    whole = math.floor(rate)
+    return whole + int(rng.random() < rate - whole)
+
+
+def _showers_and_baths(rng: np.random.Generator, day: np.ndarray, base: int, flow: np.ndarray,
+                       rate: float = 1.0) -> tuple[int, int]:
+    """Each occupant's showers (the first in the morning or before bed, a second in the other slot, any
+    further one at an awake minute) and baths of one day ``day`` (occupants x minutes), at ``rate`` times the
+    per-person rates; adds to ``flow`` [L/min] from minute ``base``; returns (showers, baths)."""
     showers = baths = 0
     for person in day:
         awake = np.flatnonzero(person == AWAKE)
         if awake.size == 0:
             continue
-        draw = rng.random()  # a bath or a shower (or neither) per person and day
-        if draw < BATHS_PER_PERSON:
+        for _ in range(_times(rng, BATHS_PER_PERSON * rate)):
             start = max(int(awake[-1] - rng.uniform(30, 120)), 0)
             _add(flow, base + start, _duration(rng, *BATH[:2]), BATH[2])
             baths += 1
-        elif draw < BATHS_PER_PERSON + SHOWERS_PER_PERSON:
-            if rng.random() < MORNING_SHOWER_SHARE:
+        morning = rng.random() < MORNING_SHOWER_SHARE
+        for n in range(_times(rng, SHOWERS_PER_PERSON * rate)):
+            if n >= 2:
+                start = int(awake[rng.integers(awake.size)])
+            elif morning != bool(n):  # the first in its slot, the second in the other
                 start = awake[0] + int(rng.uniform(0, 30))
             else:
                 start = awake[-1] - int(rng.uniform(30, 150))
@@ -190,16 +208,44 @@ def _showers_and_baths(rng: np.random.Generator, day: np.ndarray, base: int, flo
     return showers, baths
 
 
+def expected_draws_litres(occupants: int) -> tuple[float, float]:
+    """Expected mixed hot water of one day [L] at the base rates: (fixtures: showers, baths and sinks;
+    appliances: dishwasher and clothes-washer fills), counting every occupant as awake at home some time of
+    the day."""
+    shower_l = SHOWER[0] * SHOWER[2]
+    bath_l = BATH[0] * BATH[2]
+    sinks = SINKS_PER_HOUSEHOLD + SINKS_PER_PERSON * occupants
+    fixtures = occupants * (SHOWERS_PER_PERSON * shower_l + BATHS_PER_PERSON * bath_l) + sinks * SINK[0] * SINK[2]
+    week_factor = (5 * LAUNDRY_DAY_FACTOR[0] + 2 * LAUNDRY_DAY_FACTOR[1]) / 7
+    appliances = ((DISHWASHER_CYCLES[0] + DISHWASHER_CYCLES[1] * occupants) * len(DISHWASHER_FILL_MIN)
+                  * DISHWASHER_FILL[0] * DISHWASHER_FILL[2]
+                  + (LAUNDRY_CYCLES[0] + LAUNDRY_CYCLES[1] * occupants) * week_factor * len(WASHER_FILL_MIN)
+                  * WASHER_FILL[0] * WASHER_FILL[2])
+    return fixtures, appliances
+
+
+def fixture_rate(occupants: int, litres_per_day: float) -> float:
+    """Multiplier of the fixtures' event rates [-] that makes the expected daily draws equal
+    ``litres_per_day`` [L of mixed water]: (target - appliances' fills) / fixtures' draws at the base rates
+    (:func:`expected_draws_litres`), the fixtures keeping at least :data:`MIN_FIXTURE_SHARE` of the target.
+    A stock row's "200% Usage" of hot-water fixtures gives about 2: twice the showers and sink draws, each at
+    the fixture's own flow; 1 when the target is 0."""
+    fixtures, appliances = expected_draws_litres(max(int(occupants), 0))
+    if not litres_per_day > 0 or fixtures <= 0:
+        return 1.0
+    return max(litres_per_day - appliances, MIN_FIXTURE_SHARE * litres_per_day) / fixtures
+
+
 def _appliances(rng: np.random.Generator, awake_home: np.ndarray, occupants: int, weekend: bool, base: int,
-                flow: np.ndarray, power: dict[str, np.ndarray]) -> dict[str, int]:
-    """One day's sinks, dishwasher, laundry (washer + dryer), cooking and TV events; adds hot water [L/min]
-    to ``flow`` and electricity [W] to ``power["cooking"]``, ``power["dryer"]`` or ``power["other"]`` from
-    minute ``base``; returns the counts."""
+                flow: np.ndarray, power: dict[str, np.ndarray], sink_rate: float = 1.0) -> dict[str, int]:
+    """One day's sinks (at ``sink_rate`` times the base rates), dishwasher, laundry (washer + dryer), cooking
+    and TV events; adds hot water [L/min] to ``flow`` and electricity [W] to ``power["cooking"]``,
+    ``power["dryer"]`` or ``power["other"]`` from minute ``base``; returns the counts."""
     plug = power["other"]
     someone = (awake_home > 0).astype(float)
     counts = {}
     sink_weight = (awake_home + 0.05) * (1.0 + sum(w * _window(a, b) for a, b, w in SINK_PEAKS))
-    starts = _pick(rng, sink_weight, rng.poisson(SINKS_PER_HOUSEHOLD + SINKS_PER_PERSON * occupants))
+    starts = _pick(rng, sink_weight, rng.poisson(sink_rate * (SINKS_PER_HOUSEHOLD + SINKS_PER_PERSON * occupants)))
     for start in starts:
         _add(flow, base + start, _duration(rng, *SINK[:2]), SINK[2])
     counts["sinks"] = len(starts)
@@ -303,13 +349,15 @@ def generate_schedules(targets: ScheduleTargets, *, year: int, seed: int, bldg_i
     flow = np.zeros(minutes)
     power = {kind: np.zeros(minutes) for kind in ("other", "cooking", "dryer")}
     counts = {"showers": 0, "baths": 0}
+    rate = fixture_rate(occupants, targets.dhw_litres_per_day)
     awake_home = (states == AWAKE).sum(axis=0)  # (days, minutes)
     for day, is_weekend in enumerate(weekend):
         base = day * MINUTES_PER_DAY
-        showers, baths = _showers_and_baths(rng, states[:, day], base, flow)
+        showers, baths = _showers_and_baths(rng, states[:, day], base, flow, rate)
         counts["showers"] += showers
         counts["baths"] += baths
-        for kind, n in _appliances(rng, awake_home[day], occupants, bool(is_weekend), base, flow, power).items():
+        for kind, n in _appliances(rng, awake_home[day], occupants, bool(is_weekend), base, flow, power,
+                                   rate).items():
             counts[kind] = counts.get(kind, 0) + n
     awake = awake_home.reshape(-1).astype(float)
     power["other"] += ELECTRONICS_PER_AWAKE_W * awake
@@ -338,5 +386,4 @@ def generate_schedules(targets: ScheduleTargets, *, year: int, seed: int, bldg_i
     return HouseSchedules(timesteps_per_hour=tph, people=people, activity_w=activity,
                           lighting_w=_per_timestep(lighting, tph), plug_w=sum(power.values()),
                           cooking_w=power["cooking"], dryer_w=power["dryer"], exterior_w=power["exterior"],
-                          dhw_m3_s=_per_timestep(dhw, tph),
-                          events=counts)
+                          dhw_m3_s=_per_timestep(dhw, tph), events=counts, fixture_rate=rate)

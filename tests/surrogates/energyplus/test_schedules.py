@@ -24,9 +24,18 @@ from surrogates.energyplus.house_schedules import (
 from surrogates.energyplus.metadata import HouseParameters
 from surrogates.energyplus.occupancy import weekend_days
 from surrogates.energyplus.schedules import (
+    BATH,
+    DISHWASHER_FILL,
     DRYER,
+    SHOWER,
     SHOWERS_PER_PERSON,
+    SINK,
+    SINKS_PER_HOUSEHOLD,
+    SINKS_PER_PERSON,
+    WASHER_FILL,
     ScheduleTargets,
+    expected_draws_litres,
+    fixture_rate,
     generate_schedules,
 )
 
@@ -76,11 +85,57 @@ def test_hot_water_volume_matches_the_daily_target_every_month(year):
 
 def test_showers_per_day_scale_with_occupants():
     for occupants in (1, 2, 4):
-        s = generate(ScheduleTargets(occupants, 100.0, 5.0, 1.0))
-        expected = SHOWERS_PER_PERSON * occupants * 365
-        # Bernoulli per person-day: 4 standard deviations of the count
-        assert abs(s.events["showers"] - expected) < 4 * np.sqrt(expected * (1 - SHOWERS_PER_PERSON))
+        targets = ScheduleTargets(occupants, 100.0, 5.0, 1.0)
+        s = generate(targets)
+        rate = SHOWERS_PER_PERSON * s.fixture_rate
+        assert s.fixture_rate == fixture_rate(occupants, 100.0)
+        expected = rate * occupants * 365
+        # floor(rate) + a Bernoulli per person-day: 4 standard deviations of the count
+        frac = rate - np.floor(rate)
+        person_days = occupants * 365
+        assert abs(s.events["showers"] - expected) < 4 * np.sqrt(person_days * max(frac * (1 - frac), 0.05))
     assert generate(ScheduleTargets(0, 30.0, 5.0, 1.0)).events["showers"] == 0
+
+
+def test_expected_draws_add_up_the_event_rates_times_their_volumes():
+    # 2 people: 0.7 showers of 7.8 min at 7.9 L/min and 0.08 baths of 5 min at 16 L/min each, 3 + 6 x 2 sinks
+    # of 0.8 min at 4 L/min; dishwasher 0.2 + 0.12 x 2 cycles of 4 one-minute fills at 5.5 L/min, laundry
+    # 0.2 + 0.15 x 2 cycles (weekday 0.8, weekend 1.5: 1.0 over a week) of 2 two-minute fills at 8 L/min
+    fixtures, appliances = expected_draws_litres(2)
+    assert fixtures == pytest.approx(2 * (0.7 * 7.8 * 7.9 + 0.08 * 5.0 * 16.0) + 15 * 0.8 * 4.0)
+    assert appliances == pytest.approx(0.44 * 4 * 5.5 + 0.5 * 1.0 * 2 * 2 * 8.0)
+    assert (SHOWER, BATH, SINK, DISHWASHER_FILL, WASHER_FILL) == ((7.8, 4.5, 7.9), (5.0, 1.5, 16.0),
+                                                                  (0.8, 0.6, 4.0), (1.0, 0.0, 5.5), (2.0, 0.0, 8.0))
+    assert fixture_rate(2, fixtures + appliances) == pytest.approx(1.0)
+    assert fixture_rate(2, 2 * fixtures + appliances) == pytest.approx(2.0)
+    assert fixture_rate(2, 0.5 * fixtures + appliances) == pytest.approx(0.5)
+    # a target below the appliances' fills keeps a quarter of it for the fixtures
+    assert fixture_rate(2, 20.0) == pytest.approx(0.25 * 20.0 / fixtures)
+    assert fixture_rate(2, 0.0) == 1.0
+
+
+def test_more_hot_water_means_more_draws_not_a_stronger_shower():
+    occupants = 2
+    fixtures, appliances = expected_draws_litres(occupants)
+    base = generate(ScheduleTargets(occupants, fixtures + appliances, 5.0, 1.0))
+    double = generate(ScheduleTargets(occupants, 2 * fixtures + appliances, 5.0, 1.0))
+    assert base.fixture_rate == pytest.approx(1.0) and double.fixture_rate == pytest.approx(2.0)
+    for kind in ("showers", "sinks"):
+        assert double.events[kind] / base.events[kind] == pytest.approx(2.0, rel=0.08)
+    # the appliances keep their cycles
+    assert abs(double.events["dishwasher"] - base.events["dishwasher"]) < 4 * np.sqrt(base.events["dishwasher"])
+    sinks = (SINKS_PER_HOUSEHOLD + SINKS_PER_PERSON * occupants) * 2.0 * 365
+    assert abs(double.events["sinks"] - sinks) < 4 * np.sqrt(sinks)
+    # the events carry the volume: the monthly rescaling that follows moves it by a few per cent only, so a
+    # shower still runs at the head's flow
+    for s in (base, double):
+        natural = expected_draws_litres(occupants)[0] * s.fixture_rate + appliances
+        assert s.dhw_m3_s.mean() * 86400 * 1000 == pytest.approx(natural, rel=0.06)
+    # twice the water is not twice the busiest hour: each month's peak hour grows by well under 2x (a linear
+    # scaling of every draw's flow would give exactly 2x)
+    month = pd.date_range("2018-01-01", periods=8760, freq="h").month.to_numpy()
+    peaks = [double.dhw_m3_s[month == m].max() / base.dhw_m3_s[month == m].max() for m in range(1, 13)]
+    assert np.median(peaks) < 1.7
 
 
 def test_plug_and_lighting_energies_match_their_targets(year):
