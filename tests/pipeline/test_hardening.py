@@ -231,9 +231,10 @@ def test_run_without_a_schema_writes_nothing_in_the_current_folder(tmp_path, mon
 def test_no_prefect_server_outlives_a_killed_build(tmp_path, how):
     """A process inside prefect_api() (as `districtgen build` runs) is killed: its server goes too."""
     script = textwrap.dedent("""
-        import os, sys, time
+        import faulthandler, os, signal, sys, time
         from pathlib import Path
         from pipeline.build.flows import prefect_api
+        faulthandler.register(signal.SIGUSR1, all_threads=True)  # the test asks where a hung build waits
         with prefect_api():
             for entry in Path("/proc").iterdir():   # the temporary server: the child running its script
                 try:
@@ -254,9 +255,17 @@ def test_no_prefect_server_outlives_a_killed_build(tmp_path, how):
         deadline = time.monotonic() + 90  # the server first: it is stopped before the build's interpreter exits
         while time.monotonic() < deadline and _running(server):
             time.sleep(0.2)
+        if _running(server) and child.poll() is None:  # the build's stacks, on the captured stderr
+            child.send_signal(signal.SIGUSR1)
+            time.sleep(2)
         assert not _running(server), f"Prefect server {server} outlived its build ({how!r})"
         # then the build itself ends (its interpreter shutdown took over 60 s once on a loaded 2-core CI run)
-        child.wait(timeout=180)
+        try:
+            child.wait(timeout=180)
+        except subprocess.TimeoutExpired:
+            child.send_signal(signal.SIGUSR1)
+            time.sleep(2)
+            raise
     finally:
         if child.poll() is None:
             child.kill()
