@@ -4,7 +4,7 @@
         [--set hidden_size=16 pretrain_steps=2000 ...] [--data /tmp/districtgen_judge]
 
 Per house: the training ILV table (the build's ``[simulation]`` settings, :func:`pipeline.build.surrogates.ilv_config`)
-and the judge's table (:func:`surrogates.judge.judge_ilv_config`: 6 timesteps/h, another seed) are simulated
+and the judge's table (:func:`surrogates.judge.judge_ilv_config`: 20 timesteps/h, another seed) are simulated
 once and kept under ``--data`` (keyed by house, settings and the generator's sources); then the recipe trains
 (float32 or what ``precision`` resolves to, one thread) and the model is scored by
 :func:`surrogates.judge.score_judge_table`. One JSON line per house: monthly RMSE median and worst month,
@@ -33,7 +33,7 @@ from pipeline.build.steps import read_characteristics_row  # noqa: E402
 from pipeline.build.surrogates import JUDGE_SOURCES, ilv_config  # noqa: E402
 from pipeline.config import read_build_config  # noqa: E402
 from surrogates.config import BUILD_RECIPE, TrainConfig  # noqa: E402
-from surrogates.judge import judge_ilv_config, score_judge_table  # noqa: E402
+from surrogates.judge import JudgeConfig, judge_ilv_config, score_judge_table  # noqa: E402
 from surrogates.sources.energyplus import energyplus_ilv_table  # noqa: E402
 from surrogates.train import train_surrogate  # noqa: E402
 
@@ -68,6 +68,9 @@ def main() -> None:
     parser.add_argument("--bldg-ids", type=int, nargs="+", help="default: the district's houses (selection)")
     parser.add_argument("--recipe", choices=sorted(RECIPES), default="build")
     parser.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE", help="TrainConfig overrides")
+    parser.add_argument("--judge-timesteps", type=int, default=JudgeConfig().timesteps_per_hour,
+                        help="the judge's zone timesteps per hour (default: the build's); the training data's "
+                             "count is the config's [simulation] timesteps_per_hour")
     parser.add_argument("--data", type=Path, default=Path(os.environ.get("TMPDIR", "/tmp")) / "districtgen_judge")
     args = parser.parse_args()
     config = read_build_config(args.config)
@@ -81,7 +84,8 @@ def main() -> None:
     for number, bldg_id in enumerate(ids, 1):
         row = read_characteristics_row(config.inputs.characteristics, bldg_id)
         table = cached_table(row, config.inputs.weather, training_ilv, args.data)
-        fresh = cached_table(row, config.inputs.weather, judge_ilv_config(training_ilv), args.data)
+        judge = JudgeConfig(timesteps_per_hour=args.judge_timesteps)
+        fresh = cached_table(row, config.inputs.weather, judge_ilv_config(training_ilv, judge), args.data)
         trained = train_surrogate(table, recipe)
         s = score_judge_table(trained.model, trained.normalization, trained.inputs, trained.config.lookback, fresh)
         print(json.dumps({"house": bldg_id, "building": f"Building_{number}" if args.bldg_ids is None else None,

@@ -175,11 +175,14 @@ def rollout(model: LSTMModel, x: torch.Tensor, lookback: int, closed_loop: bool 
     ``x`` (window ``k`` predicts hour ``lookback + k`` from exogenous hours ``k+1 .. k+lookback``); the fed-back
     temperatures are kept as a list and stacked per window (no in-place write into a tensor autograd saved).
     Otherwise (one-step mode, or no autograd) :func:`_rollout_rows`. Lookback 1 in closed loop (float32):
-    :func:`_rollout_cells`, the same network stepped as cells.
+    :func:`_rollout_cells`, the same network stepped as cells; lookback 1 in one-step mode from a zero state:
+    :meth:`LSTMModel.sequence`, one kernel call over the hours (what stepping the windows computes).
     """
     weights = model.flat_weights()
     if closed_loop and lookback == 1 and not torch.is_autocast_enabled("cpu"):
         return _rollout_cells(model, x, state, weights)
+    if not closed_loop and lookback == 1 and state is None:  # teacher-forced: one pass over the rows
+        return model.sequence(torch.cat([x[:, 1:, :-1], x[:, :-1, -1:]], dim=2), weights)
     if not closed_loop or not torch.is_grad_enabled():
         return _rollout_rows(model, x, lookback, state, weights, feed_back=closed_loop)
     windows = x[:, 1:, :-1].unfold(1, lookback, 1).transpose(2, 3)  # (batch, hours - lookback, L, inputs - 1)

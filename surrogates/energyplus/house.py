@@ -341,7 +341,7 @@ def slab_boundary_c(ground_temperatures_c: Sequence[float]) -> list[float]:
 
 def build_house_model(house: HouseParameters, *, mode: str, ground_temperatures_c: Sequence[float],
                       run_period: tuple[tuple[int, int], tuple[int, int]] = ((1, 1), (12, 31)),
-                      year: int = 2018, timesteps_per_hour: int = 4, reporting_frequency: str = "Hourly",
+                      year: int = 2018, timesteps_per_hour: int = 6, reporting_frequency: str = "Hourly",
                       load_file: Path | None = None, dhw: bool = True, schedule_seed: int = 0,
                       latitude_deg: float = 35.0, mains_mean_c: float = 20.0, schedule_dir: Path | None = None
                       ) -> dict[str, object]:

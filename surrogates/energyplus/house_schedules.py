@@ -7,14 +7,15 @@ levels their fractions multiply (:func:`schedule_peaks`) and the ``Schedule:File
 from __future__ import annotations
 
 import hashlib
-import io
 import os
 import tempfile
+import threading
 from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
 
+from surrogates.energyplus.csv_text import csv_text
 from surrogates.energyplus.metadata import HouseParameters
 from surrogates.energyplus.schedules import HouseSchedules, ScheduleTargets, generate_schedules
 
@@ -118,7 +119,31 @@ def _other_plug_w(schedules: HouseSchedules) -> np.ndarray:
 def write_schedule_file(house: HouseParameters, schedules: HouseSchedules, directory: Path) -> Path:
     """Write the ``Schedule:File`` CSV (columns :data:`SCHEDULE_COLUMNS`: fractions of :func:`schedule_peaks`
     and the activity in W per person) into ``directory`` under a content-addressed name; an existing
-    identical file is reused. Returns its path."""
+    identical file is reused. Returns its path. The text of the last few schedules is kept (one house's
+    runs build the model several times from the same :func:`house_schedules`)."""
+    text, digest = _schedule_text(house, schedules)
+    path = Path(directory) / f"schedules_{house.bldg_id}_{digest}.csv"
+    if not path.is_file():
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=".csv", dir=path.parent)
+        with os.fdopen(fd, "w") as handle:
+            handle.write(text)
+        os.replace(tmp, path)
+    return path
+
+
+#: (house, id of the schedules) -> (the schedules, kept alive so the id stays theirs; CSV text; its digest)
+_TEXTS: dict[tuple[HouseParameters, int], tuple[HouseSchedules, str, str]] = {}
+_TEXTS_LOCK = threading.Lock()  # the build simulates houses in threads
+
+
+def _schedule_text(house: HouseParameters, schedules: HouseSchedules) -> tuple[str, str]:
+    """The schedule CSV text of ``house`` and ``schedules`` and the first 16 hex digits of its sha256."""
+    key = (house, id(schedules))
+    with _TEXTS_LOCK:
+        hit = _TEXTS.get(key)
+    if hit is not None and hit[0] is schedules:
+        return hit[1], hit[2]
     peaks = schedule_peaks(house, schedules)
 
     def fraction(values: np.ndarray, peak: float) -> np.ndarray:
@@ -131,15 +156,10 @@ def write_schedule_file(house: HouseParameters, schedules: HouseSchedules, direc
                              fraction(schedules.dryer_w, peaks["dryer_w"]),
                              fraction(schedules.exterior_w, peaks["exterior_w"]),
                              fraction(schedules.dhw_m3_s, peaks["dhw_m3_s"])])
-    buffer = io.StringIO()
-    np.savetxt(buffer, table, fmt="%.6g", delimiter=",", header=",".join(SCHEDULE_COLUMNS), comments="")
-    text = buffer.getvalue()
+    text = csv_text(SCHEDULE_COLUMNS, table)
     digest = hashlib.sha256(text.encode()).hexdigest()[:16]
-    path = Path(directory) / f"schedules_{house.bldg_id}_{digest}.csv"
-    if not path.is_file():
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=".csv", dir=path.parent)
-        with os.fdopen(fd, "w") as handle:
-            handle.write(text)
-        os.replace(tmp, path)
-    return path
+    with _TEXTS_LOCK:
+        while len(_TEXTS) >= 4:
+            _TEXTS.pop(next(iter(_TEXTS)))
+        _TEXTS[key] = (schedules, text, digest)
+    return text, digest

@@ -10,7 +10,7 @@ import pytest
 import torch
 
 from surrogates.config import DEFAULT_INPUTS
-from surrogates.model import LSTMModel, Normalization, feature_matrix, rollout
+from surrogates.model import LSTMModel, Normalization, _rollout_rows, feature_matrix, rollout
 from surrogates.train import Segment, perturb_history, split_segments, warm_start_sequences
 from tests.surrogates.test_ilv import make_table
 
@@ -127,15 +127,17 @@ def test_splits_by_run_and_month():
 def test_sequence_pass_is_the_one_step_rollout_at_lookback_1():
     """With lookback 1 the stateful sliding window is a plain recurrent model: one LSTM pass over the rows
     (exogenous inputs of hour t+1, data temperature of hour t) gives the one-step rollout's predictions,
-    which is what the lookback-1 warm start trains on."""
+    which is what the lookback-1 warm start trains on and what ``rollout`` runs in one-step mode."""
     torch.manual_seed(0)
     model = LSTMModel(4, hidden_size=5, num_layers=2)
     x = torch.from_numpy(np.random.default_rng(2).random((3, 40, 4)).astype(np.float32))
     rows = torch.cat([x[:, 1:, :-1], x[:, :-1, -1:]], dim=2)
     with torch.no_grad():
         whole = model.sequence(rows, model.flat_weights())
-        stepped = rollout(model, x, 1, closed_loop=False)
+        stepped = _rollout_rows(model, x, 1, None, model.flat_weights(), feed_back=False)  # window by window
+        one_step = rollout(model, x, 1, closed_loop=False)
     np.testing.assert_allclose(whole.numpy(), stepped.numpy(), atol=1e-6)
+    np.testing.assert_allclose(one_step.numpy(), stepped.numpy(), atol=1e-6)
 
 
 def test_history_perturbation_leaves_the_clean_start_alone():

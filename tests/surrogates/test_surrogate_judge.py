@@ -58,15 +58,16 @@ def test_judge_runs_at_another_timestep_count_and_seed():
         for ref in references(judge)[1:]:
             drawn = hourly_multipliers(ref, 500, 8, judge)
             assert all((drawn != hourly_multipliers(r, 500, 8, training)).any() for r in range(2, 6))
-    assert judge_timesteps(6) == 10 and judge_timesteps(1) == 6 and judge_timesteps(4, wanted=4) == 5
-    assert JudgeConfig().timesteps_per_hour >= 4
+    assert judge_timesteps(6) == 20 and judge_timesteps(20) == 30 and judge_timesteps(4, wanted=4) == 5
+    assert judge_timesteps(6, wanted=6) == 10
+    assert JudgeConfig().timesteps_per_hour >= 20  # converged: docs/surrogates.md, section 11
 
 
 def test_default_ilv_data_is_sub_hourly():
-    assert ILVConfig().timesteps_per_hour >= 4
+    assert ILVConfig().timesteps_per_hour >= 6
     from pipeline.config import Simulation
 
-    assert Simulation().timesteps_per_hour >= 4
+    assert Simulation().timesteps_per_hour == ILVConfig().timesteps_per_hour
 
 
 def test_held_multipliers_hold_their_draws():
@@ -174,9 +175,9 @@ def test_judge_simulates_a_fresh_finer_run(tiny_judged, tmp_path):
     training = ILVConfig(run_period=((1, 1), (1, 7)), seed=7, timesteps_per_hour=4)
     table, config = judge_table(row, epw, training)
     assert sorted(table["reference"].unique()) == [0, 2, 3] and len(table) == 3 * 7 * 24
-    assert config.timesteps_per_hour == 6 and config.seed != 7
+    assert config.timesteps_per_hour == 20 and config.seed != 7
     _, trained = tiny_judged
     paths = export_surrogate(trained, tmp_path, "house")
     record = judge_surrogate(paths["pth"], row, epw, training)
-    assert record["judge_ilv"]["timesteps_per_hour"] == 6 and record["training_ilv"]["timesteps_per_hour"] == 4
+    assert record["judge_ilv"]["timesteps_per_hour"] == 20 and record["training_ilv"]["timesteps_per_hour"] == 4
     assert record["judge_ilv"]["seed"] != record["training_ilv"]["seed"]
