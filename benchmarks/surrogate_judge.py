@@ -81,11 +81,11 @@ def main() -> None:
     ids = args.bldg_ids or list(config.inputs.buildings)
     recipe = replace(RECIPES[args.recipe], progress=False, threads=1, **parse_settings(args.set))
     training_ilv = ilv_config(config)
+    judge_ilv = judge_ilv_config(training_ilv, JudgeConfig(timesteps_per_hour=args.judge_timesteps))
     for number, bldg_id in enumerate(ids, 1):
         row = read_characteristics_row(config.inputs.characteristics, bldg_id)
         table = cached_table(row, config.inputs.weather, training_ilv, args.data)
-        judge = JudgeConfig(timesteps_per_hour=args.judge_timesteps)
-        fresh = cached_table(row, config.inputs.weather, judge_ilv_config(training_ilv, judge), args.data)
+        fresh = cached_table(row, config.inputs.weather, judge_ilv, args.data)
         trained = train_surrogate(table, recipe)
         s = score_judge_table(trained.model, trained.normalization, trained.inputs, trained.config.lookback, fresh)
         print(json.dumps({"house": bldg_id, "building": f"Building_{number}" if args.bldg_ids is None else None,

@@ -37,10 +37,10 @@ VALID_TIMESTEPS = (1, 2, 3, 4, 5, 6, 10, 12, 15, 20, 30, 60)
 class JudgeConfig:
     """The judge's runs: ``timesteps_per_hour`` (20, where the house's solution has converged: against 60
     timesteps the hourly temperatures differ by 0.04 degC RMSE and a surrogate's score by 0.005 degC; the next
-    valid count up when it equals the training data's), ``partial_runs`` partial-load runs with multipliers U(0.3, 1.7) with probability 0.6, each draw
-    held ``hold_hours`` (1: hourly, upstream's design), seeded by the training seed plus ``seed_offset``;
-    ``run_period`` ((begin month, day), (end month, day)): the months judged (None: the training data's
-    period; a build judges the months its district uses)."""
+    valid count up when it equals the training data's), ``partial_runs`` partial-load runs with multipliers
+    U(0.3, 1.7) with probability 0.6, each draw held ``hold_hours`` (1: hourly, upstream's design), seeded by
+    the training seed plus ``seed_offset``; ``run_period`` ((begin month, day), (end month, day)): the months
+    judged (None: the training data's period; a build judges the months its district uses)."""
 
     timesteps_per_hour: int = 20
     partial_runs: int = 2

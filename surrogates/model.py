@@ -182,7 +182,7 @@ def rollout(model: LSTMModel, x: torch.Tensor, lookback: int, closed_loop: bool 
     if closed_loop and lookback == 1 and not torch.is_autocast_enabled("cpu"):
         return _rollout_cells(model, x, state, weights)
     if not closed_loop and lookback == 1 and state is None:  # teacher-forced: one pass over the rows
-        return model.sequence(torch.cat([x[:, 1:, :-1], x[:, :-1, -1:]], dim=2), weights)
+        return model.sequence(_teacher_rows(x), weights)
     if not closed_loop or not torch.is_grad_enabled():
         return _rollout_rows(model, x, lookback, state, weights, feed_back=closed_loop)
     windows = x[:, 1:, :-1].unfold(1, lookback, 1).transpose(2, 3)  # (batch, hours - lookback, L, inputs - 1)
@@ -228,13 +228,18 @@ def _rollout_cells(model: LSTMModel, x: torch.Tensor, state, weights: Sequence[t
     return torch.cat(predictions, dim=1)
 
 
+def _teacher_rows(x: torch.Tensor) -> torch.Tensor:
+    """Row ``j`` = the exogenous inputs of hour ``j + 1`` and the data temperature of hour ``j`` (a copy)."""
+    return torch.cat([x[:, 1:, :-1], x[:, :-1, -1:]], dim=2)
+
+
 def _rollout_rows(model: LSTMModel, x: torch.Tensor, lookback: int, state, weights: Sequence[torch.Tensor], *,
                   feed_back: bool) -> torch.Tensor:
     """:func:`rollout` from one shifted copy of ``x`` whose row ``j`` holds the exogenous inputs of hour ``j+1``
     and the temperature of hour ``j``; window ``k`` is the view of rows ``k .. k+L-1``. ``feed_back`` (closed
     loop, no autograd): each prediction is written into the next windows' temperature in place; otherwise the
     data temperatures stay (one-step mode, autograd allowed: nothing is written)."""
-    rows = torch.cat([x[:, 1:, :-1], x[:, :-1, -1:]], dim=2)
+    rows = _teacher_rows(x)
     predictions = []
     for k in range(x.shape[1] - lookback):
         y, state = model.step(rows[:, k:k + lookback], state, weights)

@@ -390,7 +390,8 @@ def build_house_model(house: HouseParameters, *, mode: str, ground_temperatures_
     }
     schedules = house_schedules(house, year, timesteps_per_hour, schedule_seed, latitude_deg, mains_mean_c)
     folder = schedule_dir or (Path(load_file).parent if load_file is not None else SCHEDULE_DIR)
-    schedule_file = write_schedule_file(house, schedules, folder)
+    schedule_file = write_schedule_file(house, folder, year, timesteps_per_hour, schedule_seed, latitude_deg,
+                                        mains_mean_c)
     hours = len(schedules.people) // timesteps_per_hour
     for part in (house_materials(house), _geometry(house), _gains(house, schedule_peaks(house, schedules)),
                  _schedules(house, schedule_file, timesteps_per_hour, hours)):

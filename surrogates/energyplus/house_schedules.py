@@ -9,7 +9,6 @@ from __future__ import annotations
 import hashlib
 import os
 import tempfile
-import threading
 from functools import lru_cache
 from pathlib import Path
 
@@ -116,12 +115,11 @@ def _other_plug_w(schedules: HouseSchedules) -> np.ndarray:
     return np.clip(schedules.plug_w - schedules.cooking_w - schedules.dryer_w - schedules.exterior_w, 0.0, None)
 
 
-def write_schedule_file(house: HouseParameters, schedules: HouseSchedules, directory: Path) -> Path:
-    """Write the ``Schedule:File`` CSV (columns :data:`SCHEDULE_COLUMNS`: fractions of :func:`schedule_peaks`
-    and the activity in W per person) into ``directory`` under a content-addressed name; an existing
-    identical file is reused. Returns its path. The text of the last few schedules is kept (one house's
-    runs build the model several times from the same :func:`house_schedules`)."""
-    text, digest = _schedule_text(house, schedules)
+def write_schedule_file(house: HouseParameters, directory: Path, year: int, timesteps_per_hour: int,
+                        seed: int = 0, latitude_deg: float = 35.0, mains_mean_c: float = 20.0) -> Path:
+    """Write the ``Schedule:File`` CSV of :func:`house_schedules` (same arguments; :func:`schedule_csv`) into
+    ``directory`` under a content-addressed name; an existing identical file is reused. Returns its path."""
+    text, digest = schedule_csv(house, year, timesteps_per_hour, seed, latitude_deg, mains_mean_c)
     path = Path(directory) / f"schedules_{house.bldg_id}_{digest}.csv"
     if not path.is_file():
         path.parent.mkdir(parents=True, exist_ok=True)
@@ -132,18 +130,13 @@ def write_schedule_file(house: HouseParameters, schedules: HouseSchedules, direc
     return path
 
 
-#: (house, id of the schedules) -> (the schedules, kept alive so the id stays theirs; CSV text; its digest)
-_TEXTS: dict[tuple[HouseParameters, int], tuple[HouseSchedules, str, str]] = {}
-_TEXTS_LOCK = threading.Lock()  # the build simulates houses in threads
-
-
-def _schedule_text(house: HouseParameters, schedules: HouseSchedules) -> tuple[str, str]:
-    """The schedule CSV text of ``house`` and ``schedules`` and the first 16 hex digits of its sha256."""
-    key = (house, id(schedules))
-    with _TEXTS_LOCK:
-        hit = _TEXTS.get(key)
-    if hit is not None and hit[0] is schedules:
-        return hit[1], hit[2]
+@lru_cache(maxsize=4)
+def schedule_csv(house: HouseParameters, year: int, timesteps_per_hour: int, seed: int = 0,
+                 latitude_deg: float = 35.0, mains_mean_c: float = 20.0) -> tuple[str, str]:
+    """The ``Schedule:File`` CSV text of :func:`house_schedules` (columns :data:`SCHEDULE_COLUMNS`: fractions
+    of :func:`schedule_peaks` and the activity in W per person) and the first 16 hex digits of its sha256;
+    cached like the schedules, as one house's runs build its model several times."""
+    schedules = house_schedules(house, year, timesteps_per_hour, seed, latitude_deg, mains_mean_c)
     peaks = schedule_peaks(house, schedules)
 
     def fraction(values: np.ndarray, peak: float) -> np.ndarray:
@@ -157,9 +150,4 @@ def _schedule_text(house: HouseParameters, schedules: HouseSchedules) -> tuple[s
                              fraction(schedules.exterior_w, peaks["exterior_w"]),
                              fraction(schedules.dhw_m3_s, peaks["dhw_m3_s"])])
     text = csv_text(SCHEDULE_COLUMNS, table)
-    digest = hashlib.sha256(text.encode()).hexdigest()[:16]
-    with _TEXTS_LOCK:
-        while len(_TEXTS) >= 4:
-            _TEXTS.pop(next(iter(_TEXTS)))
-        _TEXTS[key] = (schedules, text, digest)
-    return text, digest
+    return text, hashlib.sha256(text.encode()).hexdigest()[:16]
