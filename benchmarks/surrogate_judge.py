@@ -58,7 +58,10 @@ def parse_settings(pairs: list[str]) -> dict:
     for pair in pairs:
         key, value = pair.split("=", 1)
         default = getattr(TrainConfig(), key)
-        out[key] = value.lower() == "true" if isinstance(default, bool) else type(default)(value)
+        if isinstance(default, tuple):
+            out[key] = tuple(value.split(","))
+        else:
+            out[key] = value.lower() == "true" if isinstance(default, bool) else type(default)(value)
     return out
 
 
@@ -91,10 +94,17 @@ def main() -> None:
         print(json.dumps({"house": bldg_id, "building": f"Building_{number}" if args.bldg_ids is None else None,
                           "recipe": args.recipe, "set": args.set, "median_c": s["median_c"], "worst_c": s["worst_c"],
                           "mean_abs_c": s["mean_abs_c"], "ideal_mean_abs_c": s["ideal_mean_abs_c"],
+                          "by_month_c": by_month(s["monthly"]),
                           "train_cpu_s": round(trained.cpu_seconds, 1), "best_epoch": trained.best_epoch,
                           "val_closed_loop_rmse_c": trained.history[trained.best_epoch]["val_closed_loop_rmse_c"]}),
               flush=True)
     print(json.dumps({"cpu": cpu_model(), "load_average": os.getloadavg()}))
+
+
+def by_month(monthly: list[dict]) -> dict[int, float]:
+    """Median over the judge's partial-load runs of each calendar month's closed-loop RMSE [degC]."""
+    frame = pd.DataFrame(monthly)
+    return {int(m): round(float(v), 3) for m, v in frame.groupby("month")["rmse_c"].median().items()}
 
 
 def cpu_model() -> str:

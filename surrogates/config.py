@@ -16,8 +16,8 @@ TARGET = "indoor_dry_bulb_temperature"
 #: (docs/surrogates.md, fifth pass). The day-type inputs stay available by name.
 DEFAULT_INPUTS: tuple[str, ...] = (
     "direct_solar_irradiance", "diffuse_solar_irradiance", "outdoor_dry_bulb_temperature",
-    "indoor_dry_bulb_temperature_set_point", "occupant_count", "cooling_demand", "heating_demand",
-    "month_sin", "month_cos", "hour_sin", "hour_cos", TARGET,
+    "indoor_dry_bulb_temperature_set_point", "occupant_count", "non_shiftable_load", "cooling_demand",
+    "heating_demand", "month_sin", "month_cos", "hour_sin", "hour_cos", TARGET,
 )
 #: upstream's full input set: the defaults with the day-type encoding before the temperature (the default
 #: before the fifth pass; its ablation recipes and the CityLearn 2.1 comparison use it)

@@ -13,6 +13,8 @@ One row per (reference run, hour). Columns (units):
 ``outdoor_dry_bulb_temperature``                 degC
 ``occupant_count``                               people, >= 0
 ``indoor_dry_bulb_temperature_set_point``        degC, optional column
+``non_shiftable_load``                           kWh of electricity of lights and appliances in the hour (their
+                                                 heat is an internal gain), >= 0, optional column
 ``cooling_demand``                               kWh of heat removed from the zone in the hour, >= 0
 ``heating_demand``                               kWh of heat added to the zone in the hour, >= 0
 ``indoor_dry_bulb_temperature``                  degC, zone air temperature at the end of the hour
@@ -52,7 +54,7 @@ REQUIRED_COLUMNS: tuple[str, ...] = (
     "heating_demand",
     "indoor_dry_bulb_temperature",
 )
-OPTIONAL_COLUMNS: tuple[str, ...] = ("indoor_dry_bulb_temperature_set_point",)
+OPTIONAL_COLUMNS: tuple[str, ...] = ("indoor_dry_bulb_temperature_set_point", "non_shiftable_load")
 INTEGER_COLUMNS: tuple[str, ...] = ("reference", "month", "hour", "day_type")
 #: float column -> (lowest, highest) plausible value
 FLOAT_RANGES: dict[str, tuple[float, float]] = {
@@ -61,6 +63,7 @@ FLOAT_RANGES: dict[str, tuple[float, float]] = {
     "outdoor_dry_bulb_temperature": (-70.0, 60.0),
     "occupant_count": (0.0, 1e6),
     "indoor_dry_bulb_temperature_set_point": (-70.0, 60.0),
+    "non_shiftable_load": (0.0, 1e7),
     "cooling_demand": (0.0, 1e7),
     "heating_demand": (0.0, 1e7),
     "indoor_dry_bulb_temperature": (-70.0, 90.0),

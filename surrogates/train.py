@@ -30,7 +30,7 @@ from tqdm.auto import tqdm
 
 from citylearn_env.errors import InputError
 from surrogates.config import TrainConfig
-from surrogates.ilv import validate_ilv
+from surrogates.ilv import OPTIONAL_COLUMNS, validate_ilv
 from surrogates.model import (
     LSTMModel,
     Normalization,
@@ -187,7 +187,8 @@ def train_surrogate(table: pd.DataFrame, config: TrainConfig | None = None,
     config = config or TrainConfig()
     table = validate_ilv(table, source=source)
     inputs = available_inputs(table, config.inputs)
-    missing = [n for n in config.inputs if n not in inputs and n != "indoor_dry_bulb_temperature_set_point"]
+    # the contract's optional columns (set point, non-shiftable load) are used where the table has them
+    missing = [n for n in config.inputs if n not in inputs and n not in OPTIONAL_COLUMNS]
     if missing:
         raise InputError("input not in the ILV table", file=source, column=missing[0])
     splits = split_segments(table, config.use_free_float, config.use_ideal, config.test_runs)

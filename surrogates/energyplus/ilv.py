@@ -47,8 +47,8 @@ from surrogates.energyplus.sqlite import area_weighted, read_report_variables, r
 
 ILV_COLUMNS = ["reference", "timestamp", "month", "hour", "day_type", "direct_solar_irradiance",
                "diffuse_solar_irradiance", "outdoor_dry_bulb_temperature", "occupant_count",
-               "indoor_dry_bulb_temperature_set_point", "cooling_demand", "heating_demand",
-               "indoor_dry_bulb_temperature"]
+               "indoor_dry_bulb_temperature_set_point", "non_shiftable_load", "cooling_demand",
+               "heating_demand", "indoor_dry_bulb_temperature"]
 
 
 class ILVCheckError(EnergyPlusError):
@@ -223,6 +223,9 @@ def _hourly_frame(frame: pd.DataFrame, reference: int, areas: dict[str, float], 
         "outdoor_dry_bulb_temperature": frame[("Site Outdoor Air Drybulb Temperature", site)].to_numpy(),
         "occupant_count": frame["Zone People Occupant Count"].sum(axis=1).to_numpy(),
         "indoor_dry_bulb_temperature_set_point": np.nan if set_point is None else set_point,
+        # hourly mean of the rates [W] -> kWh in the hour: the building table's non_shiftable_load
+        "non_shiftable_load": (frame["Zone Lights Electricity Rate"].sum(axis=1)
+                               + frame["Zone Electric Equipment Electricity Rate"].sum(axis=1)).to_numpy() / 1000.0,
         "cooling_demand": np.clip(net, 0.0, None),
         "heating_demand": np.clip(-net, 0.0, None),
         "indoor_dry_bulb_temperature": area_weighted(frame, "Zone Mean Air Temperature", areas).to_numpy(),

@@ -95,6 +95,16 @@ def test_table_meets_the_ilv_contract_and_calendar(summer):
     assert 0 < table["occupant_count"].max() <= 3.0 + 1e-9
 
 
+def test_every_run_carries_the_building_tables_non_shiftable_load(summer):
+    # the model reads non_shiftable_load at run time from the building table (the ideal pass's loads): every
+    # run of its training data must carry that same series, whatever the heating and cooling did
+    expected = summer.loads["non_shiftable_load_kwh"].to_numpy()
+    assert expected.min() > 0 and expected.max() > 2 * expected.mean()  # always-on base plus events
+    for reference, run in summer.table.groupby("reference"):
+        np.testing.assert_allclose(run["non_shiftable_load"].to_numpy(), expected, rtol=1e-6, atol=1e-6,
+                                   err_msg=f"reference {reference}")
+
+
 def test_zone_areas_add_up_to_metadata_floor_area(summer):
     assert sum(summer.zone_areas.values()) == pytest.approx(1900 * 0.09290304, rel=1e-3)
 

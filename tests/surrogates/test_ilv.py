@@ -58,6 +58,14 @@ def test_set_point_column_kept():
     assert validate_ilv(table)["indoor_dry_bulb_temperature_set_point"].eq(21.0).all()
 
 
+def test_non_shiftable_load_kept_and_checked():
+    table = make_table()
+    table["non_shiftable_load"] = 0.4
+    assert list(validate_ilv(table).columns)[-1] == "non_shiftable_load"
+    table.loc[7, "non_shiftable_load"] = -0.1  # electricity in the hour cannot be negative
+    assert (error_of(table).column, error_of(table).row) == ("non_shiftable_load", 7)
+
+
 def error_of(table: pd.DataFrame, **kwargs) -> InputError:
     with pytest.raises(InputError) as info:
         validate_ilv(table, source="ilv.csv", **kwargs)

@@ -51,8 +51,10 @@ def test_bounds_from_training_rows_only(table, trained):
     assert trained.normalization.minimum[-1] == temperature[rows].min()
     test_rows = np.concatenate([np.arange(s.start, s.stop) for s in trained.splits["test"]])
     assert not set(test_rows) & set(rows)
-    # the table has every default input (set point included): all of them, in order, temperature last
-    assert trained.inputs == list(DEFAULT_INPUTS) and trained.inputs[-1] == "indoor_dry_bulb_temperature"
+    # the table has every default input (set point included) but the plug load, which the FMU does not
+    # report: all the others, in order, temperature last
+    assert trained.inputs == [n for n in DEFAULT_INPUTS if n != "non_shiftable_load"]
+    assert trained.inputs[-1] == "indoor_dry_bulb_temperature"
 
 
 def test_export_loads_in_upstream_format(trained, tmp_path):
@@ -65,7 +67,7 @@ def test_export_loads_in_upstream_format(trained, tmp_path):
     attributes = block["attributes"]
     assert block["type"] == "citylearn.dynamics.LSTMDynamics" and attributes["filename"] == "Building_1.pth"
     assert len(attributes["input_observation_names"]) == len(attributes["input_normalization_minimum"]) \
-        == len(attributes["input_normalization_maximum"]) == attributes["input_size"] == len(DEFAULT_INPUTS)
+        == len(attributes["input_normalization_maximum"]) == attributes["input_size"] == len(DEFAULT_INPUTS) - 1
 
     # upstream CityLearn builds the network from the schema attributes and loads checkpoint["model_state_dict"]
     class UpstreamLSTM(torch.nn.Module):
@@ -191,3 +193,18 @@ def test_a_model_in_a_built_districts_layout_loads(trained, tmp_path):
     (tmp_path / "surrogates" / "Building_1.dynamics.json").unlink()
     with pytest.raises(InputError, match="under surrogates/ in a built district"):
         load_surrogate(tmp_path / "Building_1.pth")
+
+
+def test_non_shiftable_load_is_an_input_where_the_table_has_it(table):
+    # the plug and lighting electricity of the hour is the house's internal gain; an ILV table that carries it
+    # (the EnergyPlus source's does) trains with it after the occupant count, bounded by its training rows
+    rng = np.random.default_rng(5)
+    with_gains = table.assign(non_shiftable_load=rng.uniform(0.2, 3.0, len(table)))
+    trained = train_surrogate(with_gains, TINY)
+    assert trained.inputs == list(DEFAULT_INPUTS)
+    column = trained.inputs.index("non_shiftable_load")
+    assert trained.inputs[column - 1] == "occupant_count"
+    rows = np.concatenate([np.arange(s.start, s.stop) for s in trained.splits["train"]])
+    load = with_gains["non_shiftable_load"].to_numpy()[rows]
+    assert trained.normalization.minimum[column] == load.min()
+    assert trained.normalization.maximum[column] == load.max()
