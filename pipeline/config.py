@@ -67,7 +67,10 @@ class Selection(_Frozen):
 class Simulation(_Frozen):
     """EnergyPlus houses (inputs.characteristics): the one full-year pass that gives loads and ILV data."""
 
-    partial_runs: int = Field(4, ge=0, description="partial-load ILV runs besides the ideal replay and free float")
+    partial_runs: int = Field(4, ge=0, description="partial-load ILV runs besides the ideal replay")
+    free_float: bool = Field(False, description="also simulate the free-float run (reference 1, no HVAC) into the "
+                                                "ILV table, for retraining with use_free_float; the build's "
+                                                "recipe does not train on it (one EnergyPlus year per house)")
     seed: int = Field(2018, ge=0, lt=SEED_LIMIT,
                       description="seed of the partial-load multipliers (combined with the bldg_id)")
     timesteps_per_hour: int = Field(6, ge=1, le=60, description="EnergyPlus zone timesteps per hour (tables "

@@ -362,3 +362,16 @@ def test_surrogate_section_defaults_are_the_trainers():
 
     config = read_build_config(ROOT / "raw" / "district.toml")  # [surrogate]: source and seed only
     assert train_config(config) == replace(BUILD_RECIPE, progress=False, threads=1)
+
+
+def test_free_float_is_simulated_only_when_asked():
+    # the build's recipe never trains on the free float (use_free_float is off): its EnergyPlus year is spent
+    # only when [simulation] free_float asks for it, e.g. to retrain from the district's own ILV table with it
+    from pipeline.build.surrogates import ilv_config
+    from surrogates.energyplus.ilv import references
+
+    config = read_build_config(ROOT / "raw" / "district.toml")
+    assert references(ilv_config(config)) == [0, 2, 3, 4, 5]
+    asked = parse_build_config({**config.model_dump(mode="json", exclude={"source"}),
+                                "simulation": {"partial_runs": 2, "free_float": True}})
+    assert references(ilv_config(asked)) == [0, 1, 2, 3]
