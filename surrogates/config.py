@@ -13,7 +13,9 @@ TARGET = "indoor_dry_bulb_temperature"
 #: without upstream's day_type_sin/cos: CityLearn 2.1 encodes the day type with period 8 at run time where
 #: the models are trained with 7, so a model that reads the day type runs differently there (on the
 #: validation suite, up to 0.2 degC worse monthly median); occupancy carries the weekly schedule
-#: (docs/surrogates.md, fifth pass). The day-type inputs stay available by name.
+#: (docs/surrogates.md, fifth pass). The day-type inputs stay available by name. ``non_shiftable_load`` (the
+#: hour's lights and appliances, the house's internal gains; the building table's column at run time) is read
+#: where the ILV table has it (docs/surrogates.md, section 11).
 DEFAULT_INPUTS: tuple[str, ...] = (
     "direct_solar_irradiance", "diffuse_solar_irradiance", "outdoor_dry_bulb_temperature",
     "indoor_dry_bulb_temperature_set_point", "occupant_count", "non_shiftable_load", "cooling_demand",
