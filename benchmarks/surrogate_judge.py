@@ -58,10 +58,12 @@ def parse_settings(pairs: list[str]) -> dict:
     for pair in pairs:
         key, value = pair.split("=", 1)
         default = getattr(TrainConfig(), key)
-        if isinstance(default, tuple):
+        if isinstance(default, bool):
+            out[key] = value.lower() == "true"
+        elif isinstance(default, tuple):  # inputs=a,b,c
             out[key] = tuple(value.split(","))
         else:
-            out[key] = value.lower() == "true" if isinstance(default, bool) else type(default)(value)
+            out[key] = type(default)(value)
     return out
 
 

@@ -163,8 +163,7 @@ def hourly_loads(ideal: pd.DataFrame, areas: dict[str, float], house: HouseParam
         "heat": ideal["Zone Ideal Loads Zone Sensible Heating Rate"][keys].sum(axis=1) * kwh,
         "dhw_demand_kwh": ideal["Water Use Equipment Heating Rate"].sum(axis=1) * kwh
         if "Water Use Equipment Heating Rate" in ideal.columns.get_level_values(0) else 0.0,
-        "non_shiftable_load_kwh": (ideal["Zone Lights Electricity Rate"].sum(axis=1)
-                                   + ideal["Zone Electric Equipment Electricity Rate"].sum(axis=1)) * kwh,
+        "non_shiftable_load_kwh": _lights_and_equipment_w(ideal) * kwh,
     })
     means = pd.DataFrame({
         "cooling_set_point_c": ideal["Zone Thermostat Cooling Setpoint Temperature"][zones].max(axis=1),
@@ -186,6 +185,12 @@ def hourly_loads(ideal: pd.DataFrame, areas: dict[str, float], house: HouseParam
         np.where(out["cooling_demand_kwh"] > 0, out["cooling_set_point_c"],
                  np.where(nearer_heating, out["heating_set_point_c"], out["cooling_set_point_c"])))
     return out[LOAD_COLUMNS]
+
+
+def _lights_and_equipment_w(frame: pd.DataFrame) -> pd.Series:
+    """Electric power of the zones' lights and equipment [W], summed over zones: the non-shiftable load."""
+    return (frame["Zone Lights Electricity Rate"].sum(axis=1)
+            + frame["Zone Electric Equipment Electricity Rate"].sum(axis=1))
 
 
 def write_replay_schedule(loads_w: pd.DataFrame, multiplier_per_hour: np.ndarray, path: Path, *,
@@ -223,9 +228,8 @@ def _hourly_frame(frame: pd.DataFrame, reference: int, areas: dict[str, float], 
         "outdoor_dry_bulb_temperature": frame[("Site Outdoor Air Drybulb Temperature", site)].to_numpy(),
         "occupant_count": frame["Zone People Occupant Count"].sum(axis=1).to_numpy(),
         "indoor_dry_bulb_temperature_set_point": np.nan if set_point is None else set_point,
-        # hourly mean of the rates [W] -> kWh in the hour: the building table's non_shiftable_load
-        "non_shiftable_load": (frame["Zone Lights Electricity Rate"].sum(axis=1)
-                               + frame["Zone Electric Equipment Electricity Rate"].sum(axis=1)).to_numpy() / 1000.0,
+        # hourly mean [W] -> kWh in the hour: the building table's non_shiftable_load
+        "non_shiftable_load": _lights_and_equipment_w(frame).to_numpy() / 1000.0,
         "cooling_demand": np.clip(net, 0.0, None),
         "heating_demand": np.clip(-net, 0.0, None),
         "indoor_dry_bulb_temperature": area_weighted(frame, "Zone Mean Air Temperature", areas).to_numpy(),
