@@ -6,8 +6,9 @@
 Per house: the training ILV table (the build's ``[simulation]`` settings, :func:`pipeline.build.surrogates.ilv_config`)
 and the judge's table (:func:`surrogates.judge.judge_ilv_config`: 20 timesteps/h, another seed) are simulated
 once and kept under ``--data`` (keyed by house, settings and the generator's sources); then the recipe trains
-(float32 or what ``precision`` resolves to, one thread) and the model is scored by
-:func:`surrogates.judge.score_judge_table`. One JSON line per house: monthly RMSE median and worst month,
+(float32 or what ``precision`` resolves to, one thread; ``build``: the config's own training settings, on the
+period's season) and the model is scored by :func:`surrogates.judge.score_judge_table` over the whole year.
+One JSON line per house: monthly RMSE median and worst month, the median of the period's months,
 mean absolute errors (partial loads, ideal loads), CPU seconds of training, best epoch, closed-loop validation
 RMSE [degC]; then the CPU model and load average.
 """
@@ -30,7 +31,7 @@ import pandas as pd  # noqa: E402
 import surrogates  # noqa: E402
 from pipeline.build.cache import files_digest  # noqa: E402
 from pipeline.build.steps import read_characteristics_row  # noqa: E402
-from pipeline.build.surrogates import JUDGE_SOURCES, ilv_config  # noqa: E402
+from pipeline.build.surrogates import JUDGE_SOURCES, ilv_config, train_config  # noqa: E402
 from pipeline.config import read_build_config  # noqa: E402
 from surrogates.config import BUILD_RECIPE, TrainConfig  # noqa: E402
 from surrogates.judge import JudgeConfig, judge_ilv_config, score_judge_table  # noqa: E402
@@ -60,8 +61,8 @@ def parse_settings(pairs: list[str]) -> dict:
         default = getattr(TrainConfig(), key)
         if isinstance(default, bool):
             out[key] = value.lower() == "true"
-        elif isinstance(default, tuple):  # inputs=a,b,c
-            out[key] = tuple(value.split(","))
+        elif isinstance(default, tuple):  # inputs=a,b,c or months=12,1,2
+            out[key] = tuple(int(v) if v.isdigit() else v for v in value.split(","))
         else:
             out[key] = type(default)(value)
     return out
@@ -84,7 +85,10 @@ def main() -> None:
 
         config, _ = resolve_selection(config)
     ids = args.bldg_ids or list(config.inputs.buildings)
-    recipe = replace(RECIPES[args.recipe], progress=False, threads=1, **parse_settings(args.set))
+    # "build": the build's own TrainConfig (its [surrogate] settings, trained on the period's season)
+    base = train_config(config) if args.recipe == "build" else RECIPES[args.recipe]
+    recipe = replace(base, progress=False, threads=1, **parse_settings(args.set))
+    served = period_months(config)
     training_ilv = ilv_config(config)
     judge_ilv = judge_ilv_config(training_ilv, JudgeConfig(timesteps_per_hour=args.judge_timesteps))
     for number, bldg_id in enumerate(ids, 1):
@@ -97,10 +101,23 @@ def main() -> None:
                           "recipe": args.recipe, "set": args.set, "median_c": s["median_c"], "worst_c": s["worst_c"],
                           "mean_abs_c": s["mean_abs_c"], "ideal_mean_abs_c": s["ideal_mean_abs_c"],
                           "by_month_c": by_month(s["monthly"]),
+                          "period_median_c": period_median(s["monthly"], served), "months": list(recipe.months),
                           "train_cpu_s": round(trained.cpu_seconds, 1), "best_epoch": trained.best_epoch,
                           "val_closed_loop_rmse_c": trained.history[trained.best_epoch]["val_closed_loop_rmse_c"]}),
               flush=True)
     print(json.dumps({"cpu": cpu_model(), "load_average": os.getloadavg()}))
+
+
+def period_months(config) -> set[int]:
+    """The calendar months of the config's period (what a build's judge scores)."""
+    days = pd.date_range(config.period.start, config.period.end, freq="D")
+    return set(days.month.tolist())
+
+
+def period_median(monthly: list[dict], months: set[int]) -> float:
+    """Median of the monthly closed-loop RMSE rows of ``months`` [degC] (the build judges only those)."""
+    frame = pd.DataFrame(monthly)
+    return round(float(frame.loc[frame["month"].isin(months), "rmse_c"].median()), 4)
 
 
 def by_month(monthly: list[dict]) -> dict[int, float]:

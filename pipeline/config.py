@@ -129,6 +129,8 @@ class Surrogate(_Frozen):
     epochs: int = Field(16, ge=1, le=10_000, description="closed-loop epochs; the last long_chunk_epochs on 168-h chunks")
     pretrain_steps: int = Field(5000, ge=0, le=1_000_000, description="teacher-forced warm-start updates")
     long_chunk_epochs: int = Field(6, ge=0, le=10_000, description="last closed-loop epochs on 168-h chunks")
+    season_margin: int = Field(1, ge=0, le=6, description="train on the period's calendar months and this many "
+                                                          "months either side (6: every month)")
     max_seconds: float | None = Field(None, gt=0, description="optional wall-clock cap (makes training machine-dependent)")
     seed: int = Field(0, ge=0, lt=SEED_LIMIT)
     precision: Literal["auto", "float32", "bfloat16"] = Field(

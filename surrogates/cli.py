@@ -42,10 +42,18 @@ def evaluate(pth: str | os.PathLike, table_path: str | os.PathLike, all_runs: bo
     return metrics
 
 
+def _months(text: str) -> tuple[int, ...]:
+    """``--months 12,1,2`` -> (12, 1, 2) (:attr:`TrainConfig.months` checks the range)."""
+    try:
+        return tuple(int(part) for part in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"comma-separated calendar months 1-12, got {text!r}") from None
+
+
 def _train_command(args: argparse.Namespace) -> int:
     config = TrainConfig(hidden_size=args.hidden, num_layers=args.layers, lookback=args.lookback,
                          epochs=args.epochs, pretrain_steps=args.pretrain_steps, seed=args.seed,
-                         precision=args.precision, progress=not args.quiet)
+                         precision=args.precision, progress=not args.quiet, months=args.months)
     report = train(args.table, args.out_dir, args.name, config)
     print(json.dumps({"building": report["building"], "files": report["files"],
                       "train_seconds": report["training"]["train_seconds"],
@@ -100,6 +108,9 @@ def register(subparsers: argparse._SubParsersAction) -> argparse._SubParsersActi
     train_parser.add_argument("--pretrain-steps", type=int, default=defaults.pretrain_steps,
                               help="one-step warm-start updates before the closed-loop epochs")
     train_parser.add_argument("--seed", type=int, default=defaults.seed)
+    train_parser.add_argument("--months", type=_months, default=(), metavar="M,M,...",
+                              help="train and validate on these calendar months only, e.g. 12,1,2 (a build "
+                                   "trains on its period's months and one either side; default: every month)")
     train_parser.add_argument("--precision", choices=PRECISIONS, default=defaults.precision,
                               help="numeric mode of the updates: auto = bfloat16 only where this CPU multiplies "
                                    "it natively and it measures faster, else float32")

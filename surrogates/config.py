@@ -3,6 +3,7 @@ build read them without loading torch; :mod:`surrogates.train` runs them."""
 
 from __future__ import annotations
 
+import datetime
 from dataclasses import dataclass
 
 from citylearn_env.errors import InputError
@@ -74,6 +75,11 @@ class TrainConfig:
     ema_decay: float = 0.95
     use_free_float: bool = False
     use_ideal: bool = False
+    #: calendar months (1-12) the model is trained and validated on; empty: every month of the table. A
+    #: district serves its surrogates only in its period, so the build trains on the period's months and one
+    #: month either side (:func:`season_months`): the same updates spent on the season the
+    #: model runs in (docs/surrogates.md, section 11)
+    months: tuple[int, ...] = ()
     test_runs: int = 1
     validation_hours: int = 336
     ensemble: int = 1
@@ -97,12 +103,24 @@ class TrainConfig:
             if getattr(self, key) < 0:
                 raise InputError("must be >= 0", column=key)
         check_precision(self.precision, column="precision")
+        bad = [m for m in self.months if not 1 <= m <= 12]
+        if bad:
+            raise InputError(f"calendar months are 1-12, got {bad[0]}", column="months")
 
     @property
     def long_start(self) -> int | None:
         """Epoch at which the long-chunk phase starts (None: no long phase)."""
         long = min(self.long_chunk_epochs, self.epochs - 1)
         return self.epochs - long if long > 0 else None
+
+
+def season_months(start: datetime.date, end: datetime.date, margin: int = 1) -> tuple[int, ...]:
+    """The calendar months (1-12) of the days ``start`` .. ``end`` and ``margin`` months either side, sorted;
+    ``()`` (:attr:`TrainConfig.months`: every month) when they cover the year."""
+    span = (end.year - start.year) * 12 + end.month - start.month + 1 + 2 * margin
+    if span >= 12:
+        return ()
+    return tuple(sorted((start.month - 1 - margin + k) % 12 + 1 for k in range(span)))
 
 
 #: the build's recipe (``[surrogate]`` defaults), cut to fit about 30 s of CPU per building-year in float32 on an

@@ -150,6 +150,22 @@ def split_segments(table: pd.DataFrame, use_free_float: bool = False, use_ideal:
     return roles
 
 
+def within_months(table: pd.DataFrame, splits: dict[str, list[Segment]],
+                  months: Sequence[int]) -> dict[str, list[Segment]]:
+    """``splits`` cut to the rows of the calendar ``months``: each segment becomes its runs of consecutive rows
+    in those months (a run's January and December are two segments: a sample never jumps a gap)."""
+    inside = np.isin(table["month"].to_numpy(), list(months))
+    out: dict[str, list[Segment]] = {}
+    for role, segments in splits.items():
+        out[role] = []
+        for seg in segments:
+            keep = np.concatenate([[False], inside[seg.start:seg.stop], [False]]).astype(np.int8)
+            edges = np.flatnonzero(np.diff(keep))
+            out[role].extend(Segment(seg.reference, seg.start + int(a), seg.start + int(b))
+                             for a, b in zip(edges[::2], edges[1::2], strict=True))
+    return out
+
+
 def _chunks(x: np.ndarray, segments: Sequence[Segment], length: int, offset_rng: np.random.Generator | None,
             step: int) -> np.ndarray:
     """Cut windows of ``length`` rows, ``step`` apart, from every segment; random start offset per segment."""
@@ -192,6 +208,12 @@ def train_surrogate(table: pd.DataFrame, config: TrainConfig | None = None,
     if missing:
         raise InputError("input not in the ILV table", file=source, column=missing[0])
     splits = split_segments(table, config.use_free_float, config.use_ideal, config.test_runs)
+    if config.months:
+        splits = within_months(table, splits, config.months)
+        if not splits["train"]:
+            raise InputError(f"no training rows in the months {','.join(map(str, config.months))} (the season the "
+                             "model is to serve): give a table that covers them, or train on every month (the "
+                             "build's [surrogate] season_margin = 6)", file=source, column="months")
     check_trainable(table, splits, config)
     started = time.perf_counter()
     with torch_threads(config.threads):

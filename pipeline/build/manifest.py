@@ -416,13 +416,21 @@ def check_district(folder: str | Path, config_folder: Path | None = None, expect
     records against ``manifest.sha256`` and the manifest digest against ``expect`` (:func:`check_records`).
 
     ``config_folder``: where the inputs' relative paths resolve (default: the folder recorded in
-    ``timings.json``). Raises :class:`InputError` when there is no readable manifest.
+    ``timings.json``). Raises :class:`InputError` for a folder that is not a districtgen build (no readable
+    manifest.json and no ``manifest.sha256``); a build's manifest changed into something that does not parse
+    is a problem (with what ``manifest.sha256`` says of it), as nothing else can be checked against it.
     """
     folder = Path(folder)
-    manifest = read_manifest(folder)
-    parts = (check_records(folder, expect), check_manifest_fields(manifest),
-             check_outputs(folder, manifest["outputs"]),
-             check_inputs(manifest.get("inputs") or {}, config_folder or recorded_config_folder(folder)))
+    if not (folder / SIDECAR).is_file():
+        read_manifest(folder)  # nothing records the manifest: one error when it is not a districtgen build
+    records = check_records(folder, expect)
+    try:
+        manifest = read_manifest(folder)
+        parts = (records, check_manifest_fields(manifest), check_outputs(folder, manifest["outputs"]),
+                 check_inputs(manifest.get("inputs") or {}, config_folder or recorded_config_folder(folder)))
+    except (InputError, KeyError, TypeError, AttributeError):  # a build's manifest changed into another shape
+        return Verification([*records.problems, f"{MANIFEST}: not a districtgen manifest (changed after the build)"],
+                            records.warnings)
     return Verification([p for part in parts for p in part.problems], [w for part in parts for w in part.warnings])
 
 

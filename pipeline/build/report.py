@@ -163,11 +163,13 @@ def judge_cells(judge: dict | None) -> list[str]:
 
 
 def trained_on(metrics: dict) -> str:
-    """The ILV table a surrogate was trained and scored on: its name and the first 12 hex of its content
-    sha256 (``-`` where the record has neither)."""
+    """The ILV table a surrogate was trained and scored on: its name, the first 12 hex of its content sha256
+    and, for a model trained on a season, its calendar months (``-`` where the record has none of them)."""
     digest = metrics.get("table_sha256")
     name = Path(str(metrics.get("source") or "")).name
-    return " ".join(filter(None, [name or None, f"`{digest[:12]}`" if digest else None])) or "-"
+    months = metrics.get("training", {}).get("config", {}).get("months")
+    return " ".join(filter(None, [name or None, f"`{digest[:12]}`" if digest else None,
+                                  f"(months {','.join(str(m) for m in months)})" if months else None])) or "-"
 
 
 def _change(new: float, old: float) -> str:

@@ -26,7 +26,7 @@ from pipeline.build.steps import check_weather, eulp_metadata_row, read_characte
 from pipeline.config import BuildConfig
 from pipeline.errors import InputError
 from pipeline.progress import epochs, report
-from surrogates.config import BUILD_RECIPE
+from surrogates.config import BUILD_RECIPE, season_months
 from surrogates.energyplus.ilv import ILVConfig
 from surrogates.export import train_and_export
 from surrogates.ilv import read_ilv, table_digest, validate_ilv
@@ -77,12 +77,15 @@ class Judgement:
 def train_config(config: BuildConfig):
     """The :class:`surrogates.train.TrainConfig` of the build (single-threaded, no progress bar): the
     ``[surrogate]`` settings over :data:`surrogates.config.BUILD_RECIPE` (about 30 s of CPU per building-year
-    in float32 on an AVX2-only CPU)."""
+    in float32 on an AVX2-only CPU), trained on the months the district serves its surrogates in: the
+    period's and ``season_margin`` either side (:func:`surrogates.config.season_months`)."""
 
     s = config.surrogate
+    months = season_months(config.period.start, config.period.end, s.season_margin)
     return replace(BUILD_RECIPE, hidden_size=s.hidden_size, num_layers=s.num_layers, lookback=s.lookback,
                    epochs=s.epochs, pretrain_steps=s.pretrain_steps, long_chunk_epochs=s.long_chunk_epochs,
-                   seed=s.seed, max_seconds=s.max_seconds, precision=s.precision, progress=False, threads=1)
+                   seed=s.seed, max_seconds=s.max_seconds, precision=s.precision, progress=False, threads=1,
+                   months=months)
 
 
 def ilv_config(config: BuildConfig) -> ILVConfig:

@@ -361,7 +361,10 @@ def test_surrogate_section_defaults_are_the_trainers():
     from surrogates.config import BUILD_RECIPE
 
     config = read_build_config(ROOT / "raw" / "district.toml")  # [surrogate]: source and seed only
-    assert train_config(config) == replace(BUILD_RECIPE, progress=False, threads=1)
+    # June: trained on May-July, the period's month and one either side
+    assert train_config(config) == replace(BUILD_RECIPE, progress=False, threads=1, months=(5, 6, 7))
+    whole = config.model_copy(update={"surrogate": config.surrogate.model_copy(update={"season_margin": 6})})
+    assert train_config(whole) == replace(BUILD_RECIPE, progress=False, threads=1)
 
 
 def test_free_float_is_simulated_only_when_asked():

@@ -105,12 +105,14 @@ def test_table_digest_is_of_the_content_not_the_file(tmp_path):
 # ------------------------------------------------------------------------------------------ through builds
 @pytest.fixture()
 def one_building(tmp_path):
-    """raw/district.toml for 3 days, Building_1 = 900001, trained (1 epoch) on January of its ILV table."""
+    """raw/district.toml for 3 days, Building_1 = 900001, trained (1 epoch) on June of its ILV table (the
+    season the build trains on is May-July)."""
     config = read_build_config(RAW_CONFIG)
     ilv = tmp_path / "ilv"
     ilv.mkdir()
     table = read_ilv(RAW_CONFIG.parent / "ilv" / "900001.parquet")
-    table[table["timestamp"] < pd.Timestamp("2018-02-01")].to_csv(ilv / "900001.csv", index=False)
+    june = (table["timestamp"] >= pd.Timestamp("2018-06-01")) & (table["timestamp"] < pd.Timestamp("2018-07-01"))
+    table[june].to_csv(ilv / "900001.csv", index=False)
     return config.model_copy(update={
         "period": config.period.model_copy(update={"end": date(2018, 6, 3)}),
         "inputs": config.inputs.model_copy(update={"buildings": [900001], "ilv": ilv}),
@@ -235,14 +237,15 @@ def _january_table() -> pd.DataFrame:
 
 
 def test_the_judged_months_change_the_judge_key_not_the_training_key(tmp_path):
-    """The period decides the months judged: another month is another judgement of the same trained model
-    (training key unchanged); another week of the same month is the same judgement; another model another."""
+    """The period decides the months judged: another month is another judgement; another week of the same
+    month is the same judgement of the same trained model; another model another. The training key follows
+    the season (the period's months and one either side), not the days."""
     table = _january_table()
     periods = {"jan": (date(2018, 1, 1), date(2018, 1, 7)), "jan2": (date(2018, 1, 8), date(2018, 1, 14)),
                "feb": (date(2018, 2, 1), date(2018, 2, 7))}
     configs = {k: _house_config(tmp_path, *v) for k, v in periods.items()}
     training = {k: cache_key(surrogate_cache_parts(c, 43, "Building_1", table)[0]) for k, c in configs.items()}
-    assert training["jan"] == training["jan2"] == training["feb"]
+    assert training["jan"] == training["jan2"] != training["feb"]  # December-February, January-March
     assert "judge" not in surrogate_cache_parts(configs["jan"], 43, "Building_1", table)[0]
     model = {"Building_1.pth": b"weights", "surrogates/Building_1.dynamics.json": b"{}"}
 

@@ -127,8 +127,10 @@ def test_a_failing_task_in_the_prefect_flow_is_one_line_exit_2(tmp_path):
 
 
 def test_surrogate_and_simulation_keys_cover_only_what_they_use(short_toml):
-    """The period (within its year), the battery, the PV, the sizing and the name do not change a surrogate's
-    or a house simulation's cache key; the epochs, the seed and the ILV data do."""
+    """The period's days within its season, the battery, the PV, the sizing and the name do not change a
+    surrogate's or a house simulation's cache key; the epochs, the seed, the ILV data and the season the
+    model trains on (the period's months and one either side) change the surrogate's; the simulation is
+    the period's whole year."""
     config = read_build_config(short_toml)
     config = config.model_copy(update={"surrogate": config.surrogate.model_copy(update={"source": "csv"})})
     ilv = csv_ilv_path(config, 900001)
@@ -141,12 +143,17 @@ def test_surrogate_and_simulation_keys_cover_only_what_they_use(short_toml):
                                     for k, v in sections.items()})
 
     base = surrogate_key(config)
-    unrelated = [edit(config, period={"start": date(2018, 1, 1), "end": date(2018, 12, 31)}),
+    assert config.period.start.month == config.period.end.month == 6
+    unrelated = [edit(config, period={"start": date(2018, 6, 10), "end": date(2018, 6, 20)}),
                  edit(config, sizing={"battery": "Tesla Powerwall 2", "pv_zne_fraction": 0.5}),
                  edit(config, pv={"tilt": 10.0}), edit(config, name="another", seed=7)]
     assert [surrogate_key(c) for c in unrelated] == [base] * len(unrelated)
     assert surrogate_key(edit(config, surrogate={"epochs": config.surrogate.epochs + 1})) != base
     assert surrogate_key(edit(config, surrogate={"seed": config.surrogate.seed + 1})) != base
+    seasons = [edit(config, period={"start": date(2018, 7, 1), "end": date(2018, 7, 3)}),   # June-August
+               edit(config, period={"start": date(2018, 1, 1), "end": date(2018, 12, 31)}),  # every month
+               edit(config, surrogate={"season_margin": 2})]                                # April-August
+    assert len({base, *(surrogate_key(c) for c in seasons)}) == 4
     from surrogates.ilv import read_ilv
 
     table = read_ilv(ilv)
@@ -157,7 +164,7 @@ def test_surrogate_and_simulation_keys_cover_only_what_they_use(short_toml):
 
     row = {"bldg_id": 1, "in.sqft": 1900}
     sim = cache_key(simulation_cache_parts(config, row))
-    for other in unrelated[:3]:
+    for other in [*unrelated[:3], *seasons]:
         assert cache_key(simulation_cache_parts(other, row)) == sim
     next_year = edit(config, period={"start": date(2019, 6, 1), "end": date(2019, 6, 3)})
     assert cache_key(simulation_cache_parts(next_year, row)) != sim    # another calendar year

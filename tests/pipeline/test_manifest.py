@@ -412,3 +412,16 @@ def test_every_file_class_of_a_district_is_covered_by_verify(district, name):
     assert problems and any(p.startswith(f"{name}:") or p.startswith("manifest.sha256:") for p in problems), problems
     if name != "manifest.sha256":
         assert any(p.startswith(f"{name}:") for p in problems), problems
+
+
+@pytest.mark.parametrize("damage", [
+    lambda text: text[: len(text) // 2],                                  # cut: no longer JSON
+    lambda text: text.replace('"outputs"', '"output"', 1),                # JSON, without the outputs table
+    lambda text: text.replace('"path"', '"pat"'),                         # JSON, an input without its path
+])
+def test_a_manifest_changed_into_another_shape_is_a_problem_not_a_crash(district, damage):
+    path = district / "manifest.json"
+    path.write_text(damage(path.read_text()))
+    problems = verify_district(district)
+    assert "manifest.json: not a districtgen manifest (changed after the build)" in problems
+    assert any(p.startswith("manifest.sha256:") or p.startswith("manifest.json:") for p in problems)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -127,6 +128,12 @@ def test_cli_train_and_evaluate(table, tmp_path, capsys):
     table.drop(columns="indoor_dry_bulb_temperature_set_point").to_csv(tmp_path / "no_sp.csv", index=False)
     assert main(["surrogate", "evaluate", str(out / "B1.pth"), str(tmp_path / "no_sp.csv")]) == 2
     assert "indoor_dry_bulb_temperature_set_point" in capsys.readouterr().err
+    # --months: not numbers -> argparse's exit 2 naming the option; outside 1-12 -> one error naming months
+    with pytest.raises(SystemExit) as stop:
+        main(["surrogate", "train", str(csv), "-o", str(out), "--months", "12,x"])
+    assert stop.value.code == 2 and "--months" in capsys.readouterr().err
+    assert main(["surrogate", "train", str(csv), "-o", str(out), "--months", "0,1"]) == 2
+    assert "months" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize("damage, column", [
@@ -208,3 +215,22 @@ def test_non_shiftable_load_is_an_input_where_the_table_has_it(table):
     load = with_gains["non_shiftable_load"].to_numpy()[rows]
     assert trained.normalization.minimum[column] == load.min()
     assert trained.normalization.maximum[column] == load.max()
+
+
+def test_months_restrict_training_to_the_season(room_fmu):
+    # a table from 20 January to 9 February trained on February only: every split row is a February row and
+    # the temperature bounds are those of February's training rows; a month the table lacks is one clear error
+    house = synthetic_house(room_fmu, days=21, t_mean=6.0, start="2026-01-20")
+    table = simulate_ilv_fmu(room_fmu, house, VARIABLE_MAP, n_partial=4, seed=0, start_values={"T0": 22.0})
+    trained = train_surrogate(table, replace(TINY, months=(2,)))
+    month = table["month"].to_numpy()
+    for role in ("train", "validation", "test"):
+        rows = np.concatenate([np.arange(s.start, s.stop) for s in trained.splits[role]])
+        assert set(month[rows]) == {2}, role
+    rows = np.concatenate([np.arange(s.start, s.stop) for s in trained.splits["train"]])
+    temperature = table["indoor_dry_bulb_temperature"].to_numpy()
+    assert trained.normalization.maximum[-1] == temperature[rows].max()
+    assert trained.normalization.minimum[-1] == temperature[rows].min()
+    assert tuple(trained.summary()["config"]["months"]) == (2,)  # the model's record says its season
+    with pytest.raises(InputError, match="no training rows in the months 3"):
+        train_surrogate(table, replace(TINY, months=(3,)))
