@@ -26,24 +26,48 @@ def train(table_path: str | os.PathLike, out_dir: str | os.PathLike, name: str |
 
 
 def evaluate(pth: str | os.PathLike, table_path: str | os.PathLike, all_runs: bool = False,
-             plot: str | os.PathLike | None = None) -> dict:
-    """Metrics of an exported model on an ILV table: its held-out test segments (or every run); with ``plot``
-    also the PNG of simulated vs predicted temperature."""
+             plot: str | os.PathLike | None = None, months: tuple[int, ...] | None = None) -> dict:
+    """Metrics of an exported model on an ILV table: its held-out test segments (or every run) in ``months``
+    (None: the months the model was trained on, from its record, else every month; ``()``: every month); with
+    ``plot`` also the PNG of simulated vs predicted temperature."""
     from surrogates.evaluate import evaluate_segments, plot_predictions  # torch: not at parser build
     from surrogates.export import load_surrogate  # torch: not at parser build
-    from surrogates.train import run_segments, split_segments  # torch: not at parser build
+    from surrogates.train import run_segments, split_segments, within_months  # torch: not at parser build
 
     model, norm, names, lookback = load_surrogate(pth)
     table = read_ilv_table(table_path)
     segments = list(run_segments(table).values()) if all_runs else split_segments(table)["test"]
+    months = trained_months(pth) if months is None else months
+    if months:
+        segments = within_months(table, {"scored": segments}, months)["scored"]
+        if not segments:
+            raise InputError(f"no rows to score in the months {','.join(map(str, months))} the model serves "
+                             "(--months all scores every month)", file=table_path, column="months")
     metrics, hours = evaluate_segments(model, norm, names, lookback, table, segments)
+    metrics["months"] = list(months)
     if plot:
         plot_predictions(hours, plot, title=f"{Path(pth).stem} on {Path(table_path).name}")
     return metrics
 
 
+def trained_months(pth: str | os.PathLike) -> tuple[int, ...]:
+    """The calendar months a model was trained on, from its record (``<stem>.metrics.json`` next to the .pth,
+    or under ``surrogates/`` beside it in a built district); ``()`` (every month) without one."""
+    pth = Path(pth)
+    for record in (pth.with_name(f"{pth.stem}.metrics.json"), pth.parent / "surrogates" / f"{pth.stem}.metrics.json"):
+        if record.is_file():
+            try:
+                months = json.loads(record.read_text()).get("training", {}).get("config", {}).get("months")
+            except (ValueError, AttributeError):
+                return ()
+            return tuple(int(m) for m in months or ())
+    return ()
+
+
 def _months(text: str) -> tuple[int, ...]:
-    """``--months 12,1,2`` -> (12, 1, 2) (:attr:`TrainConfig.months` checks the range)."""
+    """``--months 12,1,2`` -> (12, 1, 2), ``all`` -> () (:attr:`TrainConfig.months` checks the range)."""
+    if text == "all":
+        return ()
     try:
         return tuple(int(part) for part in text.split(","))
     except ValueError:
@@ -77,14 +101,15 @@ def _evaluate_command(args: argparse.Namespace) -> int:
         raise InputError("give an ILV table, or --judge CONFIG to score against a fresh EnergyPlus run",
                          column="table")
     plot = args.plot or Path(args.model).with_suffix(".evaluate.png")
-    metrics = evaluate(args.model, args.table, all_runs=args.all, plot=plot)
+    metrics = evaluate(args.model, args.table, all_runs=args.all, plot=plot, months=args.months)
     if args.json:
         print(json.dumps(metrics, indent=2))
         return 0
     print(month_table(metrics["monthly"]))
     print(f"closed-loop monthly RMSE median {metrics['monthly_rmse_c']['median']:.3f} C, max "
           f"{metrics['monthly_rmse_c']['max']:.3f} C; closed-loop RMSE {metrics['closed_loop_rmse_c']:.3f} C, "
-          f"one-step {metrics['one_step_rmse_c']:.3f} C over {metrics['hours']} h; plot {plot}")
+          f"one-step {metrics['one_step_rmse_c']:.3f} C over {metrics['hours']} h"
+          f"{' of the months ' + ','.join(map(str, metrics['months'])) if metrics['months'] else ''}; plot {plot}")
     return 0
 
 
@@ -126,6 +151,9 @@ def register(subparsers: argparse._SubParsersAction) -> argparse._SubParsersActi
     eval_parser.add_argument("--bldg-id", type=int, help="--judge: the house (default: buildings.json beside the "
                                                          "model)")
     eval_parser.add_argument("--all", action="store_true", help="evaluate every run, not only the test split")
+    eval_parser.add_argument("--months", type=_months, default=None, metavar="M,M,...|all",
+                             help="score these calendar months (default: the months the model was trained on, "
+                                  "from its metrics record; all: every month)")
     eval_parser.add_argument("--plot", help="PNG of prediction vs simulation (default: <model>.evaluate.png)")
     eval_parser.add_argument("--json", action="store_true", help="print the metrics as JSON instead")
     eval_parser.set_defaults(func=_evaluate_command)

@@ -234,3 +234,22 @@ def test_months_restrict_training_to_the_season(room_fmu):
     assert tuple(trained.summary()["config"]["months"]) == (2,)  # the model's record says its season
     with pytest.raises(InputError, match="no training rows in the months 3"):
         train_surrogate(table, replace(TINY, months=(3,)))
+
+
+def test_cli_evaluate_scores_the_months_the_model_serves(room_fmu, tmp_path, capsys):
+    # a model trained on February scores February by default (its record says so); --months all every month
+    house = synthetic_house(room_fmu, days=21, t_mean=6.0, start="2026-01-20")
+    table = simulate_ilv_fmu(room_fmu, house, VARIABLE_MAP, n_partial=4, seed=0, start_values={"T0": 22.0})
+    csv = write_ilv(table, tmp_path / "house.csv")
+    out = tmp_path / "out"
+    assert main(["surrogate", "train", str(csv), "-o", str(out), "--name", "B1", "--epochs", "1", "--months", "2",
+                 "--pretrain-steps", "20", "--hidden", "4", "--quiet", "--precision", "float32"]) == 0
+    capsys.readouterr()
+    scored = {}
+    for option in ([], ["--months", "all"], ["--months", "1"]):
+        assert main(["surrogate", "evaluate", str(out / "B1.pth"), str(csv), "--json", *option]) == 0
+        metrics = json.loads(capsys.readouterr().out)
+        scored[tuple(option)] = {m["month"] for m in metrics["monthly"]}
+    assert scored == {(): {2}, ("--months", "all"): {1, 2}, ("--months", "1"): {1}}
+    assert main(["surrogate", "evaluate", str(out / "B1.pth"), str(csv), "--months", "3"]) == 2
+    assert "months" in capsys.readouterr().err
