@@ -33,7 +33,7 @@ from pipeline.build.cache import files_digest  # noqa: E402
 from pipeline.build.steps import read_characteristics_row  # noqa: E402
 from pipeline.build.surrogates import JUDGE_SOURCES, ilv_config, train_config  # noqa: E402
 from pipeline.config import read_build_config  # noqa: E402
-from surrogates.config import BUILD_RECIPE, TrainConfig  # noqa: E402
+from surrogates.config import BUILD_RECIPE, TrainConfig, season_months  # noqa: E402
 from surrogates.judge import JudgeConfig, judge_ilv_config, score_judge_table  # noqa: E402
 from surrogates.sources.energyplus import energyplus_ilv_table  # noqa: E402
 from surrogates.train import train_surrogate  # noqa: E402
@@ -109,9 +109,8 @@ def main() -> None:
 
 
 def period_months(config) -> set[int]:
-    """The calendar months of the config's period (what a build's judge scores)."""
-    days = pd.date_range(config.period.start, config.period.end, freq="D")
-    return set(days.month.tolist())
+    """The calendar months of the config's period (what a build's judge scores): its season without margin."""
+    return set(season_months(config.period.start, config.period.end, margin=0)) or set(range(1, 13))
 
 
 def period_median(monthly: list[dict], months: set[int]) -> float:

@@ -53,15 +53,16 @@ def evaluate(pth: str | os.PathLike, table_path: str | os.PathLike, all_runs: bo
 def trained_months(pth: str | os.PathLike) -> tuple[int, ...]:
     """The calendar months a model was trained on, from its record (``<stem>.metrics.json`` next to the .pth,
     or under ``surrogates/`` beside it in a built district); ``()`` (every month) without one."""
-    pth = Path(pth)
-    for record in (pth.with_name(f"{pth.stem}.metrics.json"), pth.parent / "surrogates" / f"{pth.stem}.metrics.json"):
-        if record.is_file():
-            try:
-                months = json.loads(record.read_text()).get("training", {}).get("config", {}).get("months")
-            except (ValueError, AttributeError):
-                return ()
-            return tuple(int(m) for m in months or ())
-    return ()
+    from surrogates.export import record_path  # torch: not at parser build
+
+    record = record_path(pth, "metrics.json")
+    if not record.is_file():
+        return ()
+    try:
+        months = json.loads(record.read_text()).get("training", {}).get("config", {}).get("months")
+    except (ValueError, AttributeError):
+        return ()
+    return tuple(int(m) for m in months or ())
 
 
 def _months(text: str) -> tuple[int, ...]:

@@ -66,6 +66,14 @@ def export_surrogate(trained: Trained, out_dir: str | os.PathLike, name: str) ->
     return {"pth": pth, "dynamics": block}
 
 
+def record_path(pth: str | os.PathLike, suffix: str) -> Path:
+    """A model's companion file ``<stem>.<suffix>``: next to the .pth (``surrogate train``'s layout), else under
+    ``surrogates/`` beside it (a built district's); the first of the two when neither exists."""
+    pth = Path(pth)
+    places = [pth.with_name(f"{pth.stem}.{suffix}"), pth.parent / "surrogates" / f"{pth.stem}.{suffix}"]
+    return next((place for place in places if place.is_file()), places[0])
+
+
 def load_surrogate(pth: str | os.PathLike, dynamics: dict | str | os.PathLike | None = None):
     """Load an exported model: ``(model, normalization, input names, lookback)``.
 
@@ -76,8 +84,7 @@ def load_surrogate(pth: str | os.PathLike, dynamics: dict | str | os.PathLike | 
     if not pth.is_file():
         raise InputError("model file not found", file=pth)
     if not isinstance(dynamics, dict):
-        beside = [pth.with_name(f"{pth.stem}.dynamics.json"), pth.parent / "surrogates" / f"{pth.stem}.dynamics.json"]
-        block_path = Path(dynamics) if dynamics is not None else next((p for p in beside if p.is_file()), beside[0])
+        block_path = Path(dynamics) if dynamics is not None else record_path(pth, "dynamics.json")
         if not block_path.is_file():
             raise InputError("dynamics block not found (written next to the .pth by 'surrogate train', or under "
                              "surrogates/ in a built district)", file=block_path)

@@ -421,17 +421,25 @@ def check_district(folder: str | Path, config_folder: Path | None = None, expect
     is a problem (with what ``manifest.sha256`` says of it), as nothing else can be checked against it.
     """
     folder = Path(folder)
-    if not (folder / SIDECAR).is_file():
-        read_manifest(folder)  # nothing records the manifest: one error when it is not a districtgen build
-    records = check_records(folder, expect)
     try:
         manifest = read_manifest(folder)
+    except InputError:
+        if not (folder / SIDECAR).is_file():
+            raise  # nothing records a manifest: not a districtgen build
+        return _changed_manifest(check_records(folder, expect))
+    records = check_records(folder, expect)
+    try:
         parts = (records, check_manifest_fields(manifest), check_outputs(folder, manifest["outputs"]),
                  check_inputs(manifest.get("inputs") or {}, config_folder or recorded_config_folder(folder)))
-    except (InputError, KeyError, TypeError, AttributeError):  # a build's manifest changed into another shape
-        return Verification([*records.problems, f"{MANIFEST}: not a districtgen manifest (changed after the build)"],
-                            records.warnings)
+    except (KeyError, TypeError, AttributeError):  # parses, but changed into another shape
+        return _changed_manifest(records)
     return Verification([p for part in parts for p in part.problems], [w for part in parts for w in part.warnings])
+
+
+def _changed_manifest(records: Verification) -> Verification:
+    """What a build whose manifest.json no longer reads as one can report: its records' check and that."""
+    return Verification([*records.problems, f"{MANIFEST}: not a districtgen manifest (changed after the build)"],
+                        records.warnings)
 
 
 def verify_district(folder: str | Path) -> list[str]:
