@@ -129,7 +129,7 @@ class Surrogate(_Frozen):
     epochs: int = Field(16, ge=1, le=10_000, description="closed-loop epochs; the last long_chunk_epochs on 168-h chunks")
     pretrain_steps: int = Field(5000, ge=0, le=1_000_000, description="teacher-forced warm-start updates")
     long_chunk_epochs: int = Field(6, ge=0, le=10_000, description="last closed-loop epochs on 168-h chunks")
-    season_margin: int = Field(1, ge=0, le=6, description="train on the period's calendar months and this many "
+    season_margin: int = Field(0, ge=0, le=6, description="train on the period's calendar months and this many "
                                                           "months either side (6: every month)")
     max_seconds: float | None = Field(None, gt=0, description="optional wall-clock cap (makes training machine-dependent)")
     seed: int = Field(0, ge=0, lt=SEED_LIMIT)
@@ -152,7 +152,9 @@ class BuildConfig(_Frozen):
     layout: Literal["v2.1", "v2.2"] = "v2.2"
     forecast: Literal["perfect", "noisy"] = "perfect"
     seed: int = Field(0, ge=0, lt=SEED_LIMIT)
-    timezone: str = "America/Chicago"
+    timezone: str = Field("America/Chicago", description="IANA zone of the district: the tables' "
+                          "daylight_savings_status and the households' clock (their schedules and thermostat "
+                          "offsets come an hour earlier in standard time while it shows daylight time)")
     cache_dir: Path | None = Field(None, description="surrogate cache root (default: $DISTRICTGEN_CACHE_DIR, "
                                                      "else ~/.cache/districtgen); relative to the file")
     source: Path = Path("<dict>")

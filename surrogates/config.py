@@ -114,7 +114,7 @@ class TrainConfig:
         return self.epochs - long if long > 0 else None
 
 
-def season_months(start: datetime.date, end: datetime.date, margin: int = 1) -> tuple[int, ...]:
+def season_months(start: datetime.date, end: datetime.date, margin: int = 0) -> tuple[int, ...]:
     """The calendar months (1-12) of the days ``start`` .. ``end`` and ``margin`` months either side, sorted;
     ``()`` (:attr:`TrainConfig.months`: every month) when they cover the year."""
     span = (end.year - start.year) * 12 + end.month - start.month + 1 + 2 * margin

@@ -46,13 +46,14 @@ class HouseSimulation:
 def simulation_cache_parts(config: BuildConfig, row: Mapping[str, object]) -> dict:
     """What a house's simulation is a function of (the cache key parts): the stock row, the weather file's
     sha256, the calendar year of the period (the pass covers that whole year), the simulation settings (not
-    ``fuel_heating``: it acts after the simulation) and the generator's sources. Not the period's days."""
+    ``fuel_heating``: it acts after the simulation), the time zone (the households' clock) and the generator's
+    sources. Not the period's days."""
 
     package = Path(surrogates.__file__).parent
     return {"row": dict(row), "epw_sha256": sha256_file(Path(config.inputs.weather)), "year": config.period.start.year,
             "simulation": config.simulation.model_dump(exclude={"fuel_heating"}),
             "generator_sha256": files_digest([package / f for f in ENERGYPLUS_SOURCES], package),
-            "schedule_version": SCHEDULE_VERSION}
+            "schedule_version": SCHEDULE_VERSION, "timezone": config.timezone}
 
 
 def simulate_building(config: BuildConfig, bldg_id: int) -> HouseSimulation:

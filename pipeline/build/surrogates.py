@@ -93,7 +93,7 @@ def ilv_config(config: BuildConfig) -> ILVConfig:
     surrogates are trained on."""
     sim = config.simulation
     return ILVConfig(partial_runs=sim.partial_runs, seed=sim.seed, timesteps_per_hour=sim.timesteps_per_hour,
-                     year=config.period.start.year, free_float=sim.free_float)
+                     year=config.period.start.year, free_float=sim.free_float, timezone=config.timezone)
 
 
 def judge_config(config: BuildConfig) -> JudgeConfig:

@@ -1,5 +1,5 @@
-"""What the house model needs from an EPW: monthly ground temperatures and the latitude (header), and the
-annual mean mains water temperature (data rows)."""
+"""What the house model needs from an EPW: monthly ground temperatures, the latitude and the time zone of the
+site's clocks (header), and the annual mean mains water temperature (data rows)."""
 
 from __future__ import annotations
 
@@ -38,19 +38,53 @@ def read_epw_ground_temperatures(path: Path) -> list[float]:
     raise InputError("EPW header has no ground temperatures", file=path, column="GROUND TEMPERATURES")
 
 
-def read_epw_latitude(path: Path) -> float:
-    """The site latitude [degrees north] of the EPW header's ``LOCATION`` line (field 7)."""
+def _location_fields(path: Path) -> list[str]:
+    """The fields of the EPW header's first line (``LOCATION``, city, state, country, source, WMO, latitude,
+    longitude, time zone, elevation); one error naming the file when it is missing or not that line."""
     path = Path(path)
     if not path.is_file():
         raise InputError("EPW weather file not found", file=path)
     with path.open(errors="replace") as handle:
-        line = next(handle, "")
-    fields = line.strip().split(",")
+        fields = next(handle, "").strip().split(",")
+    if not fields[0].upper().startswith("LOCATION") or len(fields) < 7:
+        raise InputError("unreadable LOCATION header line (expected LOCATION,city,state,country,...)", file=path,
+                         row=1)
+    return fields
+
+
+#: IANA zones of US sites by the EPW's UTC offset [h] (standard time), and of the states and territories
+#: whose clocks keep standard time all year
+US_ZONES = {-5.0: "America/New_York", -6.0: "America/Chicago", -7.0: "America/Denver",
+            -8.0: "America/Los_Angeles", -9.0: "America/Anchorage", -10.0: "Pacific/Honolulu"}
+US_STANDARD_TIME_ZONES = {"AZ": "America/Phoenix", "HI": "Pacific/Honolulu", "PR": "America/Puerto_Rico",
+                          "VI": "America/St_Thomas", "GU": "Pacific/Guam", "AS": "Pacific/Pago_Pago",
+                          "MP": "Pacific/Saipan"}
+
+
+def read_epw_timezone(path: Path) -> str | None:
+    """The IANA time zone of the households' clocks at the EPW's site, where the header tells it: a site in
+    the USA (``LOCATION`` country ``USA``/``US``) gets its state's standard-time zone
+    (:data:`US_STANDARD_TIME_ZONES`) or the zone of its UTC offset (field 9, :data:`US_ZONES`); None
+    elsewhere (the offset alone does not tell a country's daylight-time rule: set the zone explicitly)."""
+    fields = _location_fields(path)
+    country, state = fields[3].strip().upper(), fields[2].strip().upper()
+    if country not in ("USA", "US", "UNITED STATES"):
+        return None
+    if state in US_STANDARD_TIME_ZONES:
+        return US_STANDARD_TIME_ZONES[state]
     try:
-        if not fields[0].upper().startswith("LOCATION"):
-            raise ValueError
-        latitude = float(fields[6])
+        return US_ZONES.get(float(fields[8]))
     except (ValueError, IndexError):
+        raise InputError("unreadable time zone in the LOCATION header line (field 9)", file=path, row=1) from None
+
+
+def read_epw_latitude(path: Path) -> float:
+    """The site latitude [degrees north] of the EPW header's ``LOCATION`` line (field 7)."""
+    path = Path(path)
+    fields = _location_fields(path)
+    try:
+        latitude = float(fields[6])
+    except ValueError:
         raise InputError("unreadable LOCATION header line (latitude in field 7)", file=path, row=1) from None
     if not -90.0 <= latitude <= 90.0:
         raise InputError(f"latitude {latitude:g} outside -90..90", file=path, row=1, column="LOCATION")

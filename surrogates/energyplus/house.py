@@ -14,9 +14,12 @@ requires).
 
 from __future__ import annotations
 
+import datetime as dt
 import math
 from collections.abc import Sequence
 from pathlib import Path
+
+import numpy as np
 
 from surrogates.energyplus.house_schedules import (
     HOT_WATER_USE_C,
@@ -27,6 +30,7 @@ from surrogates.energyplus.house_schedules import (
     write_schedule_file,
 )
 from surrogates.energyplus.metadata import HouseParameters, setpoint_schedules
+from surrogates.energyplus.occupancy import daylight_days
 from surrogates.energyplus.schedules import AWAKE_ACTIVITY_W
 
 #: the schedule names that read the ``Schedule:File`` columns :data:`SCHEDULE_COLUMNS`
@@ -74,14 +78,23 @@ def _vertices(points: Sequence[tuple[float, float, float]]) -> list[dict[str, fl
              "vertex_z_coordinate": round(z, 4)} for x, y, z in points]
 
 
-def _compact(hourly: tuple[list[float], list[float]]) -> list[dict[str, object]]:
-    data: list[dict[str, object]] = [{"field": "Through: 12/31"}]
-    for days, values in (("Weekdays SummerDesignDay WinterDesignDay", hourly[0]),
-                         ("Weekends Holidays CustomDay1 CustomDay2", hourly[1])):
-        data.append({"field": f"For: {days}"})
-        for hour, value in enumerate(values):
-            if hour == 23 or values[hour + 1] != value:
-                data += [{"field": f"Until: {hour + 1:02d}:00"}, {"field": float(value)}]
+def _compact(hourly: tuple[list[float], list[float]], year: int, daylight: np.ndarray) -> list[dict[str, object]]:
+    """``Schedule:Compact`` fields of hourly (weekday, weekend) values kept by the household's clock, in
+    standard time: on the days of ``year`` where ``daylight`` (bool per day) is True each value comes an
+    hour earlier."""
+    earlier = tuple(values[1:] + values[:1] for values in hourly)
+    ends = [day for day in range(len(daylight)) if day == len(daylight) - 1 or daylight[day + 1] != daylight[day]]
+    data: list[dict[str, object]] = []
+    for end in ends:
+        through = dt.date(year, 1, 1) + dt.timedelta(days=end)
+        data.append({"field": f"Through: {through.month:d}/{through.day:d}"})
+        profile = earlier if daylight[end] else hourly
+        for days, values in (("Weekdays SummerDesignDay WinterDesignDay", profile[0]),
+                             ("Weekends Holidays CustomDay1 CustomDay2", profile[1])):
+            data.append({"field": f"For: {days}"})
+            for hour, value in enumerate(values):
+                if hour == 23 or values[hour + 1] != value:
+                    data += [{"field": f"Until: {hour + 1:02d}:00"}, {"field": float(value)}]
     return data
 
 
@@ -249,8 +262,8 @@ def _gains(house: HouseParameters, peaks: dict[str, float]) -> dict[str, dict[st
     }
 
 
-def _schedules(house: HouseParameters, schedule_file: Path, timesteps_per_hour: int, hours: int
-               ) -> dict[str, dict[str, dict[str, object]]]:
+def _schedules(house: HouseParameters, schedule_file: Path, timesteps_per_hour: int, hours: int, year: int,
+               daylight: np.ndarray) -> dict[str, dict[str, dict[str, object]]]:
     def constant(value, limits="any_number"):
         return {"schedule_type_limits_name": limits, "hourly_value": value}
 
@@ -272,8 +285,8 @@ def _schedules(house: HouseParameters, schedule_file: Path, timesteps_per_hour: 
             "hot_water_supply": constant(HOT_WATER_SUPPLY_C), "hot_water_target": constant(HOT_WATER_USE_C),
             "dual_setpoint_control": constant(4.0)},
         "Schedule:Compact": {
-            "cooling_setpoint": {"schedule_type_limits_name": "any_number", "data": _compact(cooling)},
-            "heating_setpoint": {"schedule_type_limits_name": "any_number", "data": _compact(heating)}},
+            "cooling_setpoint": {"schedule_type_limits_name": "any_number", "data": _compact(cooling, year, daylight)},
+            "heating_setpoint": {"schedule_type_limits_name": "any_number", "data": _compact(heating, year, daylight)}},
     }
 
 
@@ -343,8 +356,8 @@ def build_house_model(house: HouseParameters, *, mode: str, ground_temperatures_
                       run_period: tuple[tuple[int, int], tuple[int, int]] = ((1, 1), (12, 31)),
                       year: int = 2018, timesteps_per_hour: int = 6, reporting_frequency: str = "Hourly",
                       load_file: Path | None = None, dhw: bool = True, schedule_seed: int = 0,
-                      latitude_deg: float = 35.0, mains_mean_c: float = 20.0, schedule_dir: Path | None = None
-                      ) -> dict[str, object]:
+                      latitude_deg: float = 35.0, mains_mean_c: float = 20.0, schedule_dir: Path | None = None,
+                      clock_zone: str | None = None) -> dict[str, object]:
     """The epJSON document (a dict) of ``house`` in ``mode`` ``"ideal"`` or ``"replay"``.
 
     ``ground_temperatures_c``: 12 monthly undisturbed ground temperatures (C; the slab's boundary is
@@ -355,6 +368,9 @@ def build_house_model(house: HouseParameters, *, mode: str, ground_temperatures_
     (:func:`house_schedules` with ``schedule_seed``, ``latitude_deg`` and the annual mean mains temperature
     ``mains_mean_c`` [C]), written as a ``Schedule:File`` CSV
     into ``schedule_dir`` (default: the replay CSV's folder, else :data:`SCHEDULE_DIR`).
+    The simulation keeps standard time all year; the schedules and the thermostat's set-point offsets follow
+    the households' clock in IANA time zone ``clock_zone`` (None: standard time all year), so they come an
+    hour earlier while its clocks show daylight time.
     """
     if mode not in ("ideal", "replay"):
         raise ValueError(f"mode must be 'ideal' or 'replay', got {mode!r}")
@@ -388,13 +404,15 @@ def build_house_model(house: HouseParameters, *, mode: str, ground_temperatures_
             "output_csv": "No", "output_mtr": "No", "output_eso": "No", "output_tabular": "No",
             "output_sqlite": "Yes", "output_json": "No"}},
     }
-    schedules = house_schedules(house, year, timesteps_per_hour, schedule_seed, latitude_deg, mains_mean_c)
+    schedules = house_schedules(house, year, timesteps_per_hour, schedule_seed, latitude_deg, mains_mean_c,
+                                clock_zone)
     folder = schedule_dir or (Path(load_file).parent if load_file is not None else SCHEDULE_DIR)
     schedule_file = write_schedule_file(house, folder, year, timesteps_per_hour, schedule_seed, latitude_deg,
-                                        mains_mean_c)
+                                        mains_mean_c, clock_zone)
+    daylight = daylight_days(year, clock_zone)
     hours = len(schedules.people) // timesteps_per_hour
     for part in (house_materials(house), _geometry(house), _gains(house, schedule_peaks(house, schedules)),
-                 _schedules(house, schedule_file, timesteps_per_hour, hours)):
+                 _schedules(house, schedule_file, timesteps_per_hour, hours, year, daylight)):
         model.update(part)
     if not dhw:
         model.pop("WaterUse:Equipment")

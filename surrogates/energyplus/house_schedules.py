@@ -53,14 +53,16 @@ SCHEDULE_COLUMNS = ("people_fraction", "activity_w", "lighting_fraction", "plug_
 #: where :func:`build_house_model` writes the schedule CSV when given no folder (content-addressed names)
 SCHEDULE_DIR = Path(tempfile.gettempdir()) / "districtgen-schedules"
 
-def schedule_targets(house: HouseParameters, latitude_deg: float = 35.0,
-                     mains_mean_c: float = 20.0) -> ScheduleTargets:
+def schedule_targets(house: HouseParameters, latitude_deg: float = 35.0, mains_mean_c: float = 20.0,
+                     clock_zone: str | None = None) -> ScheduleTargets:
     """The daily totals of the house's occupant-driven schedules.
 
     With the stock row's own end uses (``house.end_uses``): plug, cooking, dryer, lighting and exterior
     electricity [kWh/day] as the row says, and hot water [L/day of mixed water at :data:`HOT_WATER_USE_C`] =
     the delivered hot-water heat / (:data:`WATER_KJ_PER_L_K` x (use - ``mains_mean_c``, the annual mean
     mains temperature [C]; at least :data:`MIN_HOT_WATER_RISE_K`)).
+
+    ``clock_zone``: the IANA time zone of the household's clock (:attr:`ScheduleTargets.clock_zone`).
 
     Otherwise the former fixed profiles' totals: hot water = (base + per person x occupants) x fixtures; plug
     and lighting = peak density x floor area x the week-weighted mean of :data:`EQUIPMENT` /
@@ -79,21 +81,23 @@ def schedule_targets(house: HouseParameters, latitude_deg: float = 35.0,
         return ScheduleTargets(occupants=int(round(house.occupants)), dhw_litres_per_day=litres,
                                plug_kwh_per_day=uses.plug, lighting_kwh_per_day=uses.lighting,
                                latitude_deg=latitude_deg, cooking_kwh_per_day=uses.cooking,
-                               dryer_kwh_per_day=uses.dryer, exterior_kwh_per_day=uses.exterior)
+                               dryer_kwh_per_day=uses.dryer, exterior_kwh_per_day=uses.exterior,
+                               clock_zone=clock_zone)
     return ScheduleTargets(occupants=int(round(house.occupants)), dhw_litres_per_day=litres,
                            plug_kwh_per_day=daily_kwh(house.equipment_w_per_m2, EQUIPMENT),
                            lighting_kwh_per_day=daily_kwh(house.lighting_w_per_m2, LIGHTING),
-                           latitude_deg=latitude_deg)
+                           latitude_deg=latitude_deg, clock_zone=clock_zone)
 
 
 @lru_cache(maxsize=4)
 def house_schedules(house: HouseParameters, year: int, timesteps_per_hour: int, seed: int = 0,
-                    latitude_deg: float = 35.0, mains_mean_c: float = 20.0) -> HouseSchedules:
+                    latitude_deg: float = 35.0, mains_mean_c: float = 20.0,
+                    clock_zone: str | None = None) -> HouseSchedules:
     """The house's occupant-driven schedules (:func:`surrogates.energyplus.schedules.generate_schedules` of
     :func:`schedule_targets`), seeded with (``seed``, ``house.bldg_id``); cached, as one simulation builds the
     model several times."""
-    return generate_schedules(schedule_targets(house, latitude_deg, mains_mean_c), year=year, seed=seed, bldg_id=house.bldg_id,
-                              timesteps_per_hour=timesteps_per_hour)
+    return generate_schedules(schedule_targets(house, latitude_deg, mains_mean_c, clock_zone), year=year,
+                              seed=seed, bldg_id=house.bldg_id, timesteps_per_hour=timesteps_per_hour)
 
 
 def _peak(values: np.ndarray) -> float:
@@ -116,10 +120,11 @@ def _other_plug_w(schedules: HouseSchedules) -> np.ndarray:
 
 
 def write_schedule_file(house: HouseParameters, directory: Path, year: int, timesteps_per_hour: int,
-                        seed: int = 0, latitude_deg: float = 35.0, mains_mean_c: float = 20.0) -> Path:
+                        seed: int = 0, latitude_deg: float = 35.0, mains_mean_c: float = 20.0,
+                        clock_zone: str | None = None) -> Path:
     """Write the ``Schedule:File`` CSV of :func:`house_schedules` (same arguments; :func:`schedule_csv`) into
     ``directory`` under a content-addressed name; an existing identical file is reused. Returns its path."""
-    text, digest = schedule_csv(house, year, timesteps_per_hour, seed, latitude_deg, mains_mean_c)
+    text, digest = schedule_csv(house, year, timesteps_per_hour, seed, latitude_deg, mains_mean_c, clock_zone)
     path = Path(directory) / f"schedules_{house.bldg_id}_{digest}.csv"
     if not path.is_file():
         path.parent.mkdir(parents=True, exist_ok=True)
@@ -132,11 +137,12 @@ def write_schedule_file(house: HouseParameters, directory: Path, year: int, time
 
 @lru_cache(maxsize=4)
 def schedule_csv(house: HouseParameters, year: int, timesteps_per_hour: int, seed: int = 0,
-                 latitude_deg: float = 35.0, mains_mean_c: float = 20.0) -> tuple[str, str]:
+                 latitude_deg: float = 35.0, mains_mean_c: float = 20.0,
+                 clock_zone: str | None = None) -> tuple[str, str]:
     """The ``Schedule:File`` CSV text of :func:`house_schedules` (columns :data:`SCHEDULE_COLUMNS`: fractions
     of :func:`schedule_peaks` and the activity in W per person) and the first 16 hex digits of its sha256;
     cached like the schedules, as one house's runs build its model several times."""
-    schedules = house_schedules(house, year, timesteps_per_hour, seed, latitude_deg, mains_mean_c)
+    schedules = house_schedules(house, year, timesteps_per_hour, seed, latitude_deg, mains_mean_c, clock_zone)
     peaks = schedule_peaks(house, schedules)
 
     def fraction(values: np.ndarray, peak: float) -> np.ndarray:

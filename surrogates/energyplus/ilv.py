@@ -39,7 +39,12 @@ import numpy as np
 import pandas as pd
 
 from surrogates.energyplus.csv_text import csv_text
-from surrogates.energyplus.epw import read_epw_ground_temperatures, read_epw_latitude, read_epw_mains_mean
+from surrogates.energyplus.epw import (
+    read_epw_ground_temperatures,
+    read_epw_latitude,
+    read_epw_mains_mean,
+    read_epw_timezone,
+)
 from surrogates.energyplus.house import build_house_model, replay_column_names, zone_names
 from surrogates.energyplus.metadata import HouseParameters
 from surrogates.energyplus.runner import EnergyPlusError, run_energyplus
@@ -85,6 +90,9 @@ class ILVConfig:
     cooling_setpoint_c: float | None = None
     heating_setpoint_c: float | None = None
     max_replay_mad_c: float = 0.2
+    #: IANA time zone of the households' clocks (occupant schedules and set-point offsets follow it; the runs
+    #: stay in standard time); None: the EPW's site zone (:func:`surrogates.energyplus.epw.read_epw_timezone`)
+    timezone: str | None = None
 
 
 @dataclass
@@ -263,7 +271,8 @@ def generate_ilv(house: HouseParameters, epw: Path, *, config: ILVConfig = ILVCo
     tph = config.timesteps_per_hour
     common = dict(ground_temperatures_c=ground, run_period=config.run_period, year=config.year,
                   timesteps_per_hour=tph, dhw=dhw, latitude_deg=read_epw_latitude(epw),
-                  mains_mean_c=read_epw_mains_mean(epw))
+                  mains_mean_c=read_epw_mains_mean(epw),
+                  clock_zone=config.timezone if config.timezone is not None else read_epw_timezone(epw))
     timings: dict[str, float] = {}
     with tempfile.TemporaryDirectory(prefix="ilv_", dir=workdir) as tmp:
         tmp = Path(tmp)

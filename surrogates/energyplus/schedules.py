@@ -7,7 +7,10 @@ output; the random stream is seeded with ``(seed, bldg_id, SEED_TAG)``.
 
 Method (docs/energyplus.md, "Occupant-driven schedules", gives the sources):
 
-1. per-minute occupant states (:mod:`surrogates.energyplus.occupancy`): asleep, at home awake, away;
+1. per-minute occupant states (:mod:`surrogates.energyplus.occupancy`): asleep, at home awake, away, in day
+   plans on the household's clock (``ScheduleTargets.clock_zone``); every event below is placed in those
+   plans, and the finished series are moved to standard time (an hour earlier while the clocks show
+   daylight time);
 2. hot-water draws as events (showers, baths, sinks, dishwasher fills, clothes-washer fills): counts per day
    from per-person and per-household rates, start times from the occupants' states and time-of-day
    weights, durations and flow rates per kind. A house that uses more or less hot water than these rates
@@ -36,11 +39,13 @@ from surrogates.energyplus.occupancy import (
     AWAY,
     MINUTES_PER_DAY,
     occupant_states,
+    plan_minute,
+    standard_time_index,
     weekend_days,
 )
 
 #: bump when the method changes: part of the simulation cache key (pipeline/build/houses.py)
-SCHEDULE_VERSION = 3
+SCHEDULE_VERSION = 4
 #: the fixtures' draws are at least this share of the daily hot-water target (when the appliances' fills
 #: alone would exceed it)
 MIN_FIXTURE_SHARE = 0.25
@@ -116,6 +121,10 @@ class ScheduleTargets:
     dryer_kwh_per_day: float | None = None
     #: outdoor equipment [kWh/day] (no zone gain), run in :data:`EXTERIOR_HOURS`
     exterior_kwh_per_day: float = 0.0
+    #: IANA time zone of the household's clock (its habits follow the clock; the series are in the zone's
+    #: standard time, so they come an hour earlier while the clocks show daylight time,
+    #: :func:`surrogates.energyplus.occupancy.standard_time_index`); None: standard time all year
+    clock_zone: str | None = None
 
 
 @dataclass(frozen=True)
@@ -167,9 +176,9 @@ def _pick(rng: np.random.Generator, weights: np.ndarray, size: int = 1) -> np.nd
 
 
 def _window(start_h: float, end_h: float) -> np.ndarray:
-    """1 in the minutes of the day between ``start_h`` and ``end_h``, else 0."""
+    """1 in the minutes of the day plan between clock times ``start_h`` and ``end_h`` [h], else 0."""
     out = np.zeros(MINUTES_PER_DAY)
-    out[int(start_h * 60):int(end_h * 60)] = 1.0
+    out[plan_minute(start_h):plan_minute(end_h)] = 1.0
     return out
 
 
@@ -359,7 +368,13 @@ def generate_schedules(targets: ScheduleTargets, *, year: int, seed: int, bldg_i
         for kind, n in _appliances(rng, awake_home[day], occupants, bool(is_weekend), base, flow, power,
                                    rate).items():
             counts[kind] = counts.get(kind, 0) + n
-    awake = awake_home.reshape(-1).astype(float)
+    block = np.tile(_window(*EXTERIOR_HOURS), len(weekend))
+    # so far the day plans of the household's clock; from here on the simulation's standard time
+    index = standard_time_index(year, targets.clock_zone)
+    flow, block = flow[index], block[index]
+    power = {kind: series[index] for kind, series in power.items()}
+    states = states.reshape(occupants, minutes)[:, index]
+    awake = (states == AWAKE).sum(axis=0).astype(float)
     power["other"] += ELECTRONICS_PER_AWAKE_W * awake
     w_per_kwh_day = 1000.0 / 24.0
     if targets.cooking_kwh_per_day is None and targets.dryer_kwh_per_day is None:
@@ -368,7 +383,6 @@ def generate_schedules(targets: ScheduleTargets, *, year: int, seed: int, bldg_i
         _fill_to_target(power, ("other",), targets.plug_kwh_per_day * w_per_kwh_day)
         for kind, daily in (("cooking", targets.cooking_kwh_per_day), ("dryer", targets.dryer_kwh_per_day)):
             power[kind] = _scale_events(power[kind], (daily or 0.0) * w_per_kwh_day)
-    block = np.tile(_window(*EXTERIOR_HOURS), len(weekend))
     power["exterior"] = block * (targets.exterior_kwh_per_day * 1000.0 / (EXTERIOR_HOURS[1] - EXTERIOR_HOURS[0]))
     power = {kind: _per_timestep(series, timesteps_per_hour) for kind, series in power.items()}
     minute_of_day = np.tile(np.arange(MINUTES_PER_DAY), len(weekend))
@@ -376,8 +390,8 @@ def generate_schedules(targets: ScheduleTargets, *, year: int, seed: int, bldg_i
     lit = (1.0 - (1.0 - LIT_PER_PERSON) ** awake) * darkness(day_of_year, minute_of_day, targets.latitude_deg)
     lit += NIGHT_LIGHT
     lighting = lit * (targets.lighting_kwh_per_day * 1000.0 / 24.0 / lit.mean())
-    home = (states != AWAY).sum(axis=0).reshape(-1).astype(float)
-    asleep = (states == ASLEEP).sum(axis=0).reshape(-1)
+    home = (states != AWAY).sum(axis=0).astype(float)
+    asleep = (states == ASLEEP).sum(axis=0)
     heat = SLEEP_ACTIVITY_W * asleep + AWAKE_ACTIVITY_W * awake
     tph = timesteps_per_hour
     people = _per_timestep(home, tph)

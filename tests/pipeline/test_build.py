@@ -361,8 +361,8 @@ def test_surrogate_section_defaults_are_the_trainers():
     from surrogates.config import BUILD_RECIPE
 
     config = read_build_config(ROOT / "raw" / "district.toml")  # [surrogate]: source and seed only
-    # June: trained on May-July, the period's month and one either side
-    assert train_config(config) == replace(BUILD_RECIPE, progress=False, threads=1, months=(5, 6, 7))
+    # June: trained on the period's month
+    assert train_config(config) == replace(BUILD_RECIPE, progress=False, threads=1, months=(6,))
     whole = config.model_copy(update={"surrogate": config.surrogate.model_copy(update={"season_margin": 6})})
     assert train_config(whole) == replace(BUILD_RECIPE, progress=False, threads=1)
 

@@ -150,7 +150,7 @@ def test_surrogate_and_simulation_keys_cover_only_what_they_use(short_toml):
     assert [surrogate_key(c) for c in unrelated] == [base] * len(unrelated)
     assert surrogate_key(edit(config, surrogate={"epochs": config.surrogate.epochs + 1})) != base
     assert surrogate_key(edit(config, surrogate={"seed": config.surrogate.seed + 1})) != base
-    seasons = [edit(config, period={"start": date(2018, 7, 1), "end": date(2018, 7, 3)}),   # June-August
+    seasons = [edit(config, period={"start": date(2018, 7, 1), "end": date(2018, 7, 3)}),   # July
                edit(config, period={"start": date(2018, 1, 1), "end": date(2018, 12, 31)}),  # every month
                edit(config, surrogate={"season_margin": 2})]                                # April-August
     assert len({base, *(surrogate_key(c) for c in seasons)}) == 4
@@ -169,6 +169,7 @@ def test_surrogate_and_simulation_keys_cover_only_what_they_use(short_toml):
     next_year = edit(config, period={"start": date(2019, 6, 1), "end": date(2019, 6, 3)})
     assert cache_key(simulation_cache_parts(next_year, row)) != sim    # another calendar year
     assert cache_key(simulation_cache_parts(edit(config, simulation={"partial_runs": 2}), row)) != sim
+    assert cache_key(simulation_cache_parts(edit(config, timezone="America/Denver"), row)) != sim  # the clock
 
 
 def test_log_reporter_writes_a_few_plain_lines():

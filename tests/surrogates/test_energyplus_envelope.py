@@ -95,3 +95,25 @@ def test_latitude_is_read_from_the_location_line(tmp_path):
     with pytest.raises(InputError, match="LOCATION") as error:
         read_epw_latitude(epw)
     assert "site.epw" in str(error.value)
+
+
+def test_clock_zone_follows_the_location_lines_country_state_and_offset(tmp_path):
+    from citylearn_env.errors import InputError
+    from surrogates.energyplus.epw import read_epw_timezone
+
+    epw = tmp_path / "site.epw"
+    for line, expected in (("LOCATION,Camp Mabry,TX,USA,TMY3,722544,30.32,-97.77,-6.0,198.0", "America/Chicago"),
+                           ("LOCATION,Boston Logan,MA,USA,TMY3,725090,42.37,-71.02,-5.0,6.0", "America/New_York"),
+                           ("LOCATION,Phoenix Sky Harbor,AZ,USA,TMY3,722780,33.45,-111.98,-7.0,337.0",
+                            "America/Phoenix"),
+                           ("LOCATION,Toronto,ON,CAN,CWEC,716240,43.67,-79.63,-5.0,173.0", None)):
+        epw.write_text(line + "\n")
+        assert read_epw_timezone(epw) == expected, line
+    assert read_epw_timezone(ROOT / "raw" / "weather" / "USA_TX_Travis.County_AMY2018.epw") == "America/Chicago"
+    epw.write_text("LOCATION,Somewhere,TX,USA,TMY3,0,30.0,-97.0,central,0\n")
+    with pytest.raises(InputError, match="time zone") as error:
+        read_epw_timezone(epw)
+    assert "site.epw" in str(error.value)
+    epw.write_text("DESIGN CONDITIONS,0\n")
+    with pytest.raises(InputError, match="LOCATION"):
+        read_epw_timezone(epw)

@@ -97,3 +97,44 @@ def test_replay_model_puts_sign_in_design_level():
     assert equipment["story_1 ILV cool"]["design_level"] == -1.0
     assert equipment["story_1 ILV heat"]["design_level"] == 1.0
     assert "ZoneHVAC:IdealLoadsAirSystem" not in model and "ZoneControl:Thermostat" not in model
+
+
+def _compact_value(fields: list[dict], month: int, day: int, weekend: bool, hour: int) -> float:
+    """Read a ``Schedule:Compact``'s value at a standard-time hour (0 = 00:00-01:00) of a day."""
+    through, day_type, until, found = None, None, 0, {}
+    for item in (f["field"] for f in fields):
+        if isinstance(item, str) and item.startswith("Through:"):
+            m, d = map(int, item.split(":")[1].strip().split("/"))
+            through = (m, d)
+        elif isinstance(item, str) and item.startswith("For:"):
+            day_type, until = ("Weekends" in item), 0
+        elif isinstance(item, str) and item.startswith("Until:"):
+            until = int(item.split(":")[1])
+        else:
+            found.setdefault((through, day_type), []).append((until, float(item)))
+    period = min(t for t, w in found if t >= (month, day) and w == weekend)
+    return next(v for end, v in found[(period, weekend)] if hour < end)
+
+
+def test_set_point_offsets_keep_the_households_clock():
+    from surrogates.energyplus.metadata import HouseParameters
+    from surrogates.energyplus.setpoints import OffsetPeriod
+
+    house = HouseParameters(bldg_id=1, floor_area_m2=150.0, cooling_setpoint_c=24.0, heating_setpoint_c=20.0,
+                            offsets_k=(2.0, 0.0), offset_periods=(OffsetPeriod(night_sign=-1), OffsetPeriod()))
+    summer = build_house_model(house, mode="ideal", ground_temperatures_c=GROUND, year=2018,
+                               clock_zone="America/Chicago")
+    winter = build_house_model(house, mode="ideal", ground_temperatures_c=GROUND, year=2018)
+    cooling = summer["Schedule:Compact"]["cooling_setpoint"]["data"]
+    # the night setback starts at 22:00 on the clock: 21:00 standard time from 11 March to 3 November 2018
+    assert _compact_value(cooling, 7, 2, False, 21) == pytest.approx(22.0)
+    assert _compact_value(cooling, 7, 2, False, 20) == pytest.approx(24.0)
+    assert _compact_value(cooling, 7, 2, False, 6) == pytest.approx(24.0)  # 07:00 on the clock: over
+    assert _compact_value(cooling, 3, 10, False, 21) == pytest.approx(24.0)
+    assert _compact_value(cooling, 3, 11, True, 21) == pytest.approx(22.0)
+    assert _compact_value(cooling, 11, 4, True, 21) == pytest.approx(24.0)
+    assert _compact_value(cooling, 1, 8, False, 22) == pytest.approx(22.0)
+    without = winter["Schedule:Compact"]["cooling_setpoint"]["data"]
+    assert [f["field"] for f in without if str(f["field"]).startswith("Through")] == ["Through: 12/31"]
+    assert _compact_value(without, 7, 2, False, 21) == pytest.approx(24.0)
+    assert _compact_value(without, 7, 2, False, 22) == pytest.approx(22.0)

@@ -13,6 +13,7 @@ from surrogates.energyplus.end_uses import END_USE_GROUPS, KWH_PER_MBTU, parse_e
 from surrogates.energyplus.epw import MAINS_OFFSET_K, read_epw_mains_mean
 from surrogates.energyplus.house_schedules import HOT_WATER_USE_C, WATER_KJ_PER_L_K, schedule_targets
 from surrogates.energyplus.metadata import HouseParameters, house_parameters_from_metadata
+from surrogates.energyplus.occupancy import daylight_days
 from surrogates.energyplus.schedules import EXTERIOR_HOURS, ScheduleTargets, generate_schedules
 
 ROOT = Path(__file__).resolve().parents[3]
@@ -80,7 +81,7 @@ def test_targets_follow_the_row_and_hot_water_follows_the_delivered_heat():
 def test_schedules_keep_each_end_use_and_run_outdoor_pumps_by_day():
     targets = ScheduleTargets(occupants=3, dhw_litres_per_day=150.0, plug_kwh_per_day=12.0,
                               lighting_kwh_per_day=3.0, latitude_deg=30.0, cooking_kwh_per_day=1.2,
-                              dryer_kwh_per_day=2.5, exterior_kwh_per_day=8.0)
+                              dryer_kwh_per_day=2.5, exterior_kwh_per_day=8.0, clock_zone="America/Chicago")
     s = generate_schedules(targets, year=2018, seed=1, bldg_id=9)
     kwh_day = {name: getattr(s, name).mean() * 24 / 1000 for name in ("cooking_w", "dryer_w", "exterior_w",
                                                                         "plug_w", "lighting_w")}
@@ -90,8 +91,12 @@ def test_schedules_keep_each_end_use_and_run_outdoor_pumps_by_day():
     assert kwh_day["lighting_w"] == pytest.approx(3.0)
     by_hour = s.exterior_w.reshape(365, 24)
     start, end = int(EXTERIOR_HOURS[0]), int(EXTERIOR_HOURS[1])
-    assert np.all(by_hour[:, :start] == 0) and np.all(by_hour[:, end:] == 0)
-    np.testing.assert_allclose(by_hour[:, start:end], 8000.0 / (end - start))
+    # the pumps' timer keeps the clock: an hour earlier in standard time on days in daylight time
+    summer = daylight_days(2018, "America/Chicago")
+    for day, shift in enumerate(summer.astype(int)):
+        assert np.all(by_hour[day, :start - shift] == 0) and np.all(by_hour[day, end - shift:] == 0)
+        np.testing.assert_allclose(by_hour[day, start - shift:end - shift], 8000.0 / (end - start))
+    assert summer.sum() == 238  # 11 March to 3 November 2018
     # the dryer keeps its cycles (most hours without one), only their power follows the row
     assert np.mean(s.dryer_w == 0) > 0.8
 

@@ -22,7 +22,7 @@ from surrogates.energyplus.house_schedules import (
     schedule_targets,
 )
 from surrogates.energyplus.metadata import HouseParameters
-from surrogates.energyplus.occupancy import weekend_days
+from surrogates.energyplus.occupancy import daylight_days, daylight_saving_minutes, weekend_days
 from surrogates.energyplus.schedules import (
     BATH,
     DISHWASHER_FILL,
@@ -32,6 +32,7 @@ from surrogates.energyplus.schedules import (
     SINK,
     SINKS_PER_HOUSEHOLD,
     SINKS_PER_PERSON,
+    SLEEP_ACTIVITY_W,
     WASHER_FILL,
     ScheduleTargets,
     expected_draws_litres,
@@ -157,6 +158,49 @@ def test_occupancy_follows_day_types_and_lighting_follows_dark_awake_hours(year)
     assert light[:, 19:22].mean() > 3 * light[:, 11:14].mean()
     assert light[:350, 3].mean() < light[:, 20].mean()
     assert set(np.round(year.activity_w[people.reshape(-1) > 0], 6)) >= {72.0, 110.0}
+
+
+def test_daylight_time_follows_the_clock_changes_of_the_zone():
+    minutes = daylight_saving_minutes(2018, "America/Chicago")
+    # the US rule since 2007: 02:00 on the second Sunday of March (11 March 2018) to 02:00 daylight time on
+    # the first Sunday of November (4 November 2018) = 01:00 standard time
+    march_11, november_4 = 69 * 1440, 307 * 1440
+    assert not minutes[march_11 + 119] and minutes[march_11 + 120]
+    assert minutes[november_4 + 59] and not minutes[november_4 + 60]
+    assert minutes.sum() == (november_4 + 60) - (march_11 + 120)
+    # Europe: 01:00 UTC on the last Sunday of March (25 March 2018) to the last Sunday of October (28th)
+    london = daylight_saving_minutes(2018, "Europe/London")
+    assert not london[83 * 1440 + 59] and london[83 * 1440 + 60] and not london[300 * 1440 + 60]
+    # the southern hemisphere's summer spans the new year; Arizona keeps standard time
+    sydney = daylight_days(2018, "Australia/Sydney")
+    assert sydney[0] and not sydney[180] and sydney[364]
+    assert not daylight_saving_minutes(2018, "America/Phoenix").any()
+    assert not daylight_saving_minutes(2018, None).any()
+    with pytest.raises(ValueError, match="Mars/Olympus"):
+        daylight_saving_minutes(2018, "Mars/Olympus")
+
+
+def test_habits_keep_the_households_clock_an_hour_earlier_in_standard_time_in_summer():
+    clock = generate()
+    summer = generate(ScheduleTargets(**{**TARGETS.__dict__, "clock_zone": "America/Chicago"}))
+    july = slice(181 * 24, 212 * 24)  # standard-time hours of July: the clock shows one hour later
+    np.testing.assert_array_equal(summer.people[july], clock.people[july.start + 1:july.stop + 1])
+    np.testing.assert_array_equal(summer.activity_w[july], clock.activity_w[july.start + 1:july.stop + 1])
+    january = slice(4 * 24, 31 * 24)
+    np.testing.assert_array_equal(summer.people[january], clock.people[january])
+
+
+def test_late_nights_stay_in_their_evenings_plan(year):
+    activity = year.activity_w.reshape(365, 24)
+    people = year.people.reshape(365, 24)
+    winter = np.r_[5:60, 320:360]  # standard time = the clock
+    up_after_midnight = (activity[winter, 0] > SLEEP_ACTIVITY_W + 1e-9) & (people[winter, 0] > 0)
+    # some people are still up after midnight on some nights (the time-use surveys: about one adult in five)
+    assert 0.05 < up_after_midnight.mean() < 0.6
+    # ... but nobody's morning begins then: hot water between 01:00 and 04:00 is a small share of the day's
+    dhw = year.dhw_m3_s.reshape(365, 24)[winter]
+    assert dhw[:, 1:4].sum() < 0.03 * dhw.sum()
+    assert dhw[:, 5:9].sum() > 0.15 * dhw.sum()
 
 
 def test_timestep_series_are_averages_of_the_same_events():
