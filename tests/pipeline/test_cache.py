@@ -106,7 +106,7 @@ def test_table_digest_is_of_the_content_not_the_file(tmp_path):
 @pytest.fixture()
 def one_building(tmp_path):
     """raw/district.toml for 3 days, Building_1 = 900001, trained (1 epoch) on June of its ILV table (the
-    season the build trains on is May-July)."""
+    month the build trains on)."""
     config = read_build_config(RAW_CONFIG)
     ilv = tmp_path / "ilv"
     ilv.mkdir()

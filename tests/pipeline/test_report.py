@@ -189,4 +189,4 @@ def test_surrogate_table_has_each_building_fit(tmp_path):
         assert median == pytest.approx(fit["monthly_rmse_c"]["median"], abs=0.005)
         assert worst == pytest.approx(fit["monthly_rmse_c"]["max"], abs=0.005)
         assert int(row[4]) == fit["hours"]
-        assert row[6].endswith("(months 5,6,7)")  # a June district's models train on May-July
+        assert row[6].endswith("(months 6)")  # a June district's models train on June
