@@ -155,11 +155,7 @@ def _ideal_loads(config, row: dict, run_period, year: int, schedule_seed: int = 
     """One EnergyPlus ideal-loads pass of a stock row (the build's house model and timestep; the build's
     schedules at ``schedule_seed`` 0, other draws of the same method otherwise): (hourly loads of
     :func:`surrogates.energyplus.ilv.hourly_loads`, the house parameters)."""
-    from surrogates.energyplus.epw import (
-        read_epw_ground_temperatures,
-        read_epw_latitude,
-        read_epw_mains_mean,
-    )
+    from surrogates.energyplus.epw import read_epw_ground_temperatures, read_epw_latitude, read_epw_mains_mean
     from surrogates.energyplus.house import build_house_model
     from surrogates.energyplus.ilv import hourly_loads
     from surrogates.energyplus.metadata import house_parameters_from_metadata

@@ -80,7 +80,6 @@ def read_epw_timezone(path: Path) -> str | None:
 
 def read_epw_latitude(path: Path) -> float:
     """The site latitude [degrees north] of the EPW header's ``LOCATION`` line (field 7)."""
-    path = Path(path)
     fields = _location_fields(path)
     try:
         latitude = float(fields[6])

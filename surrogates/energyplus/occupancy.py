@@ -14,6 +14,7 @@ generator ResStock uses since 2021 (day plans per person instead of 15-minute ac
 from __future__ import annotations
 
 import datetime as dt
+from functools import lru_cache
 from zoneinfo import ZoneInfo, ZoneInfoNotFoundError
 
 import numpy as np
@@ -52,14 +53,16 @@ def weekend_days(year: int) -> np.ndarray:
     return (first + np.arange(days)) % 7 >= 5
 
 
+@lru_cache(maxsize=8)
 def daylight_saving_minutes(year: int, zone: str | None) -> np.ndarray:
     """Bool per minute of calendar ``year`` in the zone's standard time (Jan 1 00:00 first): True while the
     clocks of IANA time zone ``zone`` show daylight time, by the tz database's rules for that year (resolved
     to the half hour); all False for ``None`` or a zone that keeps standard time. Raises ValueError for an
-    unknown zone."""
+    unknown zone. Cached (every model build of a house asks again) and read-only."""
     days = len(weekend_days(year))
     out = np.zeros(days * MINUTES_PER_DAY, dtype=bool)
     if zone is None:
+        out.setflags(write=False)
         return out
     try:
         tz = ZoneInfo(zone)
@@ -71,6 +74,7 @@ def daylight_saving_minutes(year: int, zone: str | None) -> np.ndarray:
     for half_hour in range(days * 48):
         if (start_utc + dt.timedelta(minutes=30 * half_hour)).astimezone(tz).dst():
             out[half_hour * 30:(half_hour + 1) * 30] = True
+    out.setflags(write=False)
     return out
 
 
