@@ -3,11 +3,13 @@
     .venv/bin/python benchmarks/surrogate_judge.py [raw/district.toml] [--bldg-ids 8 61] [--recipe build|default]
         [--set hidden_size=16 pretrain_steps=2000 ...] [--data /tmp/districtgen_judge]
 
-Per house: the training ILV table (the build's ``[simulation]`` settings, :func:`pipeline.build.surrogates.ilv_config`)
-and the judge's table (:func:`surrogates.judge.judge_ilv_config`: 20 timesteps/h, another seed) are simulated
-once and kept under ``--data`` (keyed by house, settings and the generator's sources); then the recipe trains
-(float32 or what ``precision`` resolves to, one thread; ``build``: the config's own training settings, on the
-period's season) and the model is scored by :func:`surrogates.judge.score_judge_table` over the whole year.
+Per house: the training ILV table (the build's ``[simulation]`` settings and months,
+:func:`pipeline.build.surrogates.ilv_config`) and the judge's table (:func:`surrogates.judge.judge_ilv_config`:
+20 timesteps/h, another seed, the same months) are simulated once and kept under ``--data`` (keyed by house,
+settings and the generator's sources); then the recipe trains (float32 or what ``precision`` resolves to, one
+thread; ``build``: the config's own training settings, on the period's season) and the model is scored by
+:func:`surrogates.judge.score_judge_table` over the simulated months (a June config: June; a full-year one,
+or a season across the new year: the whole year).
 One JSON line per house: monthly RMSE median and worst month, the median of the period's months,
 mean absolute errors (partial loads, ideal loads), CPU seconds of training, best epoch, closed-loop validation
 RMSE [degC]; then the CPU model and load average.

@@ -65,12 +65,18 @@ class Selection(_Frozen):
 
 
 class Simulation(_Frozen):
-    """EnergyPlus houses (inputs.characteristics): the one full-year pass that gives loads and ILV data."""
+    """EnergyPlus houses (inputs.characteristics): the one pass (the months the district needs) that gives loads
+    and ILV data."""
 
-    partial_runs: int = Field(4, ge=0, description="partial-load ILV runs besides the ideal replay")
+    partial_runs: int = Field(4, ge=0, description="partial-load ILV runs besides the ideal replay (at least; "
+                                                  "see month_runs)")
+    month_runs: int = Field(12, ge=0, description="more partial-load runs where the simulated months are few: "
+                                                 "at least this many (run, month) pairs, so a June house runs "
+                                                 "12 (a surrogate trained on one month learns from 10 runs of "
+                                                 "it), a year partial_runs")
     free_float: bool = Field(False, description="also simulate the free-float run (reference 1, no HVAC) into the "
                                                 "ILV table, for retraining with use_free_float; the build's "
-                                                "recipe does not train on it (one EnergyPlus year per house)")
+                                                "recipe does not train on it (one more EnergyPlus run per house)")
     seed: int = Field(2018, ge=0, lt=SEED_LIMIT,
                       description="seed of the partial-load multipliers (combined with the bldg_id)")
     timesteps_per_hour: int = Field(6, ge=1, le=60, description="EnergyPlus zone timesteps per hour (tables "

@@ -1,9 +1,10 @@
-"""Houses from real stock rows: the full-year EnergyPlus pass (cached), the building table, the heating device
+"""Houses from real stock rows: the EnergyPlus pass over the months the district needs (cached), the building table, the heating device
 and the per-house notes of the report.
 """
 
 from __future__ import annotations
 
+import calendar
 import io
 import json
 from collections.abc import Mapping
@@ -18,7 +19,13 @@ from pipeline.build.manifest import (
     sha256_file,
 )
 from pipeline.build.steps import eulp_metadata_row, read_characteristics_row
-from pipeline.build.surrogates import ENERGYPLUS_SOURCES, SurrogateFiles, ilv_config, surrogate_files
+from pipeline.build.surrogates import (
+    ENERGYPLUS_SOURCES,
+    SurrogateFiles,
+    ilv_config,
+    simulated_months,
+    surrogate_files,
+)
 from pipeline.config import BuildConfig
 from pipeline.ingest.eulp import citylearn_building
 from pipeline.ingest.timeindex import period_index
@@ -45,22 +52,22 @@ class HouseSimulation:
 
 def simulation_cache_parts(config: BuildConfig, row: Mapping[str, object]) -> dict:
     """What a house's simulation is a function of (the cache key parts): the stock row, the weather file's
-    sha256, the calendar year of the period (the pass covers that whole year), the simulation settings (not
-    ``fuel_heating``: it acts after the simulation), the time zone (the households' clock) and the generator's
-    sources. Not the period's days."""
+    sha256, the calendar year of the period and the months simulated in it (:func:`simulated_months`), the
+    simulation settings (not ``fuel_heating``: it acts after the simulation), the time zone (the households'
+    clock) and the generator's sources. Not the period's days."""
 
     package = Path(surrogates.__file__).parent
     return {"row": dict(row), "epw_sha256": sha256_file(Path(config.inputs.weather)), "year": config.period.start.year,
+            "run_period": [list(p) for p in simulated_months(config)],
             "simulation": config.simulation.model_dump(exclude={"fuel_heating"}),
             "generator_sha256": files_digest([package / f for f in ENERGYPLUS_SOURCES], package),
             "schedule_version": SCHEDULE_VERSION, "timezone": config.timezone}
 
 
 def simulate_building(config: BuildConfig, bldg_id: int) -> HouseSimulation:
-    """The full-year EnergyPlus pass of one real stock row on the district's weather (loads + ILV), from the
-    simulation cache (``<cache root>/simulations/<key>``; key: the row, the EPW's sha256, the simulation
-    settings and the generator's sources) or simulated and stored."""
-
+    """The EnergyPlus pass of one real stock row on the district's weather over :func:`simulated_months`
+    (loads + ILV), from the simulation cache (``<cache root>/simulations/<key>``; key: the row, the EPW's
+    sha256, the months, the simulation settings and the generator's sources) or simulated and stored."""
 
     row = read_characteristics_row(config.inputs.characteristics, bldg_id)
     parts = simulation_cache_parts(config, row)
@@ -93,7 +100,9 @@ def house_work(config: BuildConfig, bldg_id: int, name: str) -> HouseWork:
     (:func:`surrogate_files`) in ONE task: no barrier between the two stages across houses, so a worker that
     finishes a simulation trains at once; each result is cached as soon as it exists (a rerun resumes)."""
 
-    report(name, "simulate (EnergyPlus, full year)")
+    (m0, _), (m1, _) = simulated_months(config)
+    span = "full year" if (m0, m1) == (1, 12) else "-".join(dict.fromkeys(calendar.month_abbr[m] for m in (m0, m1)))
+    report(name, f"simulate (EnergyPlus, {span})")
     simulation = simulate_building(config, bldg_id)
     surrogate = None
     if config.surrogate.source == "energyplus":

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import calendar
 import json
+import math
 import re
 import sys
 import tempfile
@@ -88,12 +89,31 @@ def train_config(config: BuildConfig):
                    months=months)
 
 
+def simulated_months(config: BuildConfig) -> tuple[tuple[int, int], tuple[int, int]]:
+    """The run period ((month, day), (month, day)) of the houses' EnergyPlus pass: the whole months the district
+    needs inside the period's year, its period's and its surrogates' training season (``season_margin``), in
+    one span; the whole year when the season wraps around a new year, covers every month, or the period
+    crosses a year. A June district simulates June (about a twelfth of a year's EnergyPlus time), a full-year
+    district the year."""
+    start, end = config.period.start, config.period.end
+    months = season_months(start, end, config.surrogate.season_margin)
+    if start.year != end.year or not months or list(months) != list(range(months[0], months[-1] + 1)):
+        return (1, 1), (12, 31)
+    return (months[0], 1), (months[-1], calendar.monthrange(start.year, months[-1])[1])
+
+
 def ilv_config(config: BuildConfig) -> ILVConfig:
-    """The ILV configuration of the build's EnergyPlus houses (``[simulation]``, the period's year): what their
-    surrogates are trained on."""
+    """The ILV configuration of the build's EnergyPlus houses (``[simulation]``, the period's year, the months
+    of :func:`simulated_months`): what their building tables come from and their surrogates train on.
+    Partial-load runs: ``partial_runs``, or as many as give ``month_runs`` (run, month) pairs over the
+    simulated months (a June house: 12 runs of June, 10 of them training data; docs/surrogates.md, section
+    11)."""
     sim = config.simulation
-    return ILVConfig(partial_runs=sim.partial_runs, seed=sim.seed, timesteps_per_hour=sim.timesteps_per_hour,
-                     year=config.period.start.year, free_float=sim.free_float, timezone=config.timezone)
+    period = simulated_months(config)
+    months = period[1][0] - period[0][0] + 1
+    return ILVConfig(partial_runs=max(sim.partial_runs, math.ceil(sim.month_runs / months)), seed=sim.seed,
+                     timesteps_per_hour=sim.timesteps_per_hour, year=config.period.start.year,
+                     free_float=sim.free_float, timezone=config.timezone, run_period=period)
 
 
 def judge_config(config: BuildConfig) -> JudgeConfig:

@@ -30,6 +30,7 @@ otherwise :class:`ILVCheckError` is raised and no table is produced.
 
 from __future__ import annotations
 
+import calendar
 import tempfile
 import time
 from dataclasses import dataclass, field, replace
@@ -107,22 +108,29 @@ class ILVResult:
     loads: pd.DataFrame = field(repr=False, default_factory=pd.DataFrame)
 
 
-def hourly_multipliers(reference: int, hours: int, bldg_id: int, config: ILVConfig) -> np.ndarray:
+def hourly_multipliers(reference: int, hours: int, bldg_id: int, config: ILVConfig,
+                       first_hour: int = 0) -> np.ndarray:
     """Multiplier per hour for ``reference`` (0 -> ones, 1 -> zeros, >= 2 -> seeded random partial: U(min, max)
-    with probability p, else 1, each draw held for 1..``config.hold_hours`` hours)."""
+    with probability p, else 1, each draw held for 1..``config.hold_hours`` hours).
+
+    The draws belong to the hours of ``config.year``: the whole year's sequence is drawn and ``first_hour``
+    (hours since 1 January 00:00 to the run's start) picks the run's ``hours`` out of it, so a run of June
+    gets the multipliers of June in a full-year run (its training data do not depend on which months were
+    simulated with it)."""
     if reference == 0:
         return np.ones(hours)
     if reference == 1:
         return np.zeros(hours)
+    n = max(first_hour + hours, (366 if calendar.isleap(config.year) else 365) * 24)
     rng = np.random.default_rng([config.seed, bldg_id, reference])
     if config.hold_hours > 1:  # block lengths first: the hourly design's stream stays what it was
-        lengths = rng.integers(1, config.hold_hours + 1, hours)
-        blocks = np.repeat(np.arange(hours), lengths)[:hours]
+        lengths = rng.integers(1, config.hold_hours + 1, n)
+        blocks = np.repeat(np.arange(n), lengths)[:n]
     else:
-        blocks = np.arange(hours)
-    draw = rng.uniform(config.multiplier_min, config.multiplier_max, hours)
-    vary = rng.random(hours) < config.multiplier_probability
-    return np.where(vary, draw, 1.0)[blocks]
+        blocks = np.arange(n)
+    draw = rng.uniform(config.multiplier_min, config.multiplier_max, n)
+    vary = rng.random(n) < config.multiplier_probability
+    return np.where(vary, draw, 1.0)[blocks][first_hour:first_hour + hours]
 
 
 def references(config: ILVConfig) -> list[int]:
@@ -267,6 +275,7 @@ def generate_ilv(house: HouseParameters, epw: Path, *, config: ILVConfig = ILVCo
     ground = read_epw_ground_temperatures(epw)
     (m0, d0), (m1, d1) = config.run_period
     days = (pd.Timestamp(config.year, m1, d1) - pd.Timestamp(config.year, m0, d0)).days + 1
+    first_hour = (pd.Timestamp(config.year, m0, d0) - pd.Timestamp(config.year, 1, 1)).days * 24
     expected_hours = int(days) * 24
     tph = config.timesteps_per_hour
     common = dict(ground_temperatures_c=ground, run_period=config.run_period, year=config.year,
@@ -292,7 +301,7 @@ def generate_ilv(house: HouseParameters, epw: Path, *, config: ILVConfig = ILVCo
         for reference in references(config):
             start = time.perf_counter()
             schedule = tmp / f"loads_{reference}.csv"
-            multipliers = hourly_multipliers(reference, hours, house.bldg_id, config)
+            multipliers = hourly_multipliers(reference, hours, house.bldg_id, config, first_hour)
             write_replay_schedule(loads, multipliers, schedule, year=config.year, timesteps_per_hour=tph)
             model = build_house_model(house, mode="replay", reporting_frequency="Hourly", load_file=schedule,
                                       **common)

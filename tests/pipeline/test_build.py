@@ -374,7 +374,43 @@ def test_free_float_is_simulated_only_when_asked():
     from surrogates.energyplus.ilv import references
 
     config = read_build_config(ROOT / "raw" / "district.toml")
-    assert references(ilv_config(config)) == [0, 2, 3, 4, 5]
-    asked = parse_build_config({**config.model_dump(mode="json", exclude={"source"}),
+    year = {"start": "2018-01-01", "end": "2018-12-31"}
+    plain = parse_build_config({**config.model_dump(mode="json", exclude={"source"}), "period": year})
+    assert references(ilv_config(plain)) == [0, 2, 3, 4, 5]
+    asked = parse_build_config({**config.model_dump(mode="json", exclude={"source"}), "period": year,
                                 "simulation": {"partial_runs": 2, "free_float": True}})
     assert references(ilv_config(asked)) == [0, 1, 2, 3]
+
+
+def test_houses_simulate_the_months_the_district_needs():
+    """The EnergyPlus pass covers the whole months of the period and of the surrogates' training season, in
+    one span of the period's year; a season around the new year, or every month, simulates the year."""
+    from pipeline.build.surrogates import ilv_config, simulated_months
+
+    config = read_build_config(ROOT / "raw" / "district.toml")  # June 2018, season_margin 0
+
+    def months(start, end, margin=0):
+        return simulated_months(config.model_copy(update={
+            "period": config.period.model_copy(update={"start": start, "end": end}),
+            "surrogate": config.surrogate.model_copy(update={"season_margin": margin})}))
+
+    assert simulated_months(config) == ((6, 1), (6, 30)) == ilv_config(config).run_period
+    # a few months run more partial-load runs: at least month_runs (12) (run, month) pairs, else partial_runs
+    assert ilv_config(config).partial_runs == 12 and config.simulation.partial_runs == 4
+
+    def runs(start, end, **simulation):
+        return ilv_config(config.model_copy(update={
+            "period": config.period.model_copy(update={"start": start, "end": end}),
+            "simulation": config.simulation.model_copy(update=simulation)})).partial_runs
+
+    assert runs(date(2018, 6, 1), date(2018, 7, 31)) == 6 and runs(date(2018, 3, 1), date(2018, 5, 31)) == 4
+    assert runs(date(2018, 1, 1), date(2018, 12, 31)) == 4 == runs(date(2018, 6, 1), date(2018, 6, 5), month_runs=0)
+    assert runs(date(2018, 6, 1), date(2018, 9, 30), partial_runs=5) == 5
+    assert months(date(2018, 6, 10), date(2018, 6, 12), 1) == ((5, 1), (7, 31))
+    assert months(date(2018, 3, 30), date(2018, 4, 2)) == ((3, 1), (4, 30))
+    assert months(date(2020, 2, 3), date(2020, 2, 9)) == ((2, 1), (2, 29))      # a leap year's February
+    assert months(date(2018, 1, 1), date(2018, 1, 31)) == ((1, 1), (1, 31))
+    assert months(date(2018, 1, 1), date(2018, 1, 31), 1) == ((1, 1), (12, 31))  # December-February
+    assert months(date(2018, 11, 1), date(2018, 12, 31), 1) == ((1, 1), (12, 31))  # October-January
+    assert months(date(2018, 1, 1), date(2018, 12, 31)) == ((1, 1), (12, 31))
+    assert months(date(2018, 3, 1), date(2018, 8, 31), 6) == ((1, 1), (12, 31))  # every month

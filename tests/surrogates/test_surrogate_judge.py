@@ -59,6 +59,12 @@ def test_judge_runs_at_another_timestep_count_and_seed():
             drawn = hourly_multipliers(ref, 500, 8, judge)
             assert all((drawn != hourly_multipliers(r, 500, 8, training)).any() for r in range(2, 6))
     assert judge_timesteps(6) == 20 and judge_timesteps(20) == 30 and judge_timesteps(4, wanted=4) == 5
+    # at least 8 (partial run, month) scores: a year on two runs, a month or a week of it on eight
+    june = ILVConfig(run_period=((6, 1), (6, 30)))
+    assert judge_ilv_config(june).partial_runs == 8 == judge_ilv_config(ILVConfig(run_period=((1, 1), (1, 7)))).partial_runs
+    assert judge_ilv_config(ILVConfig(run_period=((5, 1), (7, 31)))).partial_runs == 3
+    assert judge_ilv_config(june, JudgeConfig(partial_runs=10)).partial_runs == 10
+    assert judge_ilv_config(ILVConfig(), JudgeConfig(run_period=((6, 1), (7, 31)))).partial_runs == 4
     assert judge_timesteps(6, wanted=6) == 10
     assert JudgeConfig().timesteps_per_hour >= 20  # converged: docs/surrogates.md, section 11
 
@@ -77,6 +83,16 @@ def test_held_multipliers_hold_their_draws():
     assert ((held >= 0.3) & (held <= 1.7)).all()
     hourly = ILVConfig(hold_hours=1)
     assert (hourly_multipliers(2, 100, 8, hourly) == hourly_multipliers(2, 100, 8, ILVConfig())).all()
+
+
+def test_multipliers_belong_to_the_hours_of_the_year():
+    # a run that starts in June gets the draws of June in a run from 1 January, held blocks included
+    for config in (ILVConfig(), ILVConfig(hold_hours=6)):
+        year = hourly_multipliers(3, 8760, 8, config)
+        june = hourly_multipliers(3, 720, 8, config, first_hour=151 * 24)
+        assert (june == year[151 * 24:151 * 24 + 720]).all()
+        assert (june != hourly_multipliers(3, 720, 8, config)).any()  # not the draws of January
+    assert (hourly_multipliers(0, 48, 8, ILVConfig(), first_hour=24) == 1.0).all()
 
 
 def test_judge_record_carries_both_configs_and_scores(tiny_judged):
