@@ -24,7 +24,7 @@ def _benchmark():
     return module
 
 
-@pytest.mark.slow  # 2 full-year EnergyPlus passes and 2 short trainings, twice the training
+@pytest.mark.slow  # 2 EnergyPlus passes of June and 2 short trainings, twice the training
 def test_two_houses_on_a_two_process_dask_cluster_match_the_in_process_build(tmp_path):
     from surrogates.energyplus.runner import find_energyplus
 
