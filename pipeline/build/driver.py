@@ -6,8 +6,9 @@ Steps (inputs -> in-memory tables -> outputs)::
     site_signals      weather file, tariff, fuel mix -> weather / pricing / carbon tables + PV yield per kW
                       (the PV yield is computed once per site: every building shares the weather file)
     ingest_building   EULP building + the site's PV yield -> the building table (per building), or
-    simulate_building a real stock row -> ONE EnergyPlus pass on the district's weather (the months it needs): hourly
-                      loads + the ILV table (per building, cached); house_table -> the building table
+    simulate_building a real stock row -> ONE EnergyPlus pass on the district's weather over the months it
+                      needs: hourly loads + the ILV table (per building, cached); house_table -> the building
+                      table
     size_buildings    building tables + outdoor temperature -> device attributes (cooling and heating)
     surrogate_files   ILV table (or EnergyPlus inputs) -> trained LSTM files and the training table, through the
                       surrogate cache; a house's judge through the judgement cache (per building; see

@@ -1,5 +1,5 @@
-"""Houses from real stock rows: the EnergyPlus pass over the months the district needs (cached), the building table, the heating device
-and the per-house notes of the report.
+"""Houses from real stock rows: the EnergyPlus pass over the months the district needs (cached), the building
+table, the heating device and the per-house notes of the report.
 """
 
 from __future__ import annotations
