@@ -15,7 +15,6 @@ runs) is rolled out closed loop over the whole run from its first hour, like an 
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
@@ -23,7 +22,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from surrogates.energyplus.ilv import ILVConfig
+from surrogates.energyplus.ilv import ILVConfig, partial_runs_for
 
 #: monthly closed-loop RMSE bounds of a shipped surrogate against the judge [degC]
 MEDIAN_BOUND_C = 0.25
@@ -68,8 +67,7 @@ def judge_ilv_config(training: ILVConfig, judge: JudgeConfig = JudgeConfig()) ->
     year, period, set points and multiplier range; other timestep count, other seed, no free float."""
     seed = (training.seed + judge.seed_offset) % 2**32
     period = judge.run_period or training.run_period
-    (m0, _), (m1, _) = period
-    runs = max(judge.partial_runs, math.ceil(judge.month_runs / (m1 - m0 + 1)))
+    runs = partial_runs_for(period, judge.partial_runs, judge.month_runs)
     return replace(training, partial_runs=runs, seed=seed, hold_hours=judge.hold_hours,
                    timesteps_per_hour=judge_timesteps(training.timesteps_per_hour, judge.timesteps_per_hour),
                    free_float=False, run_period=period)

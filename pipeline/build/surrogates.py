@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import calendar
 import json
-import math
 import re
 import sys
 import tempfile
@@ -28,7 +27,7 @@ from pipeline.config import BuildConfig
 from pipeline.errors import InputError
 from pipeline.progress import epochs, report
 from surrogates.config import BUILD_RECIPE, season_months
-from surrogates.energyplus.ilv import ILVConfig
+from surrogates.energyplus.ilv import ILVConfig, partial_runs_for
 from surrogates.export import train_and_export
 from surrogates.ilv import read_ilv, table_digest, validate_ilv
 from surrogates.judge import JudgeConfig, judge_surrogate, verdict
@@ -110,8 +109,7 @@ def ilv_config(config: BuildConfig) -> ILVConfig:
     11)."""
     sim = config.simulation
     period = simulated_months(config)
-    months = period[1][0] - period[0][0] + 1
-    return ILVConfig(partial_runs=max(sim.partial_runs, math.ceil(sim.month_runs / months)), seed=sim.seed,
+    return ILVConfig(partial_runs=partial_runs_for(period, sim.partial_runs, sim.month_runs), seed=sim.seed,
                      timesteps_per_hour=sim.timesteps_per_hour, year=config.period.start.year,
                      free_float=sim.free_float, timezone=config.timezone, run_period=period)
 

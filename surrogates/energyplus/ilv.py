@@ -31,6 +31,7 @@ otherwise :class:`ILVCheckError` is raised and no table is produced.
 from __future__ import annotations
 
 import calendar
+import math
 import tempfile
 import time
 from dataclasses import dataclass, field, replace
@@ -131,6 +132,13 @@ def hourly_multipliers(reference: int, hours: int, bldg_id: int, config: ILVConf
     draw = rng.uniform(config.multiplier_min, config.multiplier_max, n)
     vary = rng.random(n) < config.multiplier_probability
     return np.where(vary, draw, 1.0)[blocks][first_hour:first_hour + hours]
+
+
+def partial_runs_for(run_period: tuple[tuple[int, int], tuple[int, int]], minimum: int, month_runs: int) -> int:
+    """Partial-load runs over ``run_period`` ((month, day), (month, day)): at least ``minimum``, and as many as
+    give ``month_runs`` (run, calendar month) pairs (a month of 12 pairs: 12 runs; a year: ``minimum``)."""
+    (m0, _), (m1, _) = run_period
+    return max(minimum, math.ceil(month_runs / (m1 - m0 + 1)))
 
 
 def references(config: ILVConfig) -> list[int]:

@@ -389,19 +389,21 @@ def test_houses_simulate_the_months_the_district_needs():
 
     config = read_build_config(ROOT / "raw" / "district.toml")  # June 2018, season_margin 0
 
-    def months(start, end, margin=0):
-        return simulated_months(config.model_copy(update={
+    def edited(start, end, margin=0, **simulation):
+        return config.model_copy(update={
             "period": config.period.model_copy(update={"start": start, "end": end}),
-            "surrogate": config.surrogate.model_copy(update={"season_margin": margin})}))
+            "surrogate": config.surrogate.model_copy(update={"season_margin": margin}),
+            "simulation": config.simulation.model_copy(update=simulation)})
+
+    def months(start, end, margin=0):
+        return simulated_months(edited(start, end, margin))
+
+    def runs(start, end, **simulation):
+        return ilv_config(edited(start, end, **simulation)).partial_runs
 
     assert simulated_months(config) == ((6, 1), (6, 30)) == ilv_config(config).run_period
     # a few months run more partial-load runs: at least month_runs (12) (run, month) pairs, else partial_runs
     assert ilv_config(config).partial_runs == 12 and config.simulation.partial_runs == 4
-
-    def runs(start, end, **simulation):
-        return ilv_config(config.model_copy(update={
-            "period": config.period.model_copy(update={"start": start, "end": end}),
-            "simulation": config.simulation.model_copy(update=simulation)})).partial_runs
 
     assert runs(date(2018, 6, 1), date(2018, 7, 31)) == 6 and runs(date(2018, 3, 1), date(2018, 5, 31)) == 4
     assert runs(date(2018, 1, 1), date(2018, 12, 31)) == 4 == runs(date(2018, 6, 1), date(2018, 6, 5), month_runs=0)
