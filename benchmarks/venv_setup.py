@@ -1,0 +1,76 @@
+"""Measure the setup step of ``make run`` / ``make test``: a fresh venv with the Makefile's three pip installs
+(pip itself, torch 2.13.0, the project with every extra), with and without byte-compiling the installed files.
+
+    python benchmarks/venv_setup.py [--repeats 1] [--extras all] [--venv /tmp/venv_setup]
+
+Per repeat and mode (alternating, so both see the same machine): wall seconds from ``python3 -m venv`` to the
+last install, and the venv's size [MiB]. Prints one JSON object (CPU, load average before and after, medians).
+``--no-compile`` only skips writing ``__pycache__`` at install time; Python compiles a module the first time it
+is imported and keeps the result, so the first run after the install pays for the modules it imports.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import shutil
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+MODES = {"compile": [], "no-compile": ["--no-compile"]}
+
+
+def cpu_name() -> str:
+    """The CPU's model name from /proc/cpuinfo (else the platform's processor string)."""
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or "unknown"
+
+
+def setup_venv(venv: Path, extras: str, flags: list[str]) -> float:
+    """Create ``venv`` afresh and install as the Makefile does; returns the wall seconds."""
+    shutil.rmtree(venv, ignore_errors=True)
+    python = str(venv / "bin" / "python")
+    started = time.perf_counter()
+    subprocess.run([sys.executable, "-m", "venv", str(venv)], check=True)
+    for args in (["--upgrade", "pip"], ["torch==2.13.0"], ["-e", f"{REPO}[{extras}]"]):
+        subprocess.run([python, "-m", "pip", "install", "-q", *flags, *args], check=True,
+                       stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    return time.perf_counter() - started
+
+
+def venv_mib(venv: Path) -> float:
+    return sum(p.stat().st_size for p in venv.rglob("*") if p.is_file() and not p.is_symlink()) / 2**20
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeats", type=int, default=1)
+    parser.add_argument("--extras", default="all")
+    parser.add_argument("--venv", type=Path, default=Path("/tmp/venv_setup"))
+    args = parser.parse_args()
+    load_before = os.getloadavg()
+    runs: dict[str, list[dict[str, float]]] = {mode: [] for mode in MODES}
+    for _ in range(args.repeats):
+        for mode, flags in MODES.items():
+            seconds = setup_venv(args.venv, args.extras, flags)
+            runs[mode].append({"wall_s": round(seconds, 1), "venv_mib": round(venv_mib(args.venv))})
+    shutil.rmtree(args.venv, ignore_errors=True)
+    print(json.dumps({"cpu": cpu_name(), "extras": args.extras, "load_before": load_before,
+                      "load_after": os.getloadavg(), "runs": runs,
+                      "median_wall_s": {m: statistics.median(r["wall_s"] for r in v) for m, v in runs.items()}}))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
