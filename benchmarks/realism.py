@@ -18,6 +18,10 @@ buildings.json for the floor areas), or ``--simulate``: the district's houses si
 EnergyPlus ideal-loads pass over the period per house, no ILV replays, no training), from the district TOML,
 the stock rows of the folder's selection.csv (or ``inputs.buildings``) and the current house model.
 
+Months of a season with real house-months are compared with them; a district with several months per house
+gets one column per house (its median over the months and how many of them are in the real band); months of
+a season without real house-months (the real homes cover June-August) are reported without a band.
+
 Statistics per house and month (:mod:`pipeline.realism`): hourly DHW peak [kWh], hourly plug-load
 (``non_shiftable_load``) peak [kWh], cooling and heating [kWh/m2], cooling [kWh], daily load factor of the
 electric-equivalent total, and the L1 distance of the normalised hour-of-day profile of that total to the
@@ -322,6 +326,38 @@ def realism_table(built: list[HouseMonth], real: list[HouseMonth]) -> tuple[str,
     return "\n".join(lines), summary
 
 
+def house_names(items: list[HouseMonth]) -> list[str]:
+    """The houses of ``items`` in first-seen order."""
+    return list(dict.fromkeys(item.name for item in items))
+
+
+def per_house_table(built: list[HouseMonth], real: list[HouseMonth] | None) -> str:
+    """Markdown table of a district with several months per house: per statistic and house the median over
+    its months and, against ``real`` (None: no real reference), how many of its months are in the real
+    5-95 % band; the last column: the median over all house-months against the real median."""
+    names = house_names(built)
+    header = ["statistic", *(["real 5 %", "real median", "real 95 %"] if real else []), *names,
+              *(["built median vs real"] if real else [])]
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    for key, (label, decimals) in STATISTICS.items():
+        band = percentile_band([r.stats[key] for r in real]) if real else None
+        cells = []
+        for name in names:
+            values = [b.stats[key] for b in built if b.name == name]
+            cell = _fmt(float(np.median(values)), decimals)
+            flags = [in_band(v, band) for v in values] if band else [None]
+            if None not in flags:
+                cell += f" ({sum(flags)}/{len(flags)})"
+            cells.append(cell)
+        if band is None:
+            lines.append("| " + " | ".join([label, *cells]) + " |")
+            continue
+        ratio = median_ratio_pct([b.stats[key] for b in built], band[1])
+        ratio_cell = "n/a" if not np.isfinite(ratio) else f"{ratio:+.0f} %"
+        lines.append("| " + " | ".join([label, *(_fmt(v, decimals) for v in band), *cells, ratio_cell]) + " |")
+    return "\n".join(lines)
+
+
 def seed_table(runs: dict[int, list[HouseMonth]], real: list[HouseMonth]) -> str:
     """How often each built house is inside the real 5-95 % band over schedule draws: one row per statistic,
     per house "k/n" (draws in band), and the range over draws of the built median against the real one."""
@@ -369,27 +405,40 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     built = (simulated_house_months(args.simulate, args.district) if args.simulate
              else built_house_months(args.district))
-    seasons = sorted({SEASONS[b.month] for b in built})
-    real = [r for season in seasons for r in real_house_months(args.real, season)]
-    if args.same_month:
-        real = [r for r in real if r.month in {b.month for b in built}]
-    if not real:
-        print(f"no real house-months in season(s) {seasons}")
-        return 2
-    reference = median_profile([hour_of_day_profile(total_kwh(r.loads), r.loads["hour"]) for r in real])
-    fill_statistics(real, reference)
-    fill_statistics(built, reference)
-    table, _ = realism_table(built, real)
     source = f"simulated from {args.simulate}" if args.simulate else f"built folder {args.district}"
-    scope = f"month(s) {sorted({r.month for r in real})}" if args.same_month else f"season {', '.join(seasons)}"
-    print(f"built: {len(built)} house-months ({source}); real: {len(real)} house-months of the 2023 challenge "
-          f"homes (Austin TX, {scope})\n")
-    print(table)
-    if args.schedule_seeds and args.simulate:
-        runs = {0: built}
+    real_by_season = {season: real_house_months(args.real, season)
+                      for season in sorted({SEASONS[b.month] for b in built})}
+    if args.same_month:
+        real_by_season = {season: [r for r in items if r.month in {b.month for b in built}]
+                          for season, items in real_by_season.items()}
+    compared = sorted(season for season, items in real_by_season.items() if items)
+    real = [r for season in compared for r in real_by_season[season]]
+    shown = [b for b in built if SEASONS[b.month] in compared]
+    unmatched = [b for b in built if SEASONS[b.month] not in compared]
+    if real:
+        reference = median_profile([hour_of_day_profile(total_kwh(r.loads), r.loads["hour"]) for r in real])
+        fill_statistics(real, reference)
+        fill_statistics(shown, reference)
+        scope = f"month(s) {sorted({r.month for r in real})}" if args.same_month else f"season {', '.join(compared)}"
+        print(f"built: {len(shown)} house-months ({source}); real: {len(real)} house-months of the 2023 "
+              f"challenge homes (Austin TX, {scope})\n")
+        several = len(shown) > len(house_names(shown))
+        print(per_house_table(shown, real) if several else realism_table(shown, real)[0])
+    if unmatched:
+        fill_statistics(unmatched, np.full(24, np.nan))
+        months = sorted({b.month for b in unmatched})
+        print(f"\nbuilt: {len(unmatched)} house-months of month(s) {months} ({source}): no real house-months of "
+              f"season(s) {sorted({SEASONS[m] for m in months})} in {args.real} (the 2023 challenge homes cover "
+              "June-August); the built statistics, median over each house's months:\n")
+        print(per_house_table(unmatched, None))
+    if not real and not unmatched:
+        return 2
+    if args.schedule_seeds and args.simulate and real:
+        runs = {0: shown}
         for seed in args.schedule_seeds:
             if seed not in runs:
-                runs[seed] = simulated_house_months(args.simulate, args.district, seed)
+                runs[seed] = [b for b in simulated_house_months(args.simulate, args.district, seed)
+                              if SEASONS[b.month] in compared]
                 fill_statistics(runs[seed], reference)
         print(f"\nOver occupant-schedule seeds {sorted(runs)}: draws with the house in the real 5-95 % band\n")
         print(seed_table(runs, real))

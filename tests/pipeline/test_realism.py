@@ -118,3 +118,31 @@ def test_benchmark_table_flags_houses_outside_the_real_band():
     assert summary["cooling_kwh"]["in_band"] == [True, False]
     assert summary["cooling_kwh"]["median_vs_real_pct"] == pytest.approx((5250.0 / 1500.0 - 1) * 100)
     assert "9,000 **no**" in table and "| n/a |" in table  # real houses have no floor area
+
+
+def test_several_months_per_house_give_medians_and_months_in_band():
+    from benchmarks.realism import HouseMonth, fill_statistics, per_house_table
+
+    def month(name: str, number: int, cooling: float) -> HouseMonth:
+        hours = np.tile(np.arange(1, 25), 30)
+        loads = pd.DataFrame({"month": number, "hour": hours, "non_shiftable_load": 0.5, "dhw_demand": 0.1,
+                              "cooling_demand": cooling / 720.0, "heating_demand": 0.0})
+        return HouseMonth(name, number, loads)
+
+    real = [month(f"r{i}", 7, c) for i, c in enumerate([1000.0, 1500.0, 2000.0])]
+    # B1: two months in the band (1,200 and 1,800 kWh), one above; B2: one month, below
+    built = [month("B1", 6, 1200.0), month("B1", 7, 1800.0), month("B1", 8, 9000.0), month("B2", 6, 100.0)]
+    flat = np.full(24, 1 / 24)
+    fill_statistics(real, flat)
+    fill_statistics(built, flat)
+    rows = {line.split(" | ")[0].lstrip("| "): line for line in per_house_table(built, real).splitlines()}
+    cooling = rows["cooling in the month [kWh]"].split(" | ")
+    # band 5 % / median / 95 % of 1,000, 1,500, 2,000 -> 1,050 / 1,500 / 1,950
+    assert cooling[1:4] == ["1,050", "1,500", "1,950"]
+    assert cooling[4] == "1,800 (2/3)" and cooling[5] == "100 (0/1)"
+    # median of the four house-months (1,500) against the real median (1,500)
+    assert cooling[6].strip(" |") == "+0 %"
+    # with no real reference: the medians only, no band columns
+    alone = per_house_table(built, None).splitlines()
+    assert alone[0] == "| statistic | B1 | B2 |"
+    assert "| cooling in the month [kWh] | 1,800 | 100 |" in alone
