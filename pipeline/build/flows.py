@@ -19,6 +19,7 @@ API lost mid-build are each one line (:class:`OrchestrationError`). ``districtge
 
 from __future__ import annotations
 
+import importlib
 import os
 import signal
 import threading
@@ -31,7 +32,6 @@ from prefect import flow
 from prefect.task_runners import ThreadPoolTaskRunner
 
 from pipeline import progress
-from pipeline.build.driver import run_build
 from pipeline.build.prefect_server import PORTS, api_loss_in_one_line, start_server
 from pipeline.config import BuildConfig, read_build_config
 from pipeline.errors import InputError
@@ -42,6 +42,8 @@ from pipeline.runners import PrefectRunner
 @flow(name="build_district", task_runner=ThreadPoolTaskRunner(max_workers=2), log_prints=True)
 def build_district(config: BuildConfig | str | Path, output_root: str = "artifacts") -> Path:
     """Build the district of ``config`` (a BuildConfig or a TOML path) into ``output_root/<name>``."""
+    from pipeline.build.driver import run_build  # torch, pvlib, ...: loaded while the API server starts
+
     if not isinstance(config, BuildConfig):
         config = read_build_config(config)
     return run_build(config, output_root, PrefectRunner())
@@ -117,6 +119,7 @@ def prefect_api(ports: Sequence[int] = PORTS) -> Iterator[str]:
     try:
         with temporary_settings(updates=settings):  # the server inherits them
             progress.stage("prefect api")
+            preload(BUILD_MODULES)  # the build's imports on the other core while the server starts
             server = start_server(startup_timeout(), ports)
             progress.end("prefect api")
         with (temporary_settings(updates={**settings, PREFECT_API_URL: server.api_url}),
@@ -130,6 +133,27 @@ def prefect_api(ports: Sequence[int] = PORTS) -> Iterator[str]:
                 APILogWorker.drain_all(timeout=5)
             server.stop()
         _restore_signals(previous)
+
+
+#: what a build imports after the API is up (torch, pandas, pvlib, scikit-learn, EnergyPlus glue: 5-8 s)
+BUILD_MODULES = ("pipeline.build.driver",)
+
+
+def preload(modules: Sequence[str]) -> threading.Thread:
+    """Import ``modules`` in a daemon thread (the server's startup is a separate process, so its 20 s and
+    these imports overlap). A failed import is left for the caller's own import to raise where it can say
+    so in one line (Python drops a module whose import failed)."""
+
+    def load() -> None:
+        for name in modules:
+            try:
+                importlib.import_module(name)
+            except BaseException:  # noqa: BLE001 -- re-raised by the build's own import
+                return
+
+    thread = threading.Thread(target=load, name="preload", daemon=True)
+    thread.start()
+    return thread
 
 
 def server_database() -> dict:
