@@ -360,3 +360,18 @@ def test_a_two_house_build_succeeds_through_prefect_on_a_saturated_cpu(tmp_path)
     assert build.returncode == 0, build.stderr
     assert (out / "default" / "schema.json").is_file() and "Traceback" not in build.stderr
     print(f"two houses through Prefect with {len(busy)} busy processes on {cores} cores: {elapsed:.0f} s")
+
+
+def test_preload_imports_in_a_thread_and_leaves_a_failed_import_to_the_build(capsys):
+    """The build's imports run beside the server's start; one that fails says nothing there (the build's own
+    import raises it as one line) and stops the preload."""
+    from pipeline.build.flows import preload
+
+    sys.modules.pop("wave", None)
+    sys.modules.pop("tabnanny", None)
+    thread = preload(["wave", "districtgen_no_such_module", "tabnanny"])
+    thread.join(30)
+    assert not thread.is_alive() and thread.daemon
+    assert "wave" in sys.modules
+    assert "districtgen_no_such_module" not in sys.modules and "tabnanny" not in sys.modules
+    assert capsys.readouterr().err == ""
