@@ -13,6 +13,9 @@ Every ``map`` returns ``{label: fn(*args)}`` in the order of ``calls``; the firs
 from __future__ import annotations
 
 import multiprocessing
+import os
+import threading
+import time
 from collections.abc import Callable, Mapping
 from concurrent.futures import ProcessPoolExecutor
 from contextlib import ExitStack
@@ -47,14 +50,33 @@ def gather(submit: Callable[..., Any], fn: Callable[..., Any], calls: Mapping[st
 
 
 class ProcessRunner:
-    """A pool of ``workers`` processes (spawned: no state shared)."""
+    """A pool of ``workers`` processes (spawned: no state shared). A worker does not outlive this process: it
+    leaves as soon as its parent is gone (SIGTERM or SIGKILL to the parent alone), instead of running its task
+    to the end beside a rerun that does the same task (:func:`exit_with_parent`)."""
 
     def __init__(self, workers: int):
         self.workers = workers
 
     def map(self, step: str, fn: Callable[..., Any], calls: Mapping[str, tuple]) -> dict[str, Any]:
-        with ProcessPoolExecutor(self.workers, mp_context=multiprocessing.get_context("spawn")) as pool:
+        with ProcessPoolExecutor(self.workers, mp_context=multiprocessing.get_context("spawn"),
+                                 initializer=exit_with_parent, initargs=(os.getpid(),)) as pool:
             return gather(lambda _, f, *args: pool.submit(f, *args), fn, calls)
+
+
+#: seconds between a worker's looks at its parent
+PARENT_POLL_S = 0.5
+
+
+def exit_with_parent(parent: int) -> None:
+    """Worker initializer: a daemon thread that ends this process (exit status 1) once ``parent`` is no longer
+    its parent process (the parent died; the worker was re-parented)."""
+
+    def watch() -> None:
+        while os.getppid() == parent:
+            time.sleep(PARENT_POLL_S)
+        os._exit(1)
+
+    threading.Thread(target=watch, name="exit_with_parent", daemon=True).start()
 
 
 class PrefectRunner:
