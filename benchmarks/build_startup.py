@@ -15,7 +15,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import platform
 import shutil
 import signal
 import statistics
@@ -26,20 +25,16 @@ import time
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))
+
+from benchmarks.machine import cpu_name  # noqa: E402
+
 #: progress line fragment -> mark
 MARKS = {"start the temporary server: started": "server_launched",
          "start the temporary server: finished": "server_answering",
          "houses: simulate + train: started": "houses"}
 
 
-def cpu_name() -> str:
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or "unknown"
 
 
 def startup(checkout: Path, config: str, scratch: Path) -> dict[str, float]:
