@@ -6,15 +6,16 @@ STAMP  := $(VENV)/.installed-stamp
 
 .PHONY: run test test-slow test-all bench clean
 
-# --no-compile: modules are compiled on first import instead of all at install (a fresh venv in about 1.5 min
-# instead of 3-3.5 min on 2 cores; benchmarks/venv_setup.py)
+# pip byte-compiles at install (3-3.5 min on 2 cores; --no-compile takes 1.5 min, but where
+# PYTHONDONTWRITEBYTECODE is set, as on CI here, every process would then compile its imports again:
+# benchmarks/README.md, "The default district build")
 $(STAMP): pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
-	$(PY) -m pip install -q --no-compile --upgrade pip
+	$(PY) -m pip install -q --upgrade pip
 	# torch first, pinned: the CPU build on this machine; an open range would pull a CUDA build.
-	$(PY) -m pip install -q --no-compile torch==2.13.0
+	$(PY) -m pip install -q torch==2.13.0
 	# every extra: the pipeline, surrogates, RL, Dask, EnergyPlus, FMU, numba and the test tools
-	$(PY) -m pip install -q --no-compile -e ".[all]"
+	$(PY) -m pip install -q -e ".[all]"
 	touch $(STAMP)
 
 # Prefect runs with no server (ephemeral); quiet and patient on a 2-core machine

@@ -5,8 +5,9 @@
 
 Per repeat and mode (alternating, so both see the same machine): wall seconds from ``python3 -m venv`` to the
 last install, and the venv's size [MiB]. Prints one JSON object (CPU, load average before and after, medians).
-``--no-compile`` only skips writing ``__pycache__`` at install time; Python compiles a module the first time it
-is imported and keeps the result, so the first run after the install pays for the modules it imports.
+``--no-compile`` only skips writing ``__pycache__`` at install time; Python then compiles a module when it is
+imported, and keeps the result only where ``PYTHONDONTWRITEBYTECODE`` is unset (else every process compiles its
+imports again: why the Makefile keeps pip's compiling install).
 """
 
 from __future__ import annotations
