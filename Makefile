@@ -7,7 +7,7 @@ STAMP  := $(VENV)/.installed-stamp
 .PHONY: run test test-slow test-all bench clean
 
 # pip byte-compiles at install (3-3.5 min on 2 cores; --no-compile takes 1.5 min, but where
-# PYTHONDONTWRITEBYTECODE is set, as on CI here, every process would then compile its imports again:
+# PYTHONDONTWRITEBYTECODE is set, as in this workplace's shells, every process would compile its imports again:
 # benchmarks/README.md, "The default district build")
 $(STAMP): pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
