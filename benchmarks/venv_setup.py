@@ -1,10 +1,11 @@
 """Measure the setup step of ``make run`` / ``make test``: a fresh venv with the Makefile's three pip installs
-(pip itself, torch 2.13.0, the project with every extra), with and without byte-compiling the installed files.
+(pip itself, torch 2.13.0, the project with some extras), with and without byte-compiling the installed files.
 
-    python benchmarks/venv_setup.py [--repeats 1] [--extras all] [--venv /tmp/venv_setup]
+    python benchmarks/venv_setup.py [--repeats 1] [--extras all [--extras pipeline,energyplus]]
+                                    [--modes compile,no-compile] [--venv /tmp/venv_setup]
 
-Per repeat and mode (alternating, so both see the same machine): wall seconds from ``python3 -m venv`` to the
-last install, and the venv's size [MiB]. Prints one JSON object (CPU, load average before and after, medians).
+Per repeat and variant (extras x mode, alternating, so all see the same machine): wall seconds from
+``python3 -m venv`` to the last install, and the venv's size [MiB]. Prints one JSON object (CPU, load average before and after, medians).
 ``--no-compile`` only skips writing ``__pycache__`` at install time; Python then compiles a module when it is
 imported, and keeps the result only where ``PYTHONDONTWRITEBYTECODE`` is unset (else every process compiles its
 imports again: why the Makefile keeps pip's compiling install).
@@ -27,21 +28,27 @@ sys.path.insert(0, str(REPO))
 
 from benchmarks.machine import cpu_name  # noqa: E402
 
-MODES = {"compile": [], "no-compile": ["--no-compile"]}
+# pip's own serial byte-compiling; none; none at install, then the standard library's compileall on every core
+MODES = {"compile": [], "no-compile": ["--no-compile"], "compileall": ["--no-compile"]}
 
 
-
-
-def setup_venv(venv: Path, extras: str, flags: list[str]) -> float:
+def setup_venv(venv: Path, extras: str, mode: str) -> float:
     """Create ``venv`` afresh and install as the Makefile does; returns the wall seconds."""
     shutil.rmtree(venv, ignore_errors=True)
     python = str(venv / "bin" / "python")
     started = time.perf_counter()
     subprocess.run([sys.executable, "-m", "venv", str(venv)], check=True)
     for args in (["--upgrade", "pip"], ["torch==2.13.0"], ["-e", f"{REPO}[{extras}]"]):
-        subprocess.run([python, "-m", "pip", "install", "-q", *flags, *args], check=True,
+        subprocess.run([python, "-m", "pip", "install", "-q", *MODES[mode], *args], check=True,
+                       stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    if mode == "compileall":  # some packages ship files that do not compile (pip skips them too): no check
+        subprocess.run([python, "-m", "compileall", "-q", "-j", "0", *site_packages(venv)],
                        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     return time.perf_counter() - started
+
+
+def site_packages(venv: Path) -> list[str]:
+    return [str(p) for p in (venv / "lib").glob("python3*/site-packages")]
 
 
 def venv_mib(venv: Path) -> float:
@@ -51,17 +58,20 @@ def venv_mib(venv: Path) -> float:
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=1)
-    parser.add_argument("--extras", default="all")
+    parser.add_argument("--extras", action="append", help="extras to install (repeat to compare; default all)")
+    parser.add_argument("--modes", default="compile,no-compile", help=f"comma-separated, of {sorted(MODES)}")
     parser.add_argument("--venv", type=Path, default=Path("/tmp/venv_setup"))
     args = parser.parse_args()
+    variants = {f"[{extras}] {mode}": (extras, mode)
+                for extras in args.extras or ["all"] for mode in args.modes.split(",")}
     load_before = os.getloadavg()
-    runs: dict[str, list[dict[str, float]]] = {mode: [] for mode in MODES}
+    runs: dict[str, list[dict[str, float]]] = {name: [] for name in variants}
     for _ in range(args.repeats):
-        for mode, flags in MODES.items():
-            seconds = setup_venv(args.venv, args.extras, flags)
-            runs[mode].append({"wall_s": round(seconds, 1), "venv_mib": round(venv_mib(args.venv))})
+        for name, (extras, mode) in variants.items():
+            seconds = setup_venv(args.venv, extras, mode)
+            runs[name].append({"wall_s": round(seconds, 1), "venv_mib": round(venv_mib(args.venv))})
     shutil.rmtree(args.venv, ignore_errors=True)
-    print(json.dumps({"cpu": cpu_name(), "extras": args.extras, "load_before": load_before,
+    print(json.dumps({"cpu": cpu_name(), "load_before": load_before,
                       "load_after": os.getloadavg(), "runs": runs,
                       "median_wall_s": {m: statistics.median(r["wall_s"] for r in v) for m, v in runs.items()}}))
     return 0

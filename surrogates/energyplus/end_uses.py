@@ -13,10 +13,15 @@ group        ResStock end uses (electricity)                                    
 ``plug``     plug_loads, refrigerator, freezer, clothes_washer, dishwasher, ceiling_fan a full zone gain
 ``cooking``  range_oven                                                                vented (hood)
 ``dryer``    clothes_dryer                                                             vented (dryer duct)
-``lighting`` lighting_interior, lighting_garage, lighting_exterior                     zone lighting
+``lighting`` lighting_interior                                                         zone lighting
+``outdoor_`` lighting_garage, lighting_exterior                                        electricity, no zone
+``lighting``                                                                           gain
 ``exterior`` pool_pump, pool_heater, hot_tub_pump, hot_tub_heater,                     electricity, no zone
              permanent_spa_pump, permanent_spa_heater, well_pump                       gain
 ============ ========================================================================= =======================
+
+The garage is not part of the conditioned zone (the house model has none), so its lights heat it no more than
+the porch lights do.
 
 ``dhw_delivered`` is the hot-water load the water heater delivers (``load_hot_water_delivered``), thermal.
 
@@ -48,7 +53,8 @@ END_USE_GROUPS: dict[str, tuple[str, ...]] = {
     "plug": ("plug_loads", "refrigerator", "freezer", "clothes_washer", "dishwasher", "ceiling_fan"),
     "cooking": ("range_oven",),
     "dryer": ("clothes_dryer",),
-    "lighting": ("lighting_interior", "lighting_garage", "lighting_exterior"),
+    "lighting": ("lighting_interior",),
+    "outdoor_lighting": ("lighting_garage", "lighting_exterior"),
     "exterior": ("pool_pump", "pool_heater", "hot_tub_pump", "hot_tub_heater", "permanent_spa_pump",
                  "permanent_spa_heater", "well_pump"),
 }
@@ -64,6 +70,7 @@ class EndUses:
     dryer: float
     lighting: float
     exterior: float
+    outdoor_lighting: float = 0.0
     dhw_delivered: float | None = None
 
 

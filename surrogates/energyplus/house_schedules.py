@@ -57,8 +57,8 @@ def schedule_targets(house: HouseParameters, latitude_deg: float = 35.0, mains_m
                      clock_zone: str | None = None) -> ScheduleTargets:
     """The daily totals of the house's occupant-driven schedules.
 
-    With the stock row's own end uses (``house.end_uses``): plug, cooking, dryer, lighting and exterior
-    electricity [kWh/day] as the row says, and hot water [L/day of mixed water at :data:`HOT_WATER_USE_C`] =
+    With the stock row's own end uses (``house.end_uses``): plug, cooking, dryer, interior and outdoor
+    lighting and exterior electricity [kWh/day] as the row says, and hot water [L/day of mixed water at :data:`HOT_WATER_USE_C`] =
     the delivered hot-water heat / (:data:`WATER_KJ_PER_L_K` x (use - ``mains_mean_c``, the annual mean
     mains temperature [C]; at least :data:`MIN_HOT_WATER_RISE_K`)).
 
@@ -82,6 +82,7 @@ def schedule_targets(house: HouseParameters, latitude_deg: float = 35.0, mains_m
                                plug_kwh_per_day=uses.plug, lighting_kwh_per_day=uses.lighting,
                                latitude_deg=latitude_deg, cooking_kwh_per_day=uses.cooking,
                                dryer_kwh_per_day=uses.dryer, exterior_kwh_per_day=uses.exterior,
+                               outdoor_lighting_kwh_per_day=uses.outdoor_lighting,
                                clock_zone=clock_zone)
     return ScheduleTargets(occupants=int(round(house.occupants)), dhw_litres_per_day=litres,
                            plug_kwh_per_day=daily_kwh(house.equipment_w_per_m2, EQUIPMENT),
@@ -106,17 +107,22 @@ def _peak(values: np.ndarray) -> float:
 
 def schedule_peaks(house: HouseParameters, schedules: HouseSchedules) -> dict[str, float]:
     """Design levels the ``Schedule:File`` fractions multiply: people (occupants, rounded as the schedules
-    round them), lighting, other plug, cooking, dryer and exterior power [W], hot-water flow [m3/s], for the
-    whole house."""
+    round them), lighting, other plug, cooking, dryer and outdoor (exterior equipment and lighting, no zone
+    gain) power [W], hot-water flow [m3/s], for the whole house."""
     return {"people": float(max(round(house.occupants), 0)), "lighting_w": _peak(schedules.lighting_w),
             "plug_w": _peak(_other_plug_w(schedules)), "cooking_w": _peak(schedules.cooking_w),
-            "dryer_w": _peak(schedules.dryer_w), "exterior_w": _peak(schedules.exterior_w),
+            "dryer_w": _peak(schedules.dryer_w), "exterior_w": _peak(_outdoor_w(schedules)),
             "dhw_m3_s": _peak(schedules.dhw_m3_s)}
 
 
 def _other_plug_w(schedules: HouseSchedules) -> np.ndarray:
     """Plug power [W] other than cooking, the dryer and outdoor equipment (a full zone gain)."""
     return np.clip(schedules.plug_w - schedules.cooking_w - schedules.dryer_w - schedules.exterior_w, 0.0, None)
+
+
+def _outdoor_w(schedules: HouseSchedules) -> np.ndarray:
+    """Outdoor electricity [W]: exterior equipment and garage/exterior lighting (one object, no zone gain)."""
+    return schedules.exterior_w + schedules.outdoor_lighting_w
 
 
 def write_schedule_file(house: HouseParameters, directory: Path, year: int, timesteps_per_hour: int,
@@ -153,7 +159,7 @@ def schedule_csv(house: HouseParameters, year: int, timesteps_per_hour: int, see
                              fraction(_other_plug_w(schedules), peaks["plug_w"]),
                              fraction(schedules.cooking_w, peaks["cooking_w"]),
                              fraction(schedules.dryer_w, peaks["dryer_w"]),
-                             fraction(schedules.exterior_w, peaks["exterior_w"]),
+                             fraction(_outdoor_w(schedules), peaks["exterior_w"]),
                              fraction(schedules.dhw_m3_s, peaks["dhw_m3_s"])])
     text = csv_text(SCHEDULE_COLUMNS, table)
     return text, hashlib.sha256(text.encode()).hexdigest()[:16]

@@ -45,7 +45,7 @@ from surrogates.energyplus.occupancy import (
 )
 
 #: bump when the method changes: part of the simulation cache key (pipeline/build/houses.py)
-SCHEDULE_VERSION = 4
+SCHEDULE_VERSION = 5
 #: the fixtures' draws are at least this share of the daily hot-water target (when the appliances' fills
 #: alone would exceed it)
 MIN_FIXTURE_SHARE = 0.25
@@ -121,6 +121,8 @@ class ScheduleTargets:
     dryer_kwh_per_day: float | None = None
     #: outdoor equipment [kWh/day] (no zone gain), run in :data:`EXTERIOR_HOURS`
     exterior_kwh_per_day: float = 0.0
+    #: garage and exterior lighting [kWh/day] (no zone gain), lit as the interior lights are
+    outdoor_lighting_kwh_per_day: float = 0.0
     #: IANA time zone of the household's clock (its habits follow the clock; the series are in the zone's
     #: standard time, so they come an hour earlier while the clocks show daylight time,
     #: :func:`surrogates.energyplus.occupancy.standard_time_index`); None: standard time all year
@@ -133,7 +135,8 @@ class HouseSchedules:
 
     ``people``: occupants at home; ``activity_w``: metabolic heat per person at home [W]; ``lighting_w`` and
     ``plug_w``: house electricity [W], of which ``cooking_w`` (range/oven), ``dryer_w`` (clothes dryer) and
-    ``exterior_w`` (outdoor pumps);
+    ``exterior_w`` (outdoor pumps); ``outdoor_lighting_w``: garage and exterior lighting [W] (not in
+    ``lighting_w``, no zone gain);
     ``dhw_m3_s``: mixed hot-water flow [m3/s]; ``events``: counts per event kind over the year.
     """
 
@@ -145,6 +148,7 @@ class HouseSchedules:
     cooking_w: np.ndarray
     dryer_w: np.ndarray
     exterior_w: np.ndarray
+    outdoor_lighting_w: np.ndarray
     dhw_m3_s: np.ndarray
     events: dict[str, int] = field(default_factory=dict)
     #: the multiplier of the fixtures' event rates (:func:`fixture_rate`) the draws were generated at [-]
@@ -345,7 +349,8 @@ def generate_schedules(targets: ScheduleTargets, *, year: int, seed: int, bldg_i
 
     Means over the year [W = kWh/day x 1000/24]: ``plug_w`` = the plug target (plus the cooking, dryer and
     exterior targets when given), ``cooking_w`` / ``dryer_w`` / ``exterior_w`` = their targets when given,
-    ``lighting_w`` = the lighting target; each month's mean daily hot-water volume =
+    ``lighting_w`` = the lighting target, ``outdoor_lighting_w`` = the outdoor lighting target (the same
+    occupant- and daylight-driven shape); each month's mean daily hot-water volume =
     ``targets.dhw_litres_per_day`` L (when the month has any draw).
     """
     if 60 % timesteps_per_hour:
@@ -389,7 +394,9 @@ def generate_schedules(targets: ScheduleTargets, *, year: int, seed: int, bldg_i
     day_of_year = np.repeat(np.arange(1, len(weekend) + 1), MINUTES_PER_DAY)
     lit = (1.0 - (1.0 - LIT_PER_PERSON) ** awake) * darkness(day_of_year, minute_of_day, targets.latitude_deg)
     lit += NIGHT_LIGHT
-    lighting = lit * (targets.lighting_kwh_per_day * 1000.0 / 24.0 / lit.mean())
+    lit_w_per_kwh_day = w_per_kwh_day / lit.mean()
+    lighting = lit * (targets.lighting_kwh_per_day * lit_w_per_kwh_day)
+    outdoor_lighting = lit * (targets.outdoor_lighting_kwh_per_day * lit_w_per_kwh_day)
     home = (states != AWAY).sum(axis=0).astype(float)
     asleep = (states == ASLEEP).sum(axis=0)
     heat = SLEEP_ACTIVITY_W * asleep + AWAKE_ACTIVITY_W * awake
@@ -400,4 +407,5 @@ def generate_schedules(targets: ScheduleTargets, *, year: int, seed: int, bldg_i
     return HouseSchedules(timesteps_per_hour=tph, people=people, activity_w=activity,
                           lighting_w=_per_timestep(lighting, tph), plug_w=sum(power.values()),
                           cooking_w=power["cooking"], dryer_w=power["dryer"], exterior_w=power["exterior"],
+                          outdoor_lighting_w=_per_timestep(outdoor_lighting, tph),
                           dhw_m3_s=_per_timestep(dhw, tph), events=counts, fixture_rate=rate)

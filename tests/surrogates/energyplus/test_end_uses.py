@@ -6,12 +6,20 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from citylearn_env.errors import InputError
 from surrogates.energyplus.end_uses import END_USE_GROUPS, KWH_PER_MBTU, parse_end_uses
 from surrogates.energyplus.epw import MAINS_OFFSET_K, read_epw_mains_mean
-from surrogates.energyplus.house_schedules import HOT_WATER_USE_C, WATER_KJ_PER_L_K, schedule_targets
+from surrogates.energyplus.house import build_house_model
+from surrogates.energyplus.house_schedules import (
+    HOT_WATER_USE_C,
+    SCHEDULE_COLUMNS,
+    WATER_KJ_PER_L_K,
+    house_schedules,
+    schedule_targets,
+)
 from surrogates.energyplus.metadata import HouseParameters, house_parameters_from_metadata
 from surrogates.energyplus.occupancy import daylight_days
 from surrogates.energyplus.schedules import EXTERIOR_HOURS, ScheduleTargets, generate_schedules
@@ -34,12 +42,14 @@ def results_row(**mbtu: float) -> dict[str, object]:
 
 def test_results_layout_in_mbtu_grouped_per_day():
     uses = parse_end_uses(results_row(plug_loads=10.0, refrigerator=2.0, range_oven=1.0, clothes_dryer=3.0,
-                                      lighting_interior=4.0, lighting_exterior=0.5, pool_pump=5.0, dhw=8.0))
+                                      lighting_interior=4.0, lighting_exterior=0.5, lighting_garage=0.25,
+                                      pool_pump=5.0, dhw=8.0))
     per_day = KWH_PER_MBTU / 365.0
     assert uses.plug == pytest.approx(12.0 * per_day)
     assert uses.cooking == pytest.approx(1.0 * per_day)
     assert uses.dryer == pytest.approx(3.0 * per_day)
-    assert uses.lighting == pytest.approx(4.5 * per_day)
+    assert uses.lighting == pytest.approx(4.0 * per_day)
+    assert uses.outdoor_lighting == pytest.approx(0.75 * per_day)
     assert uses.exterior == pytest.approx(5.0 * per_day)
     assert uses.dhw_delivered == pytest.approx(8.0 * per_day)
     # 1 MBtu is 293.07 kWh: a 10 MBtu plug load is about 8 kWh a day
@@ -54,7 +64,8 @@ def test_published_layout_in_kwh_and_no_results_means_none():
     assert (uses.plug, uses.dryer, uses.cooking) == pytest.approx((10.0, 2.0, 0.0))
     assert uses.dhw_delivered == pytest.approx(10_000.0 * 0.29307107 / 365.0)
     assert parse_end_uses({"bldg_id": 3, "in.plug_loads": "100%"}) is None
-    assert set(END_USE_GROUPS) == {"plug", "cooking", "dryer", "lighting", "exterior"}
+    assert set(END_USE_GROUPS) == {"plug", "cooking", "dryer", "lighting", "outdoor_lighting",
+                                    "exterior"}
 
 
 def test_a_bad_value_names_the_column_and_the_building():
@@ -99,6 +110,28 @@ def test_schedules_keep_each_end_use_and_run_outdoor_pumps_by_day():
     assert summer.sum() == 238  # 11 March to 3 November 2018
     # the dryer keeps its cycles (most hours without one), only their power follows the row
     assert np.mean(s.dryer_w == 0) > 0.8
+
+
+def test_garage_and_exterior_lights_use_electricity_but_do_not_heat_the_zone(tmp_path):
+    row = results_row(plug_loads=10.0, lighting_interior=3.0, lighting_garage=0.5, lighting_exterior=1.0,
+                      pool_pump=2.0, dhw=8.0)
+    house = house_parameters_from_metadata(row)
+    per_day = KWH_PER_MBTU / 365.0
+    schedules = house_schedules(house, 2018, 2, 4, 30.0)
+    kwh_day = {name: getattr(schedules, name).mean() * 24 / 1000 for name in ("lighting_w", "outdoor_lighting_w")}
+    assert kwh_day == pytest.approx({"lighting_w": 3.0 * per_day, "outdoor_lighting_w": 1.5 * per_day})
+    # outdoor lights burn when the interior lights do (occupied dark hours), in proportion
+    np.testing.assert_allclose(schedules.outdoor_lighting_w * 3.0, schedules.lighting_w * 1.5, rtol=1e-9)
+    model = build_house_model(house, mode="ideal", ground_temperatures_c=[20.0] * 12, timesteps_per_hour=2,
+                              schedule_seed=4, latitude_deg=30.0, schedule_dir=tmp_path)
+    table = pd.read_csv(model["Schedule:File"]["occupancy"]["file_name"])
+    assert list(table.columns) == list(SCHEDULE_COLUMNS)
+    zone_lights = sum(table["lighting_fraction"] * obj["lighting_level"] for obj in model["Lights"].values())
+    np.testing.assert_allclose(zone_lights, schedules.lighting_w, rtol=1e-4, atol=2e-3)
+    outdoor = [obj for obj in model["ElectricEquipment"].values() if obj["schedule_name"] == "exterior"]
+    assert outdoor and all(obj["fraction_lost"] == 1.0 for obj in outdoor)
+    outdoor_w = sum(table["exterior_fraction"] * obj["design_level"] for obj in outdoor)
+    np.testing.assert_allclose(outdoor_w, schedules.exterior_w + schedules.outdoor_lighting_w, rtol=1e-4, atol=2e-3)
 
 
 def test_mains_mean_is_the_mean_air_temperature_plus_the_offset():
