@@ -64,6 +64,7 @@ from pipeline.realism import (  # noqa: E402
     percentile_band,
     profile_l1_distance,
 )
+from surrogates.energyplus.end_uses import END_USE_GROUPS  # noqa: E402
 
 CITYLEARN = ROOT.parent / "shared" / "data" / "citylearn"
 DEFAULT_DISTRICT = ROOT / "artifacts" / "default"
@@ -216,12 +217,11 @@ def _end_uses_kwh(*groups: str):
 
 
 #: the stock row's own annual results compared with a full-year ideal pass: (our column, the row's kWh/year
-#: from (the raw stock row, the house's end uses), label)
+#: from (the raw stock row, the house's end uses), label); the building's electricity is every end-use group
 OWN_ROW = (("cooling_demand_kwh", _stock_kwh("report_simulation_output.load_cooling_delivered_m_btu"), "cooling"),
            ("heating_demand_kwh", _stock_kwh("report_simulation_output.load_heating_delivered_m_btu"), "heating"),
            ("dhw_demand_kwh", _end_uses_kwh("dhw_delivered"), "hot water"),
-           ("non_shiftable_load_kwh", _end_uses_kwh("plug", "cooking", "dryer", "lighting", "exterior"),
-            "plug + lighting"))
+           ("non_shiftable_load_kwh", _end_uses_kwh(*END_USE_GROUPS), "plug + lighting"))
 
 
 #: the stock row's Manual J heating design loads [Btu/h] by component (buildstockbatch results layout)

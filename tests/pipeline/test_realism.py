@@ -146,3 +146,16 @@ def test_several_months_per_house_give_medians_and_months_in_band():
     alone = per_house_table(built, None).splitlines()
     assert alone[0] == "| statistic | B1 | B2 |"
     assert "| cooling in the month [kWh] | 1,800 | 100 |" in alone
+
+
+def test_own_row_electricity_counts_every_end_use_group_once():
+    # the row's electricity that the house's lights and equipment are compared with: indoor and outdoor
+    # lighting, pumps and appliances, each once (a group left out would show as a false excess of ours)
+    from benchmarks.realism import OWN_ROW
+    from surrogates.energyplus.end_uses import KWH_PER_MBTU, parse_end_uses
+
+    mbtu = {"plug_loads": 10.0, "range_oven": 1.0, "clothes_dryer": 2.0, "lighting_interior": 3.0,
+            "lighting_garage": 0.5, "lighting_exterior": 0.25, "pool_pump": 4.0}
+    row = {"building_id": 7, **{f"report_simulation_output.end_use_electricity_{k}_m_btu": v for k, v in mbtu.items()}}
+    reference = {label: kwh for _, kwh, label in OWN_ROW}["plug + lighting"]
+    assert reference(pd.Series(row), parse_end_uses(row)) == pytest.approx(sum(mbtu.values()) * KWH_PER_MBTU)
