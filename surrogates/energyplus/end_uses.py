@@ -7,18 +7,18 @@ plug loads, appliances, lighting and hot water then add up to what the stock say
 The mapping (one table, :data:`END_USE_GROUPS`): each group of :class:`EndUses` sums the row's electricity
 of the listed ResStock end uses (absent end uses count 0):
 
-============ ========================================================================= =======================
-group        ResStock end uses (electricity)                                           the house model
-============ ========================================================================= =======================
-``plug``     plug_loads, refrigerator, freezer, clothes_washer, dishwasher, ceiling_fan a full zone gain
-``cooking``  range_oven                                                                vented (hood)
-``dryer``    clothes_dryer                                                             vented (dryer duct)
-``lighting`` lighting_interior                                                         zone lighting
-``outdoor_`` lighting_garage, lighting_exterior                                        electricity, no zone
-``lighting``                                                                           gain
-``exterior`` pool_pump, pool_heater, hot_tub_pump, hot_tub_heater,                     electricity, no zone
-             permanent_spa_pump, permanent_spa_heater, well_pump                       gain
-============ ========================================================================= =======================
+==================== ============================================================= =============================
+group                ResStock end uses (electricity)                               the house model
+==================== ============================================================= =============================
+``plug``             plug_loads, refrigerator, freezer, clothes_washer,            a full zone gain
+                     dishwasher, ceiling_fan
+``cooking``          range_oven                                                    vented (hood)
+``dryer``            clothes_dryer                                                 vented (dryer duct)
+``lighting``         lighting_interior                                             zone lighting
+``outdoor_lighting`` lighting_garage, lighting_exterior                            electricity, no zone gain
+``exterior``         pool_pump, pool_heater, hot_tub_pump, hot_tub_heater,         electricity, no zone gain
+                     permanent_spa_pump, permanent_spa_heater, well_pump
+==================== ============================================================= =============================
 
 The garage is not part of the conditioned zone (the house model has none), so its lights heat it no more than
 the porch lights do.
