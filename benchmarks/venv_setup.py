@@ -2,13 +2,14 @@
 (pip itself, torch 2.13.0, the project with some extras), with and without byte-compiling the installed files.
 
     python benchmarks/venv_setup.py [--repeats 1] [--extras all [--extras pipeline,energyplus]]
-                                    [--modes compile,no-compile] [--venv /tmp/venv_setup]
+                                    [--modes compile,compileall,no-compile] [--venv /tmp/venv_setup]
 
 Per repeat and variant (extras x mode, alternating, so all see the same machine): wall seconds from
-``python3 -m venv`` to the last install, and the venv's size [MiB]. Prints one JSON object (CPU, load average before and after, medians).
-``--no-compile`` only skips writing ``__pycache__`` at install time; Python then compiles a module when it is
-imported, and keeps the result only where ``PYTHONDONTWRITEBYTECODE`` is unset (else every process compiles its
-imports again: why the Makefile keeps pip's compiling install).
+``python3 -m venv`` to the last install, and the venv's size [MiB]. Prints one JSON object (CPU, load average
+before and after, medians). Modes: ``compile``, pip byte-compiles as it installs (serially); ``compileall``,
+``pip install --no-compile`` then ``python -m compileall -j 0`` on every core (the Makefile); ``no-compile``,
+nothing compiled -- Python then compiles a module when it is imported and keeps the result only where
+``PYTHONDONTWRITEBYTECODE`` is unset (else every process compiles its imports again).
 """
 
 from __future__ import annotations
@@ -48,6 +49,7 @@ def setup_venv(venv: Path, extras: str, mode: str) -> float:
 
 
 def site_packages(venv: Path) -> list[str]:
+    """The venv's site-packages folders (one per Python version installed in it)."""
     return [str(p) for p in (venv / "lib").glob("python3*/site-packages")]
 
 
