@@ -29,8 +29,10 @@ sys.path.insert(0, str(REPO))
 
 from benchmarks.machine import cpu_name  # noqa: E402
 
-# pip's own serial byte-compiling; none; none at install, then the standard library's compileall on every core
-MODES = {"compile": [], "no-compile": ["--no-compile"], "compileall": ["--no-compile"]}
+#: mode -> (pip's flags, compile the venv on every core after the install): pip's own serial byte-compiling;
+#: none; none at install, then the standard library's compileall (the Makefile's)
+MODES: dict[str, tuple[list[str], bool]] = {"compile": ([], False), "no-compile": (["--no-compile"], False),
+                                            "compileall": (["--no-compile"], True)}
 
 
 def setup_venv(venv: Path, extras: str, mode: str) -> float:
@@ -39,18 +41,14 @@ def setup_venv(venv: Path, extras: str, mode: str) -> float:
     python = str(venv / "bin" / "python")
     started = time.perf_counter()
     subprocess.run([sys.executable, "-m", "venv", str(venv)], check=True)
+    flags, compile_after = MODES[mode]
     for args in (["--upgrade", "pip"], ["torch==2.13.0"], ["-e", f"{REPO}[{extras}]"]):
-        subprocess.run([python, "-m", "pip", "install", "-q", *MODES[mode], *args], check=True,
+        subprocess.run([python, "-m", "pip", "install", "-q", *flags, *args], check=True,
                        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    if mode == "compileall":  # some packages ship files that do not compile (pip skips them too): no check
-        subprocess.run([python, "-m", "compileall", "-q", "-j", "0", *site_packages(venv)],
+    if compile_after:  # as the Makefile: some packages ship files that do not compile (pip skips them too)
+        subprocess.run([python, "-m", "compileall", "-q", "-j", "0", str(venv / "lib")],
                        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     return time.perf_counter() - started
-
-
-def site_packages(venv: Path) -> list[str]:
-    """The venv's site-packages folders (one per Python version installed in it)."""
-    return [str(p) for p in (venv / "lib").glob("python3*/site-packages")]
 
 
 def venv_mib(venv: Path) -> float:
