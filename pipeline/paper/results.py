@@ -189,8 +189,13 @@ def regret_table(rows: Sequence[Mapping[str, Any]]) -> str:
         note = next((r["note"] for r in controllers.values() if r.get("note", "").startswith("no oracle")), "")
         if note:
             notes.append(f"{config}: {note}.")
-        else:
-            lines.append(_regret_line(config, controllers))
+            continue
+        lines.append(_regret_line(config, controllers))
+        rbc = controllers.get("rbc", {})
+        if "value" in rbc and rbc["value"] > rbc["no_control"]:
+            notes.append(f"{config}: the RBC does worse than no control on its own objective ("
+                         f"{_percent(rbc['value'], rbc['no_control'])}): its fixed charge and discharge hours "
+                         "(written for the paper's June) do not fit this test period.")
     return "\n".join([*lines, *([""] + notes if notes else [])]) + "\n"
 
 

@@ -13,6 +13,7 @@ import pandas as pd
 import pytest
 
 from pipeline.build.driver import build_district_local
+from pipeline.build.report import objectives_table, rule_misfits
 from pipeline.build.report_figures import day_hour_matrix, parse_calendar, peak_week, price_bands, runs
 from pipeline.build.validate import validate_district
 from pipeline.config import read_build_config
@@ -190,3 +191,16 @@ def test_surrogate_table_has_each_building_fit(tmp_path):
         assert worst == pytest.approx(fit["monthly_rmse_c"]["max"], abs=0.005)
         assert int(row[4]) == fit["hours"]
         assert row[6].endswith("(months 6)")  # a June district's models train on June
+
+
+def test_a_rule_that_raises_its_own_objective_is_named_once():
+    objectives = {"no_control": {"cost": 100.0, "emissions": 50.0, "discomfort": 0.0, "consumption": 900.0,
+                                 "average_daily_peak": 10.0},
+                  "cost_rbc": {"cost": 102.0, "emissions": 49.0, "discomfort": 0.0, "consumption": 950.0,
+                               "average_daily_peak": 9.0}}
+    lines = objectives_table(objectives)
+    notes = [line for line in lines if line.startswith("Note:")]
+    # 102 against 100 $: +2.0 %; the emissions it lowers and the consumption it raises are not its objective
+    assert len(notes) == 1 and "cost RBC raises cost by +2.0 %" in notes[0]
+    objectives["cost_rbc"]["cost"] = 99.0
+    assert rule_misfits(objectives) == []

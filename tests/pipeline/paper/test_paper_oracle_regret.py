@@ -12,7 +12,7 @@ from citylearn_env.errors import InputError
 from citylearn_env.example import write_example_district
 from pipeline.paper.benchmarks import BENCHMARKS, RunOptions
 from pipeline.paper.reference import unsupported
-from pipeline.paper.results import captured
+from pipeline.paper.results import captured, regret_table
 from pipeline.paper.tasks import plan_tasks, run_paper
 
 BY_ID = {b.id: b for b in BENCHMARKS}
@@ -103,3 +103,19 @@ def test_captured_share_by_hand():
     assert captured(10.0, 8.0, 6.0) == pytest.approx(0.5)
     assert captured(10.0, 11.0, 6.0) == pytest.approx(-0.25)
     assert math.isnan(captured(10.0, 9.0, 10.0)) and math.isnan(captured(float("nan"), 9.0, 8.0))
+
+
+def _regret(config: str, controller: str, value: float, no_control: float, oracle: float) -> dict:
+    return {"configuration": config, "objective": "cost", "unit": "$", "controller": controller, "value": value,
+            "value_sd": 0.0, "seeds": 1, "no_control": no_control, "oracle": oracle,
+            "captured": captured(no_control, value, oracle), "note": ""}
+
+
+def test_an_rbc_worse_than_no_control_gets_one_line():
+    rows = [_regret("b1-c-dhw", "rbc", 20.5, 20.0, 18.0), _regret("b1-c-dhw", "oracle", 18.0, 20.0, 18.0),
+            _regret("b1-c-bess_pv", "rbc", 19.0, 20.0, 18.0), _regret("b1-c-bess_pv", "oracle", 18.0, 20.0, 18.0)]
+    text = regret_table(rows)
+    notes = [line for line in text.splitlines() if "worse than no control" in line]
+    # 20.5 against 20.0: 2.5 % above; the RBC that saves (19.0 < 20.0) gets no line
+    assert len(notes) == 1 and notes[0].startswith("b1-c-dhw:") and "(+2.5 %)" in notes[0]
+    assert "| b1-c-dhw | cost $ | 20.000 | 20.500 (-25.0 %) |" in text
