@@ -413,7 +413,11 @@ def check_surrogate_errors(judged: Mapping[str, Mapping], strict: bool = False, 
                 f"({ilv.get('timesteps_per_hour')} timesteps/h, seed {ilv.get('seed')}): {miss}")
         if strict:
             raise InputError(f"{line} (--strict)", column="surrogate")
-        print(f"districtgen: warning: {line}", file=stream or sys.stderr)
+        out = stream or sys.stderr
+        # written, not print()ed: inside the build flow (log_prints) a print would become an INFO record of
+        # the run logger, which `make run` (PREFECT_LOGGING_LEVEL=WARNING) drops
+        out.write(f"districtgen: warning: {line}\n")
+        out.flush()
 
 
 def surrogate_error_summary(record: Mapping) -> dict:
