@@ -211,8 +211,9 @@ def rule_misfits(objectives: Mapping[str, Mapping[str, float]]) -> list[str]:
         label = POLICY_LABELS.get(policy, policy)
         out += [f"Note: the {label} raises {key.replace('_', ' ')} by "
                 f"{_change(objectives[policy][key], objectives[first][key])} against "
-                f"{POLICY_LABELS.get(first, first)}: its fixed charge and discharge hours (written for the paper's "
-                "June) do not pay in this period; read its row as a rule that does not fit, not as a benchmark.", ""]
+                f"{POLICY_LABELS.get(first, first)}: its fixed charge and discharge hours do not pay on this "
+                "district's signals over the period; read its row as a rule that does not fit, not as a benchmark.",
+                ""]
     return out
 
 

@@ -194,8 +194,8 @@ def regret_table(rows: Sequence[Mapping[str, Any]]) -> str:
         rbc = controllers.get("rbc", {})
         if "value" in rbc and rbc["value"] > rbc["no_control"]:
             notes.append(f"{config}: the RBC does worse than no control on its own objective ("
-                         f"{_percent(rbc['value'], rbc['no_control'])}): its fixed charge and discharge hours "
-                         "(written for the paper's June) do not fit this test period.")
+                         f"{_percent(rbc['value'], rbc['no_control'])}): its fixed charge and discharge hours do not "
+                         "pay on this district's signals over the test period.")
     return "\n".join([*lines, *([""] + notes if notes else [])]) + "\n"
 
 
