@@ -55,6 +55,10 @@ def peak_rbc(hour: int, day_type: int) -> float:
 
 
 RULES = {"cost_rbc": cost_rbc, "emission_rbc": emission_rbc, "peak_rbc": peak_rbc}
+#: the objective (a key of ``citylearn_env.kpis.objectives``) each rule is written to lower
+RULE_OBJECTIVES = {"cost_rbc": "cost", "emission_rbc": "emissions", "peak_rbc": "average_daily_peak"}
+#: why a rule can do worse than no control on its own objective (``period``: how the caller names its span)
+MISFIT_REASON = "its fixed charge and discharge hours do not pay on this district's signals over the {period}"
 
 
 # ------------------------------------------------------------------ the rules as the paper's code has them

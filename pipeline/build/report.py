@@ -29,6 +29,7 @@ from pipeline.build.report_figures import (
     safe_name,
     temperature_figure,
 )
+from pipeline.controllers import MISFIT_REASON, RULE_OBJECTIVES
 from pipeline.select import format_validity
 
 #: episode series the report needs (env.series() names), (B, T)
@@ -194,9 +195,6 @@ def objectives_table(objectives: Mapping[str, Mapping[str, float]]) -> list[str]
             *_table(header, rows), "", *rule_misfits(objectives)]
 
 
-#: a rule-based policy -> the objective its rule is written for
-RULE_OBJECTIVES = {"cost_rbc": "cost", "emission_rbc": "emissions", "peak_rbc": "average_daily_peak"}
-
 
 def rule_misfits(objectives: Mapping[str, Mapping[str, float]]) -> list[str]:
     """One line (then a blank) per rule-based policy that does worse than the first policy (no control) on
@@ -211,9 +209,8 @@ def rule_misfits(objectives: Mapping[str, Mapping[str, float]]) -> list[str]:
         label = POLICY_LABELS.get(policy, policy)
         out += [f"Note: the {label} raises {key.replace('_', ' ')} by "
                 f"{_change(objectives[policy][key], objectives[first][key])} against "
-                f"{POLICY_LABELS.get(first, first)}: its fixed charge and discharge hours do not pay on this "
-                "district's signals over the period; read its row as a rule that does not fit, not as a benchmark.",
-                ""]
+                f"{POLICY_LABELS.get(first, first)}: {MISFIT_REASON.format(period='period')}; read its row as a rule "
+                "that does not fit, not as a benchmark.", ""]
     return out
 
 

@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from pipeline.controllers import MISFIT_REASON
 from pipeline.paper.benchmarks import BENCHMARKS, SWEEP_ID, RunOptions, Task, configuration
 from pipeline.paper.figures import write_figures
 from pipeline.paper.reference import OBJECTIVE_FIELDS, REFERENCES, unsupported
@@ -194,8 +195,7 @@ def regret_table(rows: Sequence[Mapping[str, Any]]) -> str:
         rbc = controllers.get("rbc", {})
         if "value" in rbc and rbc["value"] > rbc["no_control"]:
             notes.append(f"{config}: the RBC does worse than no control on its own objective ("
-                         f"{_percent(rbc['value'], rbc['no_control'])}): its fixed charge and discharge hours do not "
-                         "pay on this district's signals over the test period.")
+                         f"{_percent(rbc['value'], rbc['no_control'])}): {MISFIT_REASON.format(period='test period')}.")
     return "\n".join([*lines, *([""] + notes if notes else [])]) + "\n"
 
 
