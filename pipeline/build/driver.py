@@ -65,6 +65,7 @@ from pipeline.build.surrogates import (
     check_cache_root,
     check_surrogate_errors,
     fmu_ilv,
+    resolve_precision,
     surrogate_errors,
     surrogate_files,
     write_surrogate_files,
@@ -91,6 +92,7 @@ def run_build(config: BuildConfig, output_root: str | Path = "artifacts", runner
     started = time.perf_counter()
     config, selection = resolve_selection(config)
     timings["selection"] = time.perf_counter() - started
+    config, precision = resolve_precision(config)  # once, here: every worker trains in the same mode
     names = building_names(config)
     ids = dict(zip(names, config.inputs.buildings, strict=True))
     with staging(config, output_root) as out:
@@ -150,7 +152,7 @@ def run_build(config: BuildConfig, output_root: str | Path = "artifacts", runner
         timings["validate"] = time.perf_counter() - started
         write_manifest(out, config, {n: trained[n].key for n in cache_use},
                        {n: trained[n].judge_key for n in cache_use if trained[n].judge_key is not None})
-        write_timings(out, config, timings, cache_use)
+        write_timings(out, config, timings, cache_use, precision)
         make_world_readable(out)
     return Path(output_root) / config.name
 

@@ -43,7 +43,7 @@ from pipeline.build.cache import cache_root
 from pipeline.config import BuildConfig
 from pipeline.errors import InputError
 from pipeline.ingest.eulp import locate_building
-from surrogates.precision import capability
+from surrogates.precision import Choice, capability
 
 MANIFEST = "manifest.json"
 TIMINGS = "timings.json"
@@ -208,16 +208,20 @@ def write_manifest(out: Path, config: BuildConfig, surrogate_keys: Mapping[str, 
 
 
 def write_timings(out: Path, config: BuildConfig, seconds: Mapping[str, float],
-                  surrogates: Mapping[str, Mapping[str, object]] | None = None) -> Path:
+                  surrogates: Mapping[str, Mapping[str, object]] | None = None,
+                  precision: Choice | None = None) -> Path:
     """Write ``out/timings.json``: the CPU (:func:`surrogates.precision.capability`), ``seconds`` per build
-    stage [s, wall clock], per building the surrogate's training seconds, the precision its updates ran in
-    (and why) and whether the cache had it, the configuration file's and the cache's locations and the
-    UTC time it was written. Not reproducible, so the manifest does not hash it; the sidecar does."""
+    stage [s, wall clock], the precision the build resolved for its surrogates' updates, what was asked and why
+    (``precision``: :func:`pipeline.build.surrogates.resolve_precision`), per building the surrogate's training
+    seconds, the precision its updates ran in and whether the cache had it, the configuration file's and the
+    cache's locations and the UTC time it was written. Not reproducible, so the manifest does not hash it; the
+    sidecar does."""
 
     record = {"finished_utc": dt.datetime.now(dt.UTC).isoformat(timespec="seconds"), "cpu": capability().describe(),
               "config_file": str(Path(config.source).resolve()) if Path(config.source).name != "<dict>" else None,
               "config_folder": str(config_folder(config)), "cache_root": str(cache_root(config.cache_dir)),
               "stages_s": {k: round(float(v), 3) for k, v in seconds.items()},
+              "precision": None if precision is None else precision.record(),
               "surrogates": {k: dict(v) for k, v in (surrogates or {}).items()}}
     path = write_json_file(out / TIMINGS, record)
     write_sidecar(out)

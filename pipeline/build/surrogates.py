@@ -31,6 +31,7 @@ from surrogates.energyplus.ilv import ILVConfig, partial_runs_for
 from surrogates.export import train_and_export
 from surrogates.ilv import read_ilv, table_digest, validate_ilv
 from surrogates.judge import JudgeConfig, judge_surrogate, verdict
+from surrogates.precision import Choice
 from surrogates.sources.energyplus import energyplus_ilv_table
 from surrogates.sources.fmu import simulate_ilv_fmu
 from surrogates.train import progress_units, update_precision
@@ -86,6 +87,19 @@ def train_config(config: BuildConfig):
                    epochs=s.epochs, pretrain_steps=s.pretrain_steps, long_chunk_epochs=s.long_chunk_epochs,
                    seed=s.seed, max_seconds=s.max_seconds, precision=s.precision, progress=False, threads=1,
                    months=months)
+
+
+def resolve_precision(config: BuildConfig) -> tuple[BuildConfig, Choice | None]:
+    """``config`` with ``[surrogate] precision`` resolved on this CPU (``auto`` -> ``float32`` or ``bfloat16``,
+    :func:`surrogates.train.update_precision`) and the choice with its reason; ``(config, None)`` without
+    surrogates. The build resolves once, in its own process, before any training: ``auto`` measures bfloat16
+    against float32 where the CPU multiplies it natively, and a measurement repeated in each Dask worker, under
+    the load of the other workers, could choose differently per house and per run, and the weights with it."""
+    if config.surrogate.source == "none":
+        return config, None
+    choice = update_precision(train_config(config))
+    surrogate = config.surrogate.model_copy(update={"precision": choice.precision})
+    return config.model_copy(update={"surrogate": surrogate}), choice
 
 
 def simulated_months(config: BuildConfig) -> tuple[tuple[int, int], tuple[int, int]]:
@@ -210,7 +224,8 @@ def surrogate_cache_parts(config: BuildConfig, bldg_id: int, name: str, table: p
     package = Path(surrogates.__file__).parent
 
     train = train_config(config)
-    settings = {k: v for k, v in asdict(train).items() if k != "progress"}
+    # the mode asked for is not a part: the mode that runs is (auto and its outcome asked for give one key)
+    settings = {k: v for k, v in asdict(train).items() if k not in ("progress", "precision")}
     parts: dict[str, object] = {
         "building": name, "bldg_id": int(bldg_id), "train": settings,
         "precision": update_precision(train).precision,  # what runs here: auto resolves per CPU

@@ -7,6 +7,7 @@ from __future__ import annotations
 import importlib.util
 import io
 import json
+import warnings
 from datetime import date
 from pathlib import Path
 
@@ -136,6 +137,32 @@ def test_the_key_ignores_what_training_does_not_use(one_building):
     assert cache_key(surrogate_cache_parts(more_epochs, 900001, "Building_1")[0]) != key
 
 
+def test_the_build_resolves_auto_once_and_the_key_follows_the_mode_that_runs(one_building):
+    """``auto`` becomes the mode this CPU runs before any worker trains (a worker measuring again under the
+    other workers' load could pick the other mode, and other weights); asking for that mode by name is the
+    same surrogate, so the same key; the other mode is another key."""
+    from pipeline.build.surrogates import resolve_precision
+
+    assert one_building.surrogate.precision == "auto"
+    resolved, choice = resolve_precision(one_building)
+    assert resolved.surrogate.precision == choice.precision in ("float32", "bfloat16")
+    assert choice.requested == "auto" and choice.reason
+    assert resolved.surrogate.model_copy(update={"precision": "auto"}) == one_building.surrogate  # nothing else
+    assert resolve_precision(resolved)[0] == resolved                # resolving again changes nothing
+    none = one_building.model_copy(update={"surrogate": one_building.surrogate.model_copy(update={"source": "none"})})
+    assert resolve_precision(none) == (none, None)
+
+    def key(mode: str) -> str:
+        config = one_building.model_copy(update={"surrogate": one_building.surrogate.model_copy(
+            update={"precision": mode})})
+        return cache_key(surrogate_cache_parts(config, 900001, "Building_1")[0])
+
+    other = "bfloat16" if choice.precision == "float32" else "float32"
+    with warnings.catch_warnings():  # bfloat16 asked for where it measured slower warns; expected here
+        warnings.simplefilter("ignore", RuntimeWarning)
+        assert key("auto") == key(choice.precision) != key(other)
+
+
 def _training_table(folder: Path) -> tuple[pd.DataFrame, str]:
     """The district's copy of Building_1's training table (read back) and the digest its metrics record."""
     metrics = json.loads((folder / "surrogates" / "Building_1.metrics.json").read_text())
@@ -148,6 +175,9 @@ def test_battery_change_reuses_ilv_change_and_tampering_retrain(one_building, tm
     first = build_district_local(one_building, tmp_path / "a")
     use = _cache_use(first)
     assert use["hit"] is False
+    timings = json.loads((first / "timings.json").read_text())   # the build's one choice, and why
+    assert timings["precision"]["precision_requested"] == "auto"
+    assert timings["precision"]["precision"] == timings["surrogates"]["Building_1"]["precision"]
     pth = (first / "Building_1.pth").read_bytes()
     # the table the model was trained on is kept with the district, listed in the manifest like any artifact
     table, recorded = _training_table(first)
