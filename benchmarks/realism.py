@@ -53,6 +53,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from pipeline.realism import (  # noqa: E402
+    cooling_degree_days,
     daily_load_factor,
     electric_equivalent_kwh,
     energy_per_area_kwh_m2,
@@ -131,6 +132,71 @@ def real_house_months(root: Path = CITYLEARN, season: str = "JJA") -> list[House
                 continue
             seen.setdefault(fingerprint(item), item)
     return list(seen.values())
+
+
+def real_weather_months(root: Path = CITYLEARN) -> dict[int, list[np.ndarray]]:
+    """The outdoor dry-bulb temperatures [degC] of the 2023 challenge homes' weather, per calendar month:
+    month -> one array per distinct weather (every dataset copy carries its own weather.csv, most the same)."""
+    folders = {p.parent for pattern in ("upstream/v2.4.2/citylearn_challenge_2023_*/Building_1.csv",
+                                        "upstream/v2.1.2/citylearn_challenge_2023_*/Building_1.csv",
+                                        "citylearn_challenge_2023_*/Building_1.csv") for p in root.glob(pattern)}
+    seen: dict[tuple[int, float], np.ndarray] = {}
+    for folder in sorted(folders):
+        if not (folder / "weather.csv").is_file():
+            continue
+        weather = pd.read_csv(folder / "weather.csv")
+        months = read_building_csv(folder / "Building_1.csv")["month"].to_numpy()
+        column = "outdoor_dry_bulb_temperature" if "outdoor_dry_bulb_temperature" in weather else weather.columns[0]
+        temperature = weather[column].to_numpy(dtype=float)[: len(months)]
+        for month in np.unique(months):
+            values = temperature[months[: len(temperature)] == month]
+            if len(values) >= 28 * 24:
+                seen.setdefault((int(month), round(float(values.sum()), 1)), values)
+    out: dict[int, list[np.ndarray]] = {}
+    for (month, _), values in seen.items():
+        out.setdefault(month, []).append(values)
+    return out
+
+
+def built_weather_months(config_path: Path | None, district: Path) -> dict[int, list[np.ndarray]]:
+    """The built district's outdoor dry-bulb temperatures [degC] per calendar month: the configuration's EPW
+    (``--simulate``) or the district folder's weather.csv (months from its first building's table)."""
+    if config_path is not None:
+        from pipeline.config import read_build_config
+        from pipeline.ingest.weather import read_epw
+
+        config = read_build_config(config_path)
+        frame, _ = read_epw(config.inputs.weather, tmy_year=config.period.start.year)
+        temperature = frame["outdoor_dry_bulb_temperature_c"]
+        period = (temperature.index.date >= config.period.start) & (temperature.index.date <= config.period.end)
+        temperature = temperature[period]
+        months, values = temperature.index.month.to_numpy(), temperature.to_numpy(dtype=float)
+    else:
+        schema = json.loads((district / "schema.json").read_text())
+        first = next(iter(schema["buildings"].values()))
+        months = read_building_csv(district / first["energy_simulation"])["month"].to_numpy()
+        weather = pd.read_csv(district / "weather.csv")
+        values = weather["outdoor_dry_bulb_temperature"].to_numpy(dtype=float)[: len(months)]
+    return {int(m): [values[months == m]] for m in np.unique(months) if (months == m).sum() >= 28 * 24}
+
+
+def weather_line(built: dict[int, list[np.ndarray]], built_months: set[int], real: dict[int, list[np.ndarray]],
+                 real_months: set[int]) -> str:
+    """One line: the mean outdoor temperature [degC] and cooling degree-days per 30 days [K day, 18.3 degC base]
+    of the built house-months' weather (``built_months``) and of the real ones' (``real_months``): cooling
+    compares weathers as much as houses."""
+    def summary(by_month: dict[int, list[np.ndarray]], months: set[int]) -> tuple[float, float]:
+        series = [v for m in sorted(months) for v in by_month.get(m, [])]
+        if not series:
+            return float("nan"), float("nan")
+        return (float(np.mean([v.mean() for v in series])),
+                float(np.mean([cooling_degree_days(v) * 30.0 * 24 / len(v) for v in series])))
+
+    (built_t, built_cdd), (real_t, real_cdd) = summary(built, built_months), summary(real, real_months)
+    ratio = f" ({(built_cdd / real_cdd - 1) * 100:+.0f} %)" if real_cdd > 0 else ""
+    return (f"weather, cooling degree-days (18.3 degC base) per 30 days: real (months {sorted(real_months)}) "
+            f"{_fmt(real_cdd, 0)}, mean {_fmt(real_t, 1)} degC; built (months {sorted(built_months)}) "
+            f"{_fmt(built_cdd, 0)}{ratio}, mean {_fmt(built_t, 1)} degC")
 
 
 def built_house_months(district: Path) -> list[HouseMonth]:
@@ -424,6 +490,8 @@ def main(argv: list[str] | None = None) -> int:
               f"challenge homes (Austin TX, {scope})\n")
         several = len(shown) > len(house_names(shown))
         print(per_house_table(shown, real) if several else realism_table(shown, real)[0])
+        print("\n" + weather_line(built_weather_months(args.simulate, args.district), {b.month for b in shown},
+                                  real_weather_months(args.real), {r.month for r in real}))
     if unmatched:
         fill_statistics(unmatched, np.full(24, np.nan))
         months = sorted({b.month for b in unmatched})

@@ -110,3 +110,12 @@ def median_ratio_pct(built: Sequence[float], real_median: float) -> float:
     if not (np.isfinite(real_median) and real_median != 0):
         return float("nan")
     return (float(np.median(np.asarray(built, dtype=float))) / real_median - 1.0) * 100.0
+
+
+def cooling_degree_days(temperature_c: Sequence[float] | pd.Series, base_c: float = 18.3,
+                        hours_per_day: int = 24) -> float:
+    """Cooling degree-days [K day] of hourly outdoor temperatures [degC]: the sum over hours of the excess over
+    ``base_c`` (18.3 degC = 65 F, the US convention) divided by ``hours_per_day``. What drives a house's cooling
+    from outside: two months compared on cooling should be compared on this too."""
+    values = np.asarray(temperature_c, dtype=float)
+    return float(np.clip(values - base_c, 0.0, None).sum() / hours_per_day)

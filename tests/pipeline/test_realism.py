@@ -11,6 +11,7 @@ import pytest
 
 from pipeline.realism import (
     COOLING_COP,
+    cooling_degree_days,
     daily_load_factor,
     electric_equivalent_kwh,
     energy_per_area_kwh_m2,
@@ -84,6 +85,15 @@ def test_percentile_band_in_band_and_median_ratio():
     assert in_band(1.0, (float("nan"),) * 3) is None
     assert median_ratio_pct([1.0, 2.0, 3.0], 1.6) == pytest.approx(25.0)
     assert math.isnan(median_ratio_pct([1.0], 0.0))
+
+
+def test_cooling_degree_days_by_hand():
+    # one day at 28.3 degC: 10 K above the 65 F base for 24 h = 10 K day; a day at 18.3 or below adds nothing
+    assert cooling_degree_days([28.3] * 24) == pytest.approx(10.0)
+    assert cooling_degree_days([18.3] * 24 + [10.0] * 24) == 0.0
+    # 12 h at 20.3 (2 K) and 12 h at 15 (0): 24 K h = 1 K day; another base moves it
+    assert cooling_degree_days([20.3] * 12 + [15.0] * 12) == pytest.approx(1.0)
+    assert cooling_degree_days([20.3] * 12 + [15.0] * 12, base_c=14.0) == pytest.approx((12 * 6.3 + 12 * 1.0) / 24)
 
 
 def test_real_reference_is_the_deduplicated_austin_homes():
