@@ -108,6 +108,30 @@ def test_real_reference_is_the_deduplicated_austin_homes():
     assert real_house_months(root, "DJF") == []
 
 
+def test_real_weather_is_each_distinct_summer_once():
+    """Every copy of the 2023 datasets carries a weather.csv; most are the same weather: one series per
+    distinct month (June twice: the phase-1 June and the later phases' June-August are other years)."""
+    root = SHARED / "data" / "citylearn"
+    need_shared(root / "upstream" / "v2.4.2" / "citylearn_challenge_2023_phase_1")
+    from benchmarks.realism import real_weather_months
+
+    weather = real_weather_months(root)
+    assert sorted(weather) == [6, 7, 8]
+    assert [len(weather[m]) for m in (6, 7, 8)] == [2, 1, 1]
+    assert len(weather[7][0]) == len(weather[8][0]) == 31 * 24 and all(len(v) == 30 * 24 for v in weather[6])
+    assert all(24.0 < float(v.mean()) < 33.0 for m in weather for v in weather[m])  # an Austin summer, degC
+
+
+def test_weather_line_compares_degree_days_per_30_days():
+    from benchmarks.realism import weather_line
+
+    june = np.full(30 * 24, 28.3)   # 10 K above the base: 300 K day in 30 days
+    july = np.full(31 * 24, 28.3)   # 310 K day in 31 days: 300 per 30 days
+    line = weather_line({6: [june + 3.0]}, {6}, {6: [june], 7: [july]}, {6, 7})
+    assert "real (months [6, 7]) 300, mean 28.3 degC" in line
+    assert "built (months [6]) 390 (+30 %), mean 31.3 degC" in line
+
+
 def test_benchmark_table_flags_houses_outside_the_real_band():
     from benchmarks.realism import HouseMonth, fill_statistics, realism_table
 
