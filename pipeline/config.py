@@ -142,6 +142,9 @@ class Surrogate(_Frozen):
     precision: Literal["auto", "float32", "bfloat16"] = Field(
         "auto", description="numeric mode of the updates: auto = bfloat16 only where the CPU multiplies it "
                             "natively and it measures faster (the mode that ran is in timings.json)")
+    start: Literal["generic", "random"] = Field(
+        "generic", description="the weights each house's training begins from: generic = the model trained once on "
+                               "many houses (surrogates/generic.py), random = seeded random weights")
     strict: bool = Field(False, description="refuse the build when a house's surrogate misses the bound against "
                                             "the judge (monthly RMSE median 0.25 / worst month 0.5 degC); else warn")
 

@@ -27,6 +27,10 @@ DEFAULT_INPUTS: tuple[str, ...] = (
 INPUTS_WITH_DAY_TYPE: tuple[str, ...] = (*DEFAULT_INPUTS[:-1], "day_type_sin", "day_type_cos", TARGET)
 
 
+#: where a training's weights begin (:attr:`TrainConfig.start`)
+STARTS = ("random", "generic")
+
+
 @dataclass(frozen=True)
 class TrainConfig:
     """Hyper-parameters; the defaults are the best recipe measured on the independent validation suite
@@ -91,6 +95,12 @@ class TrainConfig:
     #: stay float32; not bit-identical to float32); ``auto`` picks bfloat16 only where the CPU multiplies it
     #: natively and a short measurement of this network's update finds it faster (:func:`update_precision`)
     precision: str = "auto"
+    #: the weights the warm start begins from: ``random`` (seeded) or ``generic`` (:mod:`surrogates.generic`:
+    #: one model trained on many houses, used where its size matches, else random)
+    start: str = "random"
+    #: the warm start's Adam rate when it begins from the generic model (``learning_rate`` otherwise): at the
+    #: random start's 0.02 a generic start diverged in winter months (docs/surrogates.md, section 11)
+    generic_learning_rate: float = 0.01
 
     def __post_init__(self):
         if self.inputs and self.inputs[-1] != TARGET:
@@ -103,6 +113,8 @@ class TrainConfig:
             if getattr(self, key) < 0:
                 raise InputError("must be >= 0", column=key)
         check_precision(self.precision, column="precision")
+        if self.start not in STARTS:
+            raise InputError(f"unknown start {self.start!r}; known: {', '.join(STARTS)}", column="start")
         bad = [m for m in self.months if not 1 <= m <= 12]
         if bad:
             raise InputError(f"calendar months are 1-12, got {bad[0]}", column="months")
@@ -134,6 +146,9 @@ def season_months(start: datetime.date, end: datetime.date, margin: int = 0) -> 
 #: or better), for about 1.5-2 s more CPU per house (a longer sequential rollout). The warm start's temperature
 #: noise is 0.2 of the training range (``TrainConfig``: 0.06): with the internal gains as an input, 0.06 -> 0.2
 #: lowers every default house's full-year judge median (by 0.007-0.024 degC, Building_6 0.309 -> 0.286) and
-#: its December-February mean (docs/surrogates.md, section 11)
+#: its December-February mean (docs/surrogates.md, section 11). The warm start begins from the generic model
+#: (:mod:`surrogates.generic`, at rate 0.01): the six default houses' full-year judge medians 0.03-0.06 degC
+#: lower at the same CPU, Building_6's year within the bound (0.294 -> 0.237 degC; docs/surrogates.md, section 11)
 BUILD_RECIPE = TrainConfig(hidden_size=16, pretrain_steps=5000, pretrain_batch_size=16, learning_rate=0.02,
-                           epochs=16, long_chunk_epochs=6, validation_hours=720, pretrain_noise=0.2)
+                           epochs=16, long_chunk_epochs=6, validation_hours=720, pretrain_noise=0.2,
+                           start="generic")

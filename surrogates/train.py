@@ -30,6 +30,7 @@ from tqdm.auto import tqdm
 
 from citylearn_env.errors import InputError
 from surrogates.config import TrainConfig
+from surrogates.generic import generic_state
 from surrogates.ilv import OPTIONAL_COLUMNS, validate_ilv
 from surrogates.model import (
     LSTMModel,
@@ -280,9 +281,12 @@ def _fit(table, inputs, splits, config: TrainConfig, started: float, progress=No
     val = _validation_chunks(x, splits["validation"], config)
     # local generator, not torch.manual_seed: the global stream is shared with concurrent trainings (threads)
     model = seeded_model(len(inputs), config.hidden_size, config.num_layers, config.seed)
+    generic = generic_state(inputs, config.hidden_size, config.num_layers) if config.start == "generic" else None
+    if generic is not None:  # else (no generic model of this size): the seeded random start
+        model.load_state_dict(generic)
     run_starts = {run.start for run in run_segments(table).values()}
     anchors = [seg for seg in splits["train"] if seg.start in run_starts]  # training segments starting a run
-    optimizer = FlatAdam(model, config.learning_rate)
+    optimizer = FlatAdam(model, config.learning_rate if generic is None else config.generic_learning_rate)
     bar = _progress(config)
     warm = WARM_START_UNITS if config.pretrain_steps > 0 else 0
     total = progress_units(config)

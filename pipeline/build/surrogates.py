@@ -36,8 +36,10 @@ from surrogates.sources.energyplus import energyplus_ilv_table
 from surrogates.sources.fmu import simulate_ilv_fmu
 from surrogates.train import progress_units, update_precision
 
-#: the trainer's source files (relative to the ``surrogates`` package): part of every surrogate cache key
-TRAINER_SOURCES = ("config.py", "train.py", "model.py", "export.py", "evaluate.py", "ilv.py")
+#: the trainer's source files (relative to the ``surrogates`` package), the generic starting model among them:
+#: part of every surrogate cache key
+TRAINER_SOURCES = ("config.py", "train.py", "model.py", "export.py", "evaluate.py", "ilv.py", "generic.py",
+                   "data/generic_lstm.json")
 
 
 #: what turns EULP metadata + EPW into an ILV table: part of the key for ``surrogate.source = "energyplus"``
@@ -85,7 +87,8 @@ def train_config(config: BuildConfig):
     months = season_months(config.period.start, config.period.end, s.season_margin)
     return replace(BUILD_RECIPE, hidden_size=s.hidden_size, num_layers=s.num_layers, lookback=s.lookback,
                    epochs=s.epochs, pretrain_steps=s.pretrain_steps, long_chunk_epochs=s.long_chunk_epochs,
-                   seed=s.seed, max_seconds=s.max_seconds, precision=s.precision, progress=False, threads=1,
+                   seed=s.seed, max_seconds=s.max_seconds, precision=s.precision, start=s.start, progress=False,
+                   threads=1,
                    months=months)
 
 
