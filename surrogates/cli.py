@@ -8,7 +8,7 @@ import os
 from pathlib import Path
 
 from citylearn_env.errors import InputError
-from surrogates.config import TrainConfig
+from surrogates.config import STARTS, TrainConfig
 from surrogates.precision import PRECISIONS
 from surrogates.sources.csv import read_ilv_table
 
@@ -78,7 +78,7 @@ def _months(text: str) -> tuple[int, ...]:
 def _train_command(args: argparse.Namespace) -> int:
     config = TrainConfig(hidden_size=args.hidden, num_layers=args.layers, lookback=args.lookback,
                          epochs=args.epochs, pretrain_steps=args.pretrain_steps, seed=args.seed,
-                         precision=args.precision, progress=not args.quiet, months=args.months)
+                         precision=args.precision, progress=not args.quiet, months=args.months, start=args.start)
     report = train(args.table, args.out_dir, args.name, config)
     print(json.dumps({"building": report["building"], "files": report["files"],
                       "train_seconds": report["training"]["train_seconds"],
@@ -137,6 +137,9 @@ def register(subparsers: argparse._SubParsersAction) -> argparse._SubParsersActi
     train_parser.add_argument("--months", type=_months, default=(), metavar="M,M,...",
                               help="train and validate on these calendar months only, e.g. 12,1,2 (a build "
                                    "trains on its period's months and one either side; default: every month)")
+    train_parser.add_argument("--start", choices=STARTS, default=defaults.start,
+                              help="initial weights: random (seeded) or generic (the model trained once on many "
+                                   "houses, surrogates/generic.py, where its size matches: hidden 16, 2 layers)")
     train_parser.add_argument("--precision", choices=PRECISIONS, default=defaults.precision,
                               help="numeric mode of the updates: auto = bfloat16 only where this CPU multiplies "
                                    "it natively and it measures faster, else float32")

@@ -85,3 +85,16 @@ def test_a_generic_start_begins_closer_to_an_unseen_house_than_a_random_one():
 def test_an_unknown_start_is_one_clear_error():
     with pytest.raises(InputError, match="start"):
         TrainConfig(start="pretrained")
+
+
+def test_surrogate_train_takes_the_start(tmp_path):
+    import json
+
+    from pipeline.cli import main
+
+    code = main(["surrogate", "train", str(FIXTURE_TABLE), "-o", str(tmp_path), "--name", "Building_1",
+                 "--start", "generic", "--hidden", "16", "--layers", "2", "--epochs", "1", "--pretrain-steps", "0",
+                 "--precision", "float32", "--quiet"])
+    assert code == 0
+    metrics = json.loads((tmp_path / "Building_1.metrics.json").read_text())
+    assert metrics["training"]["config"]["start"] == "generic"
