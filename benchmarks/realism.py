@@ -68,6 +68,9 @@ from pipeline.realism import (  # noqa: E402
 from surrogates.energyplus.end_uses import END_USE_GROUPS  # noqa: E402
 
 CITYLEARN = ROOT.parent / "shared" / "data" / "citylearn"
+#: where the 2023 challenge datasets lie under the citylearn data folder (both layouts and a plain copy)
+REAL_DATASETS = ("upstream/v2.4.2/citylearn_challenge_2023_*", "upstream/v2.1.2/citylearn_challenge_2023_*",
+                 "citylearn_challenge_2023_*")
 DEFAULT_DISTRICT = ROOT / "artifacts" / "default"
 #: the v2.1 positional layout: column index of each named column
 V21_POSITIONS = {"month": 0, "hour": 1, "non_shiftable_load": 7, "dhw_demand": 8, "cooling_demand": 9,
@@ -119,12 +122,15 @@ def fingerprint(item: HouseMonth) -> tuple[float, ...]:
     return (float(item.month), *(round(float(v), 1) for v in sums))
 
 
+def real_datasets(root: Path = CITYLEARN) -> list[Path]:
+    """The 2023 challenge dataset folders under ``root`` (:data:`REAL_DATASETS`, in that order, each sorted)."""
+    return [folder for pattern in REAL_DATASETS for folder in sorted(root.glob(pattern)) if folder.is_dir()]
+
+
 def real_house_months(root: Path = CITYLEARN, season: str = "JJA") -> list[HouseMonth]:
     """De-duplicated house-months of the 2023 challenge homes (Austin TX, ResStock single-family) in
     ``season``, from every copy of the datasets under ``root``."""
-    files = sorted(root.glob("upstream/v2.4.2/citylearn_challenge_2023_*/Building_*.csv"))
-    files += sorted(root.glob("upstream/v2.1.2/citylearn_challenge_2023_*/Building_*.csv"))
-    files += sorted(root.glob("citylearn_challenge_2023_*/Building_*.csv"))
+    files = [path for folder in real_datasets(root) for path in sorted(folder.glob("Building_*.csv"))]
     seen: dict[tuple[float, ...], HouseMonth] = {}
     for path in files:
         for item in split_months(f"{path.parent.name}/{path.stem}", read_building_csv(path)):
@@ -137,12 +143,9 @@ def real_house_months(root: Path = CITYLEARN, season: str = "JJA") -> list[House
 def real_weather_months(root: Path = CITYLEARN) -> dict[int, list[np.ndarray]]:
     """The outdoor dry-bulb temperatures [degC] of the 2023 challenge homes' weather, per calendar month:
     month -> one array per distinct weather (every dataset copy carries its own weather.csv, most the same)."""
-    folders = {p.parent for pattern in ("upstream/v2.4.2/citylearn_challenge_2023_*/Building_1.csv",
-                                        "upstream/v2.1.2/citylearn_challenge_2023_*/Building_1.csv",
-                                        "citylearn_challenge_2023_*/Building_1.csv") for p in root.glob(pattern)}
     seen: dict[tuple[int, float], np.ndarray] = {}
-    for folder in sorted(folders):
-        if not (folder / "weather.csv").is_file():
+    for folder in real_datasets(root):
+        if not (folder / "weather.csv").is_file() or not (folder / "Building_1.csv").is_file():
             continue
         weather = pd.read_csv(folder / "weather.csv")
         months = read_building_csv(folder / "Building_1.csv")["month"].to_numpy()

@@ -6,7 +6,7 @@ time to a normalised indoor temperature, so the house's 5,000 updates refine rat
 house's table is scaled to its own [0, 1] per input column before the tables are pooled, which is the
 normalisation a house's own training applies (:class:`surrogates.model.Normalization`), so the weights mean
 the same thing in both. Measured (docs/surrogates.md, section 11): the six default houses' full-year judge
-0.03-0.05 degC lower at the same CPU.
+medians 0.03-0.06 degC lower at the same CPU.
 
 The weights live in ``surrogates/data/generic_lstm.json`` (plain JSON: input names, sizes, the rows and recipe
 they came from, and the tensors as nested lists); ``benchmarks/generic_start.py`` regenerates the file.

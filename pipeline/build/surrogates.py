@@ -87,9 +87,8 @@ def train_config(config: BuildConfig):
     months = season_months(config.period.start, config.period.end, s.season_margin)
     return replace(BUILD_RECIPE, hidden_size=s.hidden_size, num_layers=s.num_layers, lookback=s.lookback,
                    epochs=s.epochs, pretrain_steps=s.pretrain_steps, long_chunk_epochs=s.long_chunk_epochs,
-                   seed=s.seed, max_seconds=s.max_seconds, precision=s.precision, start=s.start, progress=False,
-                   threads=1,
-                   months=months)
+                   seed=s.seed, max_seconds=s.max_seconds, precision=s.precision, start=s.start, months=months,
+                   progress=False, threads=1)
 
 
 def resolve_precision(config: BuildConfig) -> tuple[BuildConfig, Choice | None]:
