@@ -3,7 +3,7 @@
     .venv/bin/python benchmarks/build_report.py artifacts/default --repeats 5
 
 Prints the load average, the policy-run seconds and the median (min-max) wall and CPU seconds of
-``pipeline.build.report.write_report`` (tables + every figure) into a scratch folder, and the PNG count and bytes.
+``pipeline.builder.report.write_report`` (tables + every figure) into a scratch folder, and the PNG count and bytes.
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=5)
     args = parser.parse_args()
     from citylearn_env import load_schema
-    from pipeline.build.report import report_series, write_report
+    from pipeline.builder.report import report_series, write_report
     from pipeline.controllers import run_policy
 
     print(f"load average before: {os.getloadavg()}")

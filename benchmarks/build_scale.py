@@ -17,7 +17,7 @@ Output (``--json``)::
                "artifacts_sha256": "..."}, ...],
      "efficiency": {"2": T1 / (2 T2), ...}}
 
-``artifacts_sha256``: :func:`pipeline.build.manifest.district_digest`, sha256 over the artifact hashes the manifest
+``artifacts_sha256``: :func:`pipeline.builder.manifest.district_digest`, sha256 over the artifact hashes the manifest
 records (every file except ``manifest.json`` and ``timings.json``; the digests recorded before 2026-11-24 hashed
 the files directly and differ in value). The output folder and the cache folder have the same path in every run (emptied in between), as
 ``manifest.json`` records the configuration. ``cpu_s``: user + system CPU seconds of the build process and all its
@@ -41,7 +41,7 @@ import tomllib
 from datetime import date
 from pathlib import Path
 
-from pipeline.build.manifest import district_digest
+from pipeline.builder.manifest import district_digest
 
 ROOT = Path(__file__).resolve().parents[1]
 RAW = ROOT / "raw" / "district.toml"
@@ -95,7 +95,7 @@ def _children_usage() -> tuple[float, float]:
 
 
 def _step_timings(folder: Path) -> dict:
-    from pipeline.build.manifest import TIMINGS
+    from pipeline.builder.manifest import TIMINGS
 
     return json.loads((folder / TIMINGS).read_text())
 

@@ -4,7 +4,7 @@
         [--set hidden_size=16 pretrain_steps=2000 ...] [--data /tmp/districtgen_judge]
 
 Per house: the training ILV table (the build's ``[simulation]`` settings and months,
-:func:`pipeline.build.surrogates.ilv_config`) and the judge's table (:func:`surrogates.judge.judge_ilv_config`:
+:func:`pipeline.builder.surrogates.ilv_config`) and the judge's table (:func:`surrogates.judge.judge_ilv_config`:
 20 timesteps/h, another seed, the same months) are simulated once and kept under ``--data`` (keyed by house,
 settings and the generator's sources); then the recipe trains (float32 or what ``precision`` resolves to, one
 thread; ``build``: the config's own training settings, on the period's season) and the model is scored by
@@ -31,9 +31,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 import pandas as pd  # noqa: E402
 
 import surrogates  # noqa: E402
-from pipeline.build.cache import files_digest  # noqa: E402
-from pipeline.build.steps import read_characteristics_row  # noqa: E402
-from pipeline.build.surrogates import JUDGE_SOURCES, ilv_config, train_config  # noqa: E402
+from pipeline.builder.cache import files_digest  # noqa: E402
+from pipeline.builder.steps import read_characteristics_row  # noqa: E402
+from pipeline.builder.surrogates import JUDGE_SOURCES, ilv_config, train_config  # noqa: E402
 from pipeline.config import read_build_config  # noqa: E402
 from surrogates.config import BUILD_RECIPE, TrainConfig, season_months  # noqa: E402
 from surrogates.judge import JudgeConfig, judge_ilv_config, score_judge_table  # noqa: E402
@@ -83,7 +83,7 @@ def main() -> None:
     args = parser.parse_args()
     config = read_build_config(args.config)
     if args.bldg_ids is None:
-        from pipeline.build.steps import resolve_selection
+        from pipeline.builder.steps import resolve_selection
 
         config, _ = resolve_selection(config)
     ids = args.bldg_ids or list(config.inputs.buildings)

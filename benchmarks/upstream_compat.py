@@ -43,7 +43,7 @@ def main() -> None:
     import tomllib
 
     from citylearn_env import CityLearnEnv
-    from pipeline.build.driver import build_district_local
+    from pipeline.builder.driver import build_district_local
     from pipeline.config import parse_build_config
 
     data = tomllib.loads((ROOT / "raw" / "district.toml").read_text())

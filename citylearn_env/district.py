@@ -18,7 +18,7 @@ per step.
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import fields
+from dataclasses import fields, replace
 from types import MappingProxyType
 
 import numpy as np
@@ -261,6 +261,33 @@ class District:
             # CityLearn 2.5 compares the (absolute) start windows with the episode step; corrected: the row
             self._machine_offset = 0 if self.settings.ev_data_from_range_start else \
                 self.config.simulation_start_time_step + start
+
+    def use_outage(self, outage: np.ndarray) -> None:
+        """Replace the episode's drawn outage signal by ``outage`` (B, T) 0/1 (after :meth:`reset`)."""
+        outage = np.asarray(outage, dtype=np.float64)
+        if outage.shape != self.episode.outage.shape:
+            raise ValueError(f"outage must be {self.episode.outage.shape}, not {outage.shape}")
+        self.episode = replace(self.episode, outage=outage)
+        self._outage_steps = (outage > 0).any(axis=0)
+
+    def records(self) -> tuple:
+        """The episode records, (B, T) arrays per field: every end use's, then the batteries' and the
+        buildings'."""
+        return (*(u.record for u in self.end_uses), self.battery_record, self.building_record)
+
+    def load_tiled(self, src: District, copies: int, steps: int) -> None:
+        """Put ``copies`` copies of ``src``'s state at its step t into this district, which holds ``copies`` x
+        ``src``'s buildings with the same devices (building b of copy c is building c x B + b), for a rollout of
+        ``steps`` steps: the record columns t .. t + steps (later columns keep what they hold), the LSTM bank,
+        the step counter. EV chargers, washing machines and occupant models are not copied."""
+        t = src.t
+        cut = slice(t, min(t + steps + 1, src.length))
+        for a, b in zip(src.records(), self.records(), strict=True):
+            for f in fields(a):
+                getattr(b, f.name)[:, cut] = np.tile(getattr(a, f.name)[:, cut], (copies, 1))
+        if src.thermal is not None:
+            self.thermal.bank.load_tiled(src.thermal.bank, copies)
+        self.t = t
 
     def step(self, actions: Actions) -> None:
         """CityLearn 2.1's step: advance to t + 1 and apply ``actions`` there."""

@@ -493,6 +493,22 @@ class LSTMBank:
         self._modes_key = b""
         self._warm_flags = np.zeros(self.n_buildings, dtype=bool)
 
+    def load_tiled(self, src: LSTMBank, copies: int) -> None:
+        """Put ``copies`` copies of ``src``'s state into this bank, which holds ``copies`` x ``src``'s buildings
+        with the same models (building b of copy c is building c x B + b; slot s of copy c in a group is
+        c x group size + s): input windows, window fills, hidden and cell states, the model each building ran
+        last and whether it was warm. The group members are re-derived at the next step."""
+        for a, b in zip(src._groups, self._groups, strict=True):
+            b.buf[:] = np.tile(a.buf, (copies, 1, 1))
+            b.count[:] = np.tile(a.count, copies)
+            b.h[:] = np.tile(a.h, (copies, 1, 1))
+            b.c[:] = np.tile(a.c, (copies, 1, 1))
+        shift = (np.arange(copies) * len(src._inst_group))[:, None]
+        self._current = np.where(src._current >= 0, src._current[None, :] + shift, -1).reshape(-1)
+        self._warm_flags = np.tile(src._warm_flags, copies)
+        self._modes_key = b""
+        self._members = []
+
     def _instances(self, hvac_mode: ArrayLike) -> np.ndarray:
         heating = np.asarray(hvac_mode).reshape(self.n_buildings) == 2
         return np.where(heating, self._table[:, 1], self._table[:, 0])

@@ -110,7 +110,7 @@ def schema_document(buildings: Sequence[BuildingEntry], *, hours: int, observati
     random_seed, reward_function, central_agent, seconds_per_time_step
         Written as given (reward default: the plain ``citylearn.reward_function.RewardFunction``).
 
-    This is what ``pipeline.build.steps.schema_dict`` produces for the same inputs.
+    This is what ``pipeline.builder.steps.schema_dict`` produces for the same inputs.
     """
     unknown = sorted(set(active_actions) - set(ACTION_NAMES))
     if unknown:

@@ -1,6 +1,6 @@
 """Device sizing as pure functions (the SimBuild 2024 recipe; see reference/paper_application.md).
 
-Used by the pipeline's build (``pipeline.build.steps.size_buildings``) and by the synthetic example district, so
+Used by the pipeline's build (``pipeline.builder.steps.size_buildings``) and by the synthetic example district, so
 both size devices the same way. Inputs are hourly series over the sizing period (kWh per hour, degC);
 outputs are CityLearn device attributes (kW electric, kWh, fractions).
 

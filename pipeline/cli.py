@@ -42,7 +42,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def _judge_command(args: argparse.Namespace) -> int:
     # the build (pydantic, torch, EnergyPlus): imported only when judging
-    from pipeline.build.judge import judge_command
+    from pipeline.builder.judge import judge_command
 
     return judge_command(args)
 

@@ -164,7 +164,7 @@ def available_memory() -> int | None:
 
 
 def build_command(args: argparse.Namespace) -> int:
-    from pipeline.build.staging import staging
+    from pipeline.builder.staging import staging
     from pipeline.config import read_build_config
 
     config = read_build_config(args.config)
@@ -186,7 +186,7 @@ def build_command(args: argparse.Namespace) -> int:
     with progress.active(progress.make_reporter("quiet" if args.quiet else "auto")):
         folder = _build(config, args)
     if not args.quiet:
-        from pipeline.build.manifest import manifest_digest
+        from pipeline.builder.manifest import manifest_digest
 
         print(f"built {folder} (manifest digest {manifest_digest(folder)})")
         print((folder / "report" / "summary.md").read_text())
@@ -200,15 +200,15 @@ def _build(config, args: argparse.Namespace) -> Path:
     _quiet_orchestration()
     try:
         if args.no_prefect:
-            from pipeline.build.driver import build_district_local
+            from pipeline.builder.driver import build_district_local
 
             return build_district_local(config, args.output_root)
         if args.dask:
-            from pipeline.build.flows import build_district_on_dask
+            from pipeline.flows import build_district_on_dask
 
             address = None if args.dask == "local" else args.dask
             return build_district_on_dask(config, str(args.output_root), address=address, workers=args.workers)
-        from pipeline.build.flows import build_district, prefect_api
+        from pipeline.flows import build_district, prefect_api
 
         with prefect_api():  # no Prefect server outlives the build
             return build_district(config, str(args.output_root))
@@ -229,10 +229,10 @@ def _quiet_orchestration() -> None:
 
 
 def verify_command(args: argparse.Namespace) -> int:
-    """Re-hash every artifact and input of a district against its manifest (pipeline.build.manifest.check_district):
+    """Re-hash every artifact and input of a district against its manifest (pipeline.builder.manifest.check_district):
     one line per problem or warning, naming the file; exit 2 when anything differs, else a validation run."""
-    from pipeline.build.manifest import check_district, manifest_digest
-    from pipeline.build.validate import validate_district
+    from pipeline.builder.manifest import check_district, manifest_digest
+    from pipeline.builder.validate import validate_district
 
     if not args.folder.is_dir():
         raise InputError("not a folder (verify takes a built district's folder)", file=args.folder, column="folder")
@@ -316,9 +316,9 @@ def register_surrogate_install(surrogate_commands: argparse._SubParsersAction) -
 
 def _install_command(args: argparse.Namespace) -> int:
     """``surrogate install DISTRICT BUILDING MODEL``: a retrained model into a built district, re-verified
-    (the work is :func:`pipeline.build.install.install_surrogate`)."""
-    from pipeline.build.install import install_surrogate
-    from pipeline.build.manifest import verify_district
+    (the work is :func:`pipeline.builder.install.install_surrogate`)."""
+    from pipeline.builder.install import install_surrogate
+    from pipeline.builder.manifest import verify_district
 
     folder = install_surrogate(args.district, args.building, args.model, force=args.force)
     problems = verify_district(folder)

@@ -4,7 +4,7 @@ four implementations:
 * :class:`InProcessRunner` -- plain calls, one after the other, in this process (tests, quick runs);
 * :class:`ProcessRunner` -- a pool of spawned worker processes on this machine;
 * :class:`PrefectRunner` -- each call a Prefect task of the running flow, on the flow's task runner (threads,
-  or Dask through prefect-dask: :mod:`pipeline.build.flows`);
+  or Dask through prefect-dask: :mod:`pipeline.flows`);
 * :class:`DaskRunner` -- a Dask cluster (an existing scheduler, or a local cluster per ``map``).
 
 Every ``map`` returns ``{label: fn(*args)}`` in the order of ``calls``; the first failure ends it.

@@ -44,7 +44,7 @@ from surrogates.energyplus.occupancy import (
     weekend_days,
 )
 
-#: bump when the method changes: part of the simulation cache key (pipeline/build/houses.py)
+#: bump when the method changes: part of the simulation cache key (pipeline/builder/houses.py)
 SCHEDULE_VERSION = 5
 #: the fixtures' draws are at least this share of the daily hot-water target (when the appliances' fills
 #: alone would exceed it)

@@ -2,7 +2,7 @@
 
 Plain functions: :func:`energyplus_ilv_table` (the table in memory), :func:`write_ilv_table`,
 :func:`build_ilv_table` (one building's table generated and written; the build's Prefect flow runs its own
-tasks, :mod:`pipeline.build.flows`). Needs the optional extra ``districtgen[energyplus]``.
+tasks, :mod:`pipeline.flows`). Needs the optional extra ``districtgen[energyplus]``.
 """
 
 from __future__ import annotations

@@ -15,12 +15,12 @@ from pathlib import Path
 import pytest
 
 from pipeline import progress
-from pipeline.build.cache import cache_key
-from pipeline.build.driver import run_build
-from pipeline.build.houses import simulation_cache_parts
-from pipeline.build.surrogates import csv_ilv_path, surrogate_cache_parts
+from pipeline.builder.cache import cache_key
+from pipeline.builder.driver import run_build
+from pipeline.builder.houses import simulation_cache_parts
+from pipeline.builder.surrogates import csv_ilv_path, surrogate_cache_parts
 from pipeline.config import read_build_config
-from tests.pipeline.test_build import _short_config
+from tests.pipeline.builder.test_build import _short_config
 
 ROOT = Path(__file__).resolve().parents[2]
 

@@ -19,8 +19,8 @@ import pytest
 from citylearn_env import SchemaError
 from citylearn_env.dynamics import read_pth_state_dict
 from citylearn_env.example import write_example_district
-from pipeline.build.cache import FileCache, sha256_bytes
-from pipeline.build.staging import staging
+from pipeline.builder.cache import FileCache, sha256_bytes
+from pipeline.builder.staging import staging
 from pipeline.cli import main
 from pipeline.config import parse_build_config
 from pipeline.errors import InputError
@@ -80,7 +80,7 @@ def test_poisoned_cache_entry_is_never_executed(tmp_path):
 
 def test_the_cache_and_the_flows_never_unpickle():
     """Source check: the cache and the flow modules import no pickle/cloudpickle/torch.load."""
-    for module in ("pipeline/build/cache.py", "pipeline/build/flows.py"):
+    for module in ("pipeline/builder/cache.py", "pipeline/flows.py"):
         text = (ROOT / module).read_text()
         code = [line for line in text.splitlines() if not line.lstrip().startswith(("#", '"', "'"))]
         for word in ("import pickle", "cloudpickle", "torch.load", "persist_result=True"):
@@ -233,7 +233,7 @@ def test_no_prefect_server_outlives_a_killed_build(tmp_path, how):
     script = textwrap.dedent("""
         import faulthandler, os, signal, sys, time
         from pathlib import Path
-        from pipeline.build.flows import prefect_api
+        from pipeline.flows import prefect_api
         faulthandler.register(signal.SIGUSR1, all_threads=True)  # the test asks where a hung build waits
         with prefect_api():
             for entry in Path("/proc").iterdir():   # the temporary server: the child running its script

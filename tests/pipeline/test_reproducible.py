@@ -11,8 +11,8 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from pipeline.build.driver import build_district_local
-from pipeline.build.manifest import RECORDS, SIDECAR, TIMINGS, split_metrics_timings
+from pipeline.builder.driver import build_district_local
+from pipeline.builder.manifest import RECORDS, SIDECAR, TIMINGS, split_metrics_timings
 from pipeline.config import read_build_config
 
 ROOT = Path(__file__).resolve().parents[2]

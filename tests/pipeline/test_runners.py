@@ -10,7 +10,7 @@ import textwrap
 import time
 from pathlib import Path
 
-from pipeline.build.staging import process_alive
+from pipeline.builder.staging import process_alive
 from pipeline.runners import ProcessRunner
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -24,7 +24,7 @@ def write_pid_and_sleep(folder: str, name: str, seconds: float) -> str:
 
 
 def alive(pid: int) -> bool:
-    """:func:`pipeline.build.staging.process_alive`, a zombie (exited, not yet reaped) counting as gone."""
+    """:func:`pipeline.builder.staging.process_alive`, a zombie (exited, not yet reaped) counting as gone."""
     try:
         return process_alive(pid) and Path(f"/proc/{pid}/stat").read_text().split()[2] != "Z"
     except OSError:

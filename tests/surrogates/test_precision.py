@@ -114,7 +114,7 @@ def test_every_default_path_runs_float32_without_native_bf16(no_native_bf16, tmp
     """Forced "no bfloat16": the paper's default SAC back end (and the torch one), the surrogate trainer's
     default and the build's [surrogate] defaults all resolve to float32, and the paper records it."""
     from citylearn_env.example import write_example_district
-    from pipeline.build.surrogates import train_config
+    from pipeline.builder.surrogates import train_config
     from pipeline.config import read_build_config
     from pipeline.paper.benchmarks import RunOptions
     from pipeline.paper.sac.train import sac_precision

@@ -12,7 +12,7 @@ from dataclasses import replace
 import pytest
 
 from citylearn_env.dataset import DynamicsBlock
-from pipeline.build.surrogates import annotate_schema, check_surrogate_errors, surrogate_errors
+from pipeline.builder.surrogates import annotate_schema, check_surrogate_errors, surrogate_errors
 from pipeline.errors import InputError
 from surrogates.config import TrainConfig
 from surrogates.energyplus.ilv import ILVConfig, hourly_multipliers, references
@@ -150,7 +150,7 @@ def test_schema_dynamics_entry_carries_the_numbers(tiny_judged):
 
 
 def test_report_states_the_judge(tiny_judged):
-    from pipeline.build.report import surrogate_table
+    from pipeline.builder.report import surrogate_table
 
     record, _ = tiny_judged
     test = {"monthly_rmse_c": {"median": 0.1, "max": 0.2}, "closed_loop_rmse_c": 0.1, "one_step_rmse_c": 0.01,

@@ -1,4 +1,4 @@
-"""The build report's oracle bounds (pipeline/build/report.py): cost, emissions and average daily peak of the
+"""The build report's oracle bounds (pipeline/builder/report.py): cost, emissions and average daily peak of the
 perfect-foresight storage schedule next to the policies, and one line instead of a crash where the oracle
 does not apply. (Here beside the paper's oracle tests; the report's own tests build a district.)"""
 
@@ -8,7 +8,7 @@ import pytest
 
 from citylearn_env import CityLearnEnv, load_schema
 from citylearn_env.example import write_example_district
-from pipeline.build.report import ORACLE_BOUNDS, oracle_bounds, oracle_table
+from pipeline.builder.report import ORACLE_BOUNDS, oracle_bounds, oracle_table
 from pipeline.controllers import run_policy, without_device_actions
 
 

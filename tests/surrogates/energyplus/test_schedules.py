@@ -296,8 +296,8 @@ def test_hourly_peaks_exceed_the_former_smooth_profile_peaks(june_fortnight):
 
 
 def test_house_cache_key_follows_the_schedule_method():
-    from pipeline.build.cache import cache_key
-    from pipeline.build.houses import simulation_cache_parts
+    from pipeline.builder.cache import cache_key
+    from pipeline.builder.houses import simulation_cache_parts
     from pipeline.config import read_build_config
     from surrogates.energyplus.schedules import SCHEDULE_VERSION
 

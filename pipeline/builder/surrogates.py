@@ -16,13 +16,13 @@ from pathlib import Path
 import pandas as pd
 
 import surrogates
-from pipeline.build.cache import FileCache, cache_key, cache_root, files_digest, sha256_bytes
-from pipeline.build.manifest import (
+from pipeline.builder.cache import FileCache, cache_key, cache_root, files_digest, sha256_bytes
+from pipeline.builder.manifest import (
     package_version,
     sha256_file,
 )
-from pipeline.build.staging import write_new_file
-from pipeline.build.steps import check_weather, eulp_metadata_row, read_characteristics_row
+from pipeline.builder.staging import write_new_file
+from pipeline.builder.steps import check_weather, eulp_metadata_row, read_characteristics_row
 from pipeline.config import BuildConfig
 from pipeline.errors import InputError
 from pipeline.progress import epochs, report
@@ -321,7 +321,7 @@ def complete_entry(files: Mapping[str, bytes] | None, name: str) -> bool:
 
 def surrogate_files(config: BuildConfig, bldg_id: int, name: str, table: pd.DataFrame | None = None,
                     weather: pd.Series | None = None) -> SurrogateFiles:
-    """A building's surrogate files: the trained model from the surrogate cache (:mod:`pipeline.build.cache`)
+    """A building's surrogate files: the trained model from the surrogate cache (:mod:`pipeline.builder.cache`)
     when an intact entry of the same key exists, else trained (and stored); for a house with a stock row its
     judge's record under ``"judge"`` in the metrics, from the judgement cache or judged afresh
     (:func:`judgement`). The cache root: ``config.cache_dir``, else ``$DISTRICTGEN_CACHE_DIR``, else

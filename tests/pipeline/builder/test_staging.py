@@ -14,14 +14,14 @@ from pathlib import Path
 
 import pytest
 
-from pipeline.build.staging import clean_leftovers, exchange, swap_in
+from pipeline.builder.staging import clean_leftovers, exchange, swap_in
 
 ROOT = Path(__file__).resolve().parents[3]
 
 WRITER = """
 import json, os, signal, sys
 from pathlib import Path
-from pipeline.build import staging as st
+from pipeline.builder import staging as st
 from pipeline.config import parse_build_config
 
 root, label, fallback, version = Path(sys.argv[1]), sys.argv[2], sys.argv[3] == "1", sys.argv[4]
@@ -135,7 +135,7 @@ def _config():
 
 
 def test_a_planted_link_at_the_ownership_mark_is_never_written_through(tmp_path):
-    from pipeline.build.staging import staging
+    from pipeline.builder.staging import staging
     from pipeline.errors import InputError
 
     outside = tmp_path / "outside.txt"
@@ -151,7 +151,7 @@ def test_a_planted_link_at_the_ownership_mark_is_never_written_through(tmp_path)
 
 
 def test_a_build_run_from_inside_its_own_district_is_refused(tmp_path, monkeypatch):
-    from pipeline.build.staging import staging
+    from pipeline.builder.staging import staging
     from pipeline.errors import InputError
 
     assert write(tmp_path, "A") == 0
@@ -166,7 +166,7 @@ def test_the_staging_folder_is_private_whatever_the_umask_and_a_planted_link_is_
     """Created mode 0700 (under umask 0 too), nobody else can plant a link in it; a link that appears anyway
     (the same user) stops the swap: the final name keeps the old district, the staging folder is gone and the
     link's target is untouched."""
-    from pipeline.build.staging import staging
+    from pipeline.builder.staging import staging
     from pipeline.errors import InputError
 
     assert write(tmp_path, "A") == 0

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from pipeline.build.manifest import (
+from pipeline.builder.manifest import (
     MANIFEST,
     TIMINGS,
     check_outputs,
@@ -28,7 +28,7 @@ from pipeline.build.manifest import (
     write_json_file,
     write_sidecar,
 )
-from pipeline.build.staging import (
+from pipeline.builder.staging import (
     at_step,
     check_no_links,
     check_not_inside,
@@ -36,7 +36,7 @@ from pipeline.build.staging import (
     swap_in,
     write_new_file,
 )
-from pipeline.build.validate import validate_district
+from pipeline.builder.validate import validate_district
 from pipeline.errors import InputError
 from surrogates.export import load_surrogate
 from surrogates.ilv import read_ilv, table_digest
@@ -152,7 +152,7 @@ def drop_foreign_table(folder: Path, building: str, files: ModelFiles) -> None:
 
 def replace_file(path: Path, data: bytes) -> None:
     """Put ``data`` at ``path`` as a new regular file: what was there (a file, a planted link) is removed, never
-    written through (:func:`pipeline.build.staging.write_new_file`)."""
+    written through (:func:`pipeline.builder.staging.write_new_file`)."""
     path.unlink(missing_ok=True)
     write_new_file(path, data)
 

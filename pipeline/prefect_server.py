@@ -4,7 +4,7 @@ answer, stopped whatever happens to the build, and every way it can fail told in
 :class:`TemporaryServer` launches the server (uvicorn on Prefect's app, in-memory database unless configured)
 and its watchdog; :func:`start_server` picks a free port, waits for ``/health`` and turns a taken port, an exit
 during startup or no answer into one :class:`OrchestrationError` line; :func:`api_loss_in_one_line` does the
-same for an API lost mid-build. :func:`pipeline.build.flows.prefect_api` owns the server's lifetime.
+same for an API lost mid-build. :func:`pipeline.flows.prefect_api` owns the server's lifetime.
 """
 
 from __future__ import annotations

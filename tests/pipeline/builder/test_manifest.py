@@ -11,8 +11,8 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from pipeline.build.driver import build_district_local
-from pipeline.build.manifest import (
+from pipeline.builder.driver import build_district_local
+from pipeline.builder.manifest import (
     check_district,
     verify_district,
     write_manifest,
@@ -22,7 +22,7 @@ from pipeline.build.manifest import (
 from pipeline.cli import main
 from pipeline.config import read_build_config
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 FIXTURE = ROOT / "tests" / "fixtures" / "synthetic_district"
 INPUTS = {"weather": "weather/USA_FL_Tampa.Intl.AP.722110_TMY3.epw", "tariff": "../../../raw/tariffs/"
           "austin_energy_tou_2018.toml", "fuel_mix": "fuel_mix/IntGenbyFuel2018_synthetic.xlsx"}
@@ -216,7 +216,7 @@ def test_install_a_retrained_surrogate_then_verify(tmp_path, capsys):
 
 def test_training_table_check_names_both_tables(tmp_path):
     """The model's record must name the house's table content (table_sha256); else one line, --force hint."""
-    from pipeline.build.install import ModelFiles, check_training_table
+    from pipeline.builder.install import ModelFiles, check_training_table
     from pipeline.errors import InputError
 
     def record(name: str, **fields) -> Path:
@@ -239,7 +239,7 @@ def test_training_table_check_names_both_tables(tmp_path):
 
 
 def test_install_refuses_a_folder_that_is_not_a_district(tmp_path):
-    from pipeline.build.install import install_surrogate
+    from pipeline.builder.install import install_surrogate
     from pipeline.errors import InputError
 
     with pytest.raises(InputError, match="no manifest.json"):
@@ -247,7 +247,7 @@ def test_install_refuses_a_folder_that_is_not_a_district(tmp_path):
 
 
 def test_install_refuses_a_tampered_district_before_touching_it(district, tmp_path):
-    from pipeline.build.install import install_surrogate
+    from pipeline.builder.install import install_surrogate
     from pipeline.errors import InputError
 
     csv = district / "Building_1.csv"
@@ -354,8 +354,8 @@ def test_verify_expect_accepts_the_digest_or_a_sidecar_copy(district, tmp_path, 
 
 INSTALLER = """
 import os, signal, sys
-from pipeline.build import staging
-from pipeline.build.install import install_surrogate
+from pipeline.builder import staging
+from pipeline.builder.install import install_surrogate
 
 label = sys.argv[3]
 staging.STEP_HOOK = lambda step: os.kill(os.getpid(), signal.SIGKILL) if step == label else None
@@ -375,7 +375,7 @@ def test_an_install_killed_at_any_step_leaves_the_old_or_the_new_district(tmp_pa
     import subprocess
     import sys
 
-    from pipeline.build.staging import clean_leftovers
+    from pipeline.builder.staging import clean_leftovers
 
     config = read_build_config(district_config(tmp_path, source="csv")).model_copy(
         update={"cache_dir": tmp_path / "cache"})

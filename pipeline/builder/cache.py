@@ -15,8 +15,8 @@ An entry is used only when ``entry.json`` parses, names the same key, and every 
 entry folder with the listed sha256; anything else is a miss and the entry is rebuilt. Entries are written to
 a temporary sibling folder and renamed into place. Nothing is pickled: the cache holds bytes and JSON only.
 The key is the sha256 of a canonical JSON of its parts (see :func:`cache_key`); what goes into it for a
-surrogate is decided by :func:`pipeline.build.surrogates.surrogate_cache_parts`, for a judgement by
-:func:`pipeline.build.surrogates.judge_cache_parts`.
+surrogate is decided by :func:`pipeline.builder.surrogates.surrogate_cache_parts`, for a judgement by
+:func:`pipeline.builder.surrogates.judge_cache_parts`.
 """
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
 
-from pipeline.build.staging import write_new_file
+from pipeline.builder.staging import write_new_file
 
 CACHE_ENV = "DISTRICTGEN_CACHE_DIR"
 ENTRY = "entry.json"

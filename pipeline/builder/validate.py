@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 
 from citylearn_env import load_schema
-from pipeline.build.report import oracle_bounds, report_series, write_report
+from pipeline.builder.report import oracle_bounds, report_series, write_report
 from pipeline.controllers import run_policy
 
 

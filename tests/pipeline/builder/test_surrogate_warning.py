@@ -15,8 +15,8 @@ ROOT = Path(__file__).resolve().parents[3]
 #: a flow like the build's (log_prints) that checks one house over the bound, on the build's own server
 FLOW = """
 from prefect import flow
-from pipeline.build.flows import prefect_api
-from pipeline.build.surrogates import check_surrogate_errors
+from pipeline.flows import prefect_api
+from pipeline.builder.surrogates import check_surrogate_errors
 
 record = {"median_c": 0.31, "worst_c": 0.42, "passes": False, "judge_ilv": {"timesteps_per_hour": 20, "seed": 7}}
 

@@ -1,4 +1,4 @@
-"""The build report: ``report/summary.md`` (tables) and the PNG figures it shows (:mod:`pipeline.build.report_figures`).
+"""The build report: ``report/summary.md`` (tables) and the PNG figures it shows (:mod:`pipeline.builder.report_figures`).
 
 ``summary.md`` holds the devices the sizing chose, the surrogates' held-out fit, the no-control vs cost-RBC
 objectives (absolute units, district and per building), the oracle's bound on cost, emissions and average
@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from pipeline.build.report_figures import (
+from pipeline.builder.report_figures import (
     END_USES,
     POLICY_LABELS,
     heatmap_figure,

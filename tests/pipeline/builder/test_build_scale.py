@@ -9,11 +9,11 @@ from pathlib import Path
 
 import pytest
 
-from pipeline.build.driver import build_district_local
-from pipeline.build.manifest import district_digest
+from pipeline.builder.driver import build_district_local
+from pipeline.builder.manifest import district_digest
 from pipeline.config import read_build_config
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 
 
 def _benchmark():
@@ -34,7 +34,7 @@ def test_two_houses_on_a_two_process_dask_cluster_match_the_in_process_build(tmp
         pytest.skip(f"EnergyPlus is not installed ({error}): the houses cannot be simulated")
     from prefect.settings import PREFECT_FLOWS_HEARTBEAT_FREQUENCY, temporary_settings
 
-    from pipeline.build.flows import build_district_on_dask
+    from pipeline.flows import build_district_on_dask
 
     scale = _benchmark()
     data = scale.scale_config(2, date(2018, 6, 1), date(2018, 6, 3))

@@ -12,14 +12,14 @@ Steps (inputs -> in-memory tables -> outputs)::
     size_buildings    building tables + outdoor temperature -> device attributes (cooling and heating)
     surrogate_files   ILV table (or EnergyPlus inputs) -> trained LSTM files and the training table, through the
                       surrogate cache; a house's judge through the judgement cache (per building; see
-                      pipeline.build.cache)
+                      pipeline.builder.cache)
     schema_dict       -> schema.json;  validate_district -> report/;  write_manifest -> manifest.json
 
 Tables are ``pandas.DataFrame`` of internal (v2.2) column names, one row per hour from ``period.start``
 00:00 (local standard time; row 0 is CityLearn hour 1); they are written with
 :func:`citylearn_env.dataset.write_table` and never read back. :func:`run_build` sequences the steps and
 submits the per-building work through a :class:`pipeline.runners.Runner`: :class:`~pipeline.runners.InProcessRunner` (plain calls),
-or :class:`~pipeline.runners.PrefectRunner` (:mod:`pipeline.build.flows`) (tasks on a thread pool, or on Dask). A build is written into
+or :class:`~pipeline.runners.PrefectRunner` (:mod:`pipeline.flows`) (tasks on a thread pool, or on Dask). A build is written into
 a temporary sibling folder and renamed into place only when complete and validated.
 """
 
@@ -32,7 +32,7 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 from pipeline import progress
-from pipeline.build.houses import (
+from pipeline.builder.houses import (
     HouseSimulation,
     building_notes,
     eulp_heating_system,
@@ -40,15 +40,15 @@ from pipeline.build.houses import (
     house_table,
     house_work,
 )
-from pipeline.build.manifest import (
+from pipeline.builder.manifest import (
     make_world_readable,
     split_surrogate_timings,
     write_manifest,
     write_timings,
 )
-from pipeline.build.report import append_building_report
-from pipeline.build.staging import staging
-from pipeline.build.steps import (
+from pipeline.builder.report import append_building_report
+from pipeline.builder.staging import staging
+from pipeline.builder.steps import (
     Signals,
     building_names,
     ingest_building,
@@ -58,7 +58,7 @@ from pipeline.build.steps import (
     size_buildings,
     write_tables,
 )
-from pipeline.build.surrogates import (
+from pipeline.builder.surrogates import (
     SurrogateFiles,
     annotate_schema,
     cache_hits,
@@ -70,7 +70,7 @@ from pipeline.build.surrogates import (
     surrogate_files,
     write_surrogate_files,
 )
-from pipeline.build.validate import validate_district
+from pipeline.builder.validate import validate_district
 from pipeline.config import BuildConfig
 from pipeline.runners import InProcessRunner, Runner
 
@@ -81,7 +81,7 @@ def run_build(config: BuildConfig, output_root: str | Path = "artifacts", runner
     Writes into a hidden sibling folder of ``output_root/<name>`` and renames it into place only when the
     schema validated; returns ``output_root/<name>``. Hashes, versions and the surrogate (and judgement) cache
     keys go into ``manifest.json`` (reproducible); timings [s], training seconds and cache hits into
-    ``timings.json`` (:mod:`pipeline.build.manifest`); every file 0644, every folder 0755; the selection, each
+    ``timings.json`` (:mod:`pipeline.builder.manifest`); every file 0644, every folder 0755; the selection, each
     house's heating system and device and its set-point repair go into ``selection.csv`` / ``buildings.json``
     and the report.
     """
