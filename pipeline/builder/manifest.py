@@ -36,6 +36,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from importlib import metadata as importlib_metadata
 from pathlib import Path
+from stat import S_ISREG
 from typing import Any
 
 from citylearn_env.dataset import write_atomically
@@ -343,18 +344,51 @@ def check_outputs(folder: Path, outputs: Mapping[str, Mapping[str, object]]) -> 
     return Verification(problems, warnings)
 
 
+#: top-level folders of the system that no districtgen input lives in: pseudo file systems (reading them can
+#: hang or never end) and system configuration (hashing it against a crafted manifest would be a content oracle)
+SYSTEM_FOLDERS = ("/proc", "/sys", "/dev", "/run", "/etc", "/boot", "/root", "/var")
+
+
+def readable_input(path: Path, size: object) -> str | None:
+    """Why verify must not open the input at ``path`` (a reason), or None when it may: a regular file outside the
+    system folders (:data:`SYSTEM_FOLDERS`) whose size is the recorded ``size`` [bytes] (a file of another size
+    differs without reading it, so a read is bounded by what the build read)."""
+    resolved = path.resolve()
+    if any(resolved == Path(root) or resolved.is_relative_to(root) for root in SYSTEM_FOLDERS):
+        return "a system file, never an input (not read)"
+    try:
+        stat = os.stat(resolved)
+    except OSError:
+        return None  # not found: reported as not checked
+    if not S_ISREG(stat.st_mode):
+        return "not a regular file (not read)"
+    if not isinstance(size, int) or stat.st_size != size:
+        return (f"sha256 differs from the manifest (the district was built from other data: {stat.st_size} bytes "
+                f"against the recorded {size}; not read)")
+    return None
+
+
 def check_inputs(inputs: Mapping[str, Mapping[str, object]], base: Path | None) -> Verification:
-    """Each input re-hashed at ``base / path`` (an absolute path as it is): a different sha256 is a problem;
-    an input not found (or no ``base`` for a relative path) is a warning (not checked)."""
+    """Each input re-hashed at ``base / path``: a different sha256 or size is a problem; an absolute recorded
+    path (a build records them relative to its configuration's folder), a system file or anything but a regular
+    file is a problem and is never opened (:func:`readable_input`); an input not found (or no ``base``) is a
+    warning (not checked)."""
     problems, warnings = [], []
     for label, entry in inputs.items():
         recorded = Path(str(entry["path"]))
-        if base is None and not recorded.is_absolute():
+        if recorded.is_absolute() or str(entry["path"]).startswith(("http://", "https://")):
+            if recorded.is_absolute():
+                problems.append(f"{recorded} (input {label}): an absolute path, not one a build records (not read)")
+            continue
+        if base is None:
             warnings.append(f"{recorded} (input {label}): not checked, the configuration's folder is not "
                             f"recorded ({TIMINGS} missing)")
             continue
-        path = recorded if recorded.is_absolute() else (base / recorded)
-        if not path.is_file():
+        path = base / recorded
+        refused = readable_input(path, entry.get("bytes"))
+        if refused is not None:
+            problems.append(f"{path} (input {label}): {refused}")
+        elif not path.is_file():
             warnings.append(f"{path} (input {label}): not found here, not checked")
         elif sha256_file(path) != entry["sha256"]:
             problems.append(f"{path} (input {label}): sha256 differs from the manifest (the district was "

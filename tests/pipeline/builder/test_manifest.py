@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import os
 import shutil
 from pathlib import Path
 
@@ -425,3 +426,34 @@ def test_a_manifest_changed_into_another_shape_is_a_problem_not_a_crash(district
     problems = verify_district(district)
     assert "manifest.json: not a districtgen manifest (changed after the build)" in problems
     assert any(p.startswith("manifest.sha256:") or p.startswith("manifest.json:") for p in problems)
+
+
+def crafted_inputs(district: Path, inputs: dict) -> None:
+    """Rewrite a district's manifest inputs (and its records' sidecar, as a crafted district would)."""
+    manifest = json.loads((district / "manifest.json").read_text())
+    manifest["inputs"] = inputs
+    (district / "manifest.json").write_text(json.dumps(manifest))
+    write_sidecar(district)
+
+
+@pytest.mark.parametrize("path", ["/proc/self/pagemap", "../../../../../../../../proc/self/pagemap",
+                                  "../../../../../../../../etc/shadow", "/etc/passwd", "../../../../../../dev/zero"])
+def test_verify_never_opens_a_system_file_a_crafted_manifest_names(district, path):
+    """A crafted manifest naming a pseudo file (a read that never ends), a device or a system file (a content
+    oracle) gets one problem line per input; nothing is opened (the call returns: /proc/self/pagemap or
+    /dev/zero read whole would not)."""
+    crafted_inputs(district, {"weather": {"path": path, "sha256": "0" * 64, "bytes": 1}})
+    problems = verify_district(district)
+    assert len(problems) == 1 and "(input weather)" in problems[0] and "not read" in problems[0]
+
+
+def test_verify_does_not_hash_an_input_of_another_size(district, tmp_path):
+    """An input whose size is not the recorded one differs without being read (the read is bounded by what the
+    build read)."""
+    big = tmp_path / "inputs_big.bin"
+    big.write_bytes(b"x" * 4096)
+    config_folder = json.loads((district / "timings.json").read_text())["config_folder"]
+    relative = os.path.relpath(big, config_folder)
+    crafted_inputs(district, {"weather": {"path": relative, "sha256": "0" * 64, "bytes": 10}})
+    problems = verify_district(district)
+    assert len(problems) == 1 and "4096 bytes against the recorded 10; not read" in problems[0]
