@@ -10,7 +10,12 @@ runs tens of times slower than in float32. So no workload assumes a CPU feature:
   of the workload's own shapes (a :class:`Probe`, about 0.1-0.3 s) shows it at least :data:`MIN_SPEEDUP`
   times faster than float32; float32 otherwise, with no measurement where bfloat16 is not native. Asking for
   ``bfloat16`` where it is emulated (or measured slower) runs it, and warns once per workload with the
-  measured slowdown.
+  measured slowdown;
+* an ``auto`` decision that needed a measurement is measured once per machine and recorded
+  (:func:`recorded_choices`: ``precision.json`` in ``$DISTRICTGEN_CACHE_DIR``, else ``~/.cache/districtgen``,
+  keyed by CPU, torch version, workload and threads): every later process reuses it, so two builds of one
+  configuration on one machine train in one mode (a measurement under load could otherwise flip it). Delete
+  the file to measure again.
 
 Users: the ``fast`` and ``torch`` SAC back ends of the paper (:mod:`pipeline.paper.sac.train`) and the surrogate
 trainer's updates (:mod:`surrogates.train`). Each records the :class:`Choice` that ran in its outputs.
@@ -19,12 +24,15 @@ trainer's updates (:mod:`surrogates.train`). Each records the :class:`Choice` th
 from __future__ import annotations
 
 import functools
+import json
+import os
 import platform
 import statistics
 import time
 import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 from citylearn_env.errors import InputError
@@ -158,17 +166,71 @@ def _choose(requested: str, probe: Probe) -> Choice:
     native = capability().native_bf16
     if requested == "auto" and not native:
         return Choice("float32", requested, "no native bfloat16 on this CPU")
-    speedup = measure_speedup(probe)
     if requested == "auto":
-        if speedup >= MIN_SPEEDUP:
-            return Choice("bfloat16", requested, f"native and measured {speedup:.2f}x faster", speedup)
-        return Choice("float32", requested, f"native but measured only {speedup:.2f}x faster", speedup)
+        return _recorded_auto(probe)
+    speedup = measure_speedup(probe)
     if not native or speedup < 1.0:
         how = "emulated" if not native else "native"
         warnings.warn(f"precision bfloat16 for {probe.name}: bfloat16 is {how} on {capability().cpu} and measured "
                       f"{1 / speedup:.1f}x slower than float32 here; --precision auto picks the faster one",
                       RuntimeWarning, stacklevel=4)
     return Choice("bfloat16", requested, "asked for" + ("" if native else " (emulated)"), speedup)
+
+
+#: the file (in the cache root) that holds this machine's measured ``auto`` decisions
+RECORD_FILE = "precision.json"
+
+
+def record_path() -> Path:
+    """Where this machine's ``auto`` decisions are recorded: ``$DISTRICTGEN_CACHE_DIR/precision.json``, else
+    ``~/.cache/districtgen/precision.json``."""
+    root = os.environ.get("DISTRICTGEN_CACHE_DIR") or Path.home() / ".cache" / "districtgen"
+    return Path(root) / RECORD_FILE
+
+
+def record_key(probe: Probe) -> str:
+    """What an ``auto`` decision depends on: the CPU (model and relevant ISA), torch's version, the workload and
+    the threads."""
+    import torch  # lazy: the torch-free CLI imports this module (PRECISIONS)
+
+    cpu = capability()
+    return f"{cpu.describe()} | torch {torch.__version__} | {probe.name} | {torch.get_num_threads()} threads"
+
+
+def recorded_choices(path: Path | None = None) -> dict[str, dict]:
+    """The recorded decisions (key -> :meth:`Choice.record`); an unreadable or malformed file: none."""
+    try:
+        found = json.loads((path or record_path()).read_text())
+    except (OSError, ValueError):
+        return {}
+    return {k: v for k, v in found.items() if isinstance(v, dict)} if isinstance(found, dict) else {}
+
+
+def _recorded_auto(probe: Probe) -> Choice:
+    """``auto`` where bfloat16 is native: the machine's recorded decision, else measured twice (the slower
+    of the two speed-ups decides, so a measurement under load does not pick bfloat16) and recorded."""
+    key, path = record_key(probe), record_path()
+    found = recorded_choices(path).get(key)
+    if found and found.get("precision") in ("float32", "bfloat16"):
+        speedup = found.get("bf16_speedup")
+        return Choice(found["precision"], "auto", f"recorded for this machine in {path}: {found.get('reason')}",
+                      float(speedup) if isinstance(speedup, int | float) else None)
+    speedup = min(measure_speedup(probe), measure_speedup(probe))
+    if speedup >= MIN_SPEEDUP:
+        choice = Choice("bfloat16", "auto", f"native and measured {speedup:.2f}x faster", speedup)
+    else:
+        choice = Choice("float32", "auto", f"native but measured only {speedup:.2f}x faster", speedup)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        records = recorded_choices(path)
+        records[key] = {"precision": choice.precision, "reason": choice.reason,
+                        "bf16_speedup": round(speedup, 3)}
+        temporary = path.with_name(f".{path.name}.{os.getpid()}")
+        temporary.write_text(json.dumps(records, indent=1, sort_keys=True) + "\n")
+        os.replace(temporary, path)
+    except OSError:
+        pass  # a read-only home: the decision holds for this process only
+    return choice
 
 
 def measure_speedup(probe: Probe, repeats: int = 5, budget_s: float = 0.3) -> float:

@@ -18,9 +18,10 @@ from surrogates.precision import Probe, capability, choose
 
 
 @pytest.fixture
-def fresh_choices(monkeypatch):
-    """No choice cached from earlier tests in this process (and none left behind)."""
+def fresh_choices(monkeypatch, tmp_path):
+    """No choice cached from earlier tests in this process (and none left behind), no machine record."""
     monkeypatch.setattr(precision, "_CHOICES", {})
+    monkeypatch.setenv("DISTRICTGEN_CACHE_DIR", str(tmp_path / "cache"))
 
 
 @pytest.fixture
@@ -85,6 +86,29 @@ def test_auto_with_native_bf16_follows_the_measurement(native_bf16):
     assert picked.precision == "bfloat16" and picked.bf16_speedup == pytest.approx(4.0, rel=0.5)
     assert refused.precision == "float32" and refused.bf16_speedup < precision.MIN_SPEEDUP
     assert "measured" in refused.reason
+
+
+def test_auto_is_measured_once_per_machine_and_reused(native_bf16, monkeypatch):
+    """A later process (a fresh per-process cache) reuses the machine's recorded decision even where a new
+    measurement (a busy CPU) would have decided otherwise: two builds of one configuration train in one mode."""
+    timings = {torch.float32: 0.02, torch.bfloat16: 0.005}
+    probe, calls = counting_probe("recorded workload", timings)
+    first = choose("auto", probe)
+    assert first.precision == "bfloat16" and precision.record_path().is_file()
+    measured = len(calls)
+    monkeypatch.setattr(precision, "_CHOICES", {})  # another process
+    timings[torch.bfloat16] = 0.05  # bfloat16 would now measure slower
+    again = choose("auto", probe)
+    assert again.precision == "bfloat16" and len(calls) == measured  # not measured again
+    assert "recorded for this machine" in again.reason
+
+
+def test_a_malformed_machine_record_is_measured_again(native_bf16, monkeypatch):
+    precision.record_path().parent.mkdir(parents=True)
+    precision.record_path().write_text("{not json")
+    probe, calls = counting_probe("after a bad record", {torch.float32: 0.005, torch.bfloat16: 0.006})
+    assert choose("auto", probe).precision == "float32" and calls
+    assert precision.record_key(probe) in precision.recorded_choices()
 
 
 def test_bfloat16_where_emulated_warns_once_with_the_slowdown(no_native_bf16):
