@@ -9,6 +9,7 @@ import json
 import re
 import sys
 import tempfile
+import warnings
 from collections.abc import Callable, Mapping
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
@@ -316,7 +317,16 @@ def complete_entry(files: Mapping[str, bytes] | None, name: str) -> bool:
     metrics and the training table (an entry from before the table was kept is rebuilt)."""
     needed = (f"{name}.pth", f"surrogates/{name}.dynamics.json", f"surrogates/{name}.metrics.json",
               ilv_file(name))
-    return files is not None and all(n in files for n in needed)
+    return files is not None and all(n in files for n in needed) and parses(files, needed[1:3])
+
+
+def parses(files: Mapping[str, bytes], names: tuple[str, ...]) -> bool:
+    """Whether each of ``names`` in ``files`` is a JSON object (an entry whose checksums match a damaged file
+    is a miss, rebuilt, never a failure of every later build)."""
+    try:
+        return all(isinstance(json.loads(files[n]), dict) for n in names)
+    except (KeyError, ValueError):
+        return False
 
 
 def surrogate_files(config: BuildConfig, bldg_id: int, name: str, table: pd.DataFrame | None = None,
@@ -336,6 +346,9 @@ def surrogate_files(config: BuildConfig, bldg_id: int, name: str, table: pd.Data
     if hit:
         report(name, "surrogate from the cache")
     else:
+        if files is not None:
+            warnings.warn(f"surrogate cache entry {cache.folder / key} of {name} does not parse: rebuilt",
+                          RuntimeWarning, stacklevel=2)
         if table is None:
             report(name, "simulate ILV runs (EnergyPlus)")
             table = energyplus_ilv(config, bldg_id)

@@ -7,6 +7,7 @@ from __future__ import annotations
 import importlib.util
 import io
 import json
+import shutil
 import warnings
 from datetime import date
 from pathlib import Path
@@ -228,8 +229,10 @@ def test_an_entry_may_hold_only_the_files_its_kind_owns(tmp_path):
                                      "surrogates/Building_10.png", "report/summary.md", "surrogates/Building_1.csv",
                                      "surrogates/Building_10.ilv.parquet", "surrogates/Building_1.parquet"))
     # an entry without the training table (written before the table was kept) is not complete: retrained
-    assert complete_entry(dict.fromkeys(entry, b""), "Building_1")
-    assert not complete_entry(dict.fromkeys(entry[:-1], b""), "Building_1") and not complete_entry(None, "B")
+    assert complete_entry(dict.fromkeys(entry, b"{}"), "Building_1")
+    assert not complete_entry(dict.fromkeys(entry[:-1], b"{}"), "Building_1") and not complete_entry(None, "B")
+    # a JSON record that does not parse (its sha256 right): not complete either
+    assert not complete_entry({**dict.fromkeys(entry, b"{}"), entry[1]: b'{"lstm": '}, "Building_1")
     cache = FileCache(tmp_path / "surrogates")
     cache.put("k", {"Building_1.pth": b"w", "weather.csv": b"45.0"})
     assert cache.get("k") == {"Building_1.pth": b"w", "weather.csv": b"45.0"}   # the cache itself is generic
@@ -327,3 +330,21 @@ def test_a_period_change_reuses_the_trained_model_and_runs_only_the_judge(tmp_pa
     assert lines == ["Building_1: surrogate from the cache", "Building_1: judge from the cache"]
     assert (third.key, third.hit, third.judge_key, third.judge_hit) == (first.key, True, second.judge_key, True)
     assert third.files == second.files
+
+
+def test_a_self_consistent_entry_whose_dynamics_do_not_parse_is_rebuilt(one_building, tmp_path):
+    """A cache entry whose checksums match a damaged dynamics JSON is a miss naming the entry, trained again
+    and stored: the next build hits the repaired entry (no hand deletion of the cache)."""
+    first = build_district_local(one_building, tmp_path / "a")
+    key = _cache_use(first)["key"]
+    cache = FileCache(one_building.cache_dir / "surrogates")
+    files = cache.get(key)
+    files["surrogates/Building_1.dynamics.json"] = b'{"truncated": '
+    shutil.rmtree(cache.folder / key)
+    cache.put(key, files)  # every sha256 right
+    with pytest.warns(RuntimeWarning, match=f"surrogate cache entry .*{key} of Building_1 does not parse"):
+        second = build_district_local(one_building, tmp_path / "b")
+    assert _cache_use(second) == {"key": key, "hit": False}
+    assert district_digest(second) == district_digest(first)
+    third = build_district_local(one_building, tmp_path / "c")
+    assert _cache_use(third) == {"key": key, "hit": True}
