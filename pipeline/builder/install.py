@@ -33,6 +33,8 @@ from pipeline.builder.staging import (
     check_no_links,
     check_not_inside,
     clean_leftovers,
+    copy_district,
+    exit_on_signals,
     swap_in,
     write_new_file,
 )
@@ -211,8 +213,16 @@ def install_surrogate(district: str | os.PathLike, building: str, model: str | o
         check_training_table(files, folder / "surrogates" / f"{building}.metrics.json", building)
     work = folder.with_name(f".{folder.name}.install-{os.getpid()}")
     shutil.rmtree(work, ignore_errors=True)
-    at_step("copy")
-    shutil.copytree(folder, work, symlinks=True)
+    with exit_on_signals():  # SIGTERM / SIGHUP: the working copy is removed as on Ctrl-C
+        at_step("copy")
+        copy_district(folder, work)
+        return install_into(folder, work, building, files, schema, block, manifest)
+
+
+def install_into(folder: Path, work: Path, building: str, files: ModelFiles, schema: dict, block: dict,
+                 manifest: dict) -> Path:
+    """Place the model into the working copy ``work`` of ``folder``, revalidate, rewrite the records and swap
+    it in; ``work`` is removed whatever happens."""
     try:
         at_step("place model")
         seconds = place_model(work, building, files, schema, block)

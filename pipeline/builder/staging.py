@@ -11,7 +11,10 @@ import json
 import os
 import re
 import shutil
-from collections.abc import Callable
+import signal
+import threading
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 from pipeline.config import NAME_PATTERN, BuildConfig
@@ -54,6 +57,8 @@ class staging:
             self.mark.unlink(missing_ok=True)
             raise InputError(f"cannot write into the output folder: {error.strerror or error}", file=self.root,
                              column="output_root") from None
+        self.signals = exit_on_signals()
+        self.signals.__enter__()  # SIGTERM / SIGHUP end the build through __exit__: the staging copy is deleted
         return self.tmp
 
     def check(self) -> None:
@@ -82,6 +87,46 @@ class staging:
             if exc_type is not None:
                 shutil.rmtree(self.tmp, ignore_errors=True)
             self.mark.unlink(missing_ok=True)
+            self.signals.__exit__(None, None, None)
+
+
+@contextmanager
+def exit_on_signals() -> Iterator[None]:
+    """Within the block, SIGTERM and SIGHUP raise :class:`SystemExit` (status 128 + the signal), so ``finally``
+    blocks and context managers clean up as on Ctrl-C; the previous handlers are restored after it. Only in the
+    main thread (elsewhere signals cannot be handled: nothing changes)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def leave(signum, frame):
+        raise SystemExit(128 + signum)
+
+    previous = {sig: signal.signal(sig, leave) for sig in (signal.SIGTERM, signal.SIGHUP)}
+    try:
+        yield
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+
+
+def copy_district(folder: Path, work: Path) -> None:
+    """Copy a district ``folder`` to ``work`` (links copied as links, never followed); a failed copy (a full
+    disk, a file that cannot be read) is one :class:`InputError` naming the folder, and nothing of ``work`` is
+    left."""
+    try:
+        shutil.copytree(folder, work, symlinks=True)
+    except (OSError, shutil.Error) as error:
+        shutil.rmtree(work, ignore_errors=True)
+        reason = error.strerror if isinstance(error, OSError) and error.strerror else _first_reason(error)
+        raise InputError(f"cannot copy the district to {work.name} beside it: {reason}", file=folder) from None
+
+
+def _first_reason(error: shutil.Error | OSError) -> str:
+    """The first cause of a :class:`shutil.Error` (a list of (source, destination, reason)), in one line."""
+    causes = error.args[0] if error.args and isinstance(error.args[0], list) else []
+    text = str(causes[0][2]) if causes and len(causes[0]) == 3 else str(error)
+    return text.splitlines()[0][:200] if text else type(error).__name__
 
 
 def check_not_inside(folder: Path, column: str | None = None) -> None:

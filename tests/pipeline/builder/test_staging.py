@@ -184,3 +184,55 @@ def test_the_staging_folder_is_private_whatever_the_umask_and_a_planted_link_is_
         os.umask(previous)
     assert version_of(tmp_path / "x") == "A" and outside.read_text() == "precious"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["outside.txt", "x"]
+
+
+TERMINATED = """
+import os, signal, sys, time
+from pathlib import Path
+from pipeline.builder import staging as st
+from pipeline.config import parse_build_config
+
+root, sig = Path(sys.argv[1]), getattr(signal, sys.argv[2])
+config = parse_build_config({"name": "x", "period": {"start": "2018-06-01", "end": "2018-06-02"},
+                             "inputs": {"eulp": "e", "weather": "w.epw", "tariff": "t.toml", "fuel_mix": "f.xlsx",
+                                        "buildings": [1]}}, file="district.toml")
+with st.staging(config, root) as out:
+    (out / "Building_1.csv").write_text("half a district")
+    os.kill(os.getpid(), sig)
+    time.sleep(30)
+"""
+
+
+@pytest.mark.parametrize("name", ["SIGTERM", "SIGHUP"])
+def test_a_build_ended_by_sigterm_or_sighup_leaves_no_staging_copy(tmp_path, name):
+    """`build --no-prefect` (no Prefect flow to catch it) ended by SIGTERM / SIGHUP: the staging folder and its
+    mark are deleted, the old district stays, the status is 128 + the signal."""
+    assert write(tmp_path, "A") == 0
+    done = subprocess.run([sys.executable, "-c", TERMINATED, str(tmp_path), name], cwd=ROOT,
+                          env={**os.environ, "PYTHONPATH": str(ROOT)}, capture_output=True, text=True, timeout=120)
+    assert done.returncode == 128 + getattr(signal, name), done.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["x"] and version_of(tmp_path / "x") == "A"
+
+
+def test_a_copy_that_fills_the_disk_is_one_line_and_leaves_nothing(tmp_path):
+    """`surrogate install`'s working copy on a full disk (a 1 MiB tmpfs): one line naming the district and the
+    reason, no partial copy."""
+    from pipeline.builder.staging import copy_district
+    from pipeline.errors import InputError
+
+    disk = tmp_path / "disk"
+    disk.mkdir()
+    if subprocess.run(["mount", "-t", "tmpfs", "-o", "size=1m", "tmpfs", str(disk)], capture_output=True).returncode:
+        pytest.skip("mounting a small tmpfs needs privileges this machine does not give")
+    try:
+        district = disk / "x"
+        district.mkdir()
+        for i in range(3):
+            (district / f"Building_{i}.csv").write_bytes(os.urandom(300_000))
+        with pytest.raises(InputError) as caught:
+            copy_district(district, disk / ".x.install-1")
+        line = str(caught.value)
+        assert "\n" not in line and len(line) < 400 and "No space left on device" in line and str(district) in line
+        assert sorted(p.name for p in disk.iterdir()) == ["x"]
+    finally:
+        subprocess.run(["umount", str(disk)], capture_output=True)
