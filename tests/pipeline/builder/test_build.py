@@ -15,7 +15,7 @@ from citylearn_env import CityLearnEnv
 from citylearn_env.sizing import SizingRules, dhw_tank, heat_pump_power, pv_power
 from pipeline.builder.driver import build_district_local
 from pipeline.builder.manifest import verify_district
-from pipeline.builder.steps import check_weather, ingest_building, schema_dict, site_signals
+from pipeline.builder.steps import ingest_building, schema_dict, site_signals
 from pipeline.builder.surrogates import surrogate_cache_parts, train_config
 from pipeline.config import parse_build_config, read_build_config
 from pipeline.controllers import cost_rbc, emission_rbc, peak_rbc
@@ -228,16 +228,6 @@ def test_schema_activates_heating_where_a_heating_device_is(short_config):
     assert one["heating_device"]["type"] == "citylearn.energy_model.ElectricHeater"
     assert "heating_device" not in two and "heating_device" in two["inactive_actions"]
     assert "heating_device" not in one["inactive_actions"]
-
-
-def test_weather_check_by_hand():
-    index = pd.date_range("2018-06-01", periods=4, freq="h")
-    weather = pd.Series([20.0, 22.0, 24.0, 26.0], index=index)
-    assert check_weather(weather + 1.0, weather, what="t", file="f") == pytest.approx(1.0)
-    with pytest.raises(InputError, match=r"t was simulated on other weather.*mean \|dT_out\| = 2.00"):
-        check_weather(weather - 2.0, weather, what="t", file="f")
-    with pytest.raises(InputError, match="no hour in common"):
-        check_weather(weather.set_axis(index + pd.Timedelta(days=1)), weather, what="t", file="f")
 
 
 def test_loads_and_ilv_on_other_weather_are_refused(short_config):
