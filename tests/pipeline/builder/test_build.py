@@ -68,8 +68,15 @@ def test_heat_pump_sized_at_peak_electric_input():
 def test_dhw_tank_is_half_the_peak_and_pv_meets_zne_fraction():
     tank = dhw_tank(np.array([0.2, 1.6, 0.4]), 1.8, SizingRules())
     assert tank == {"capacity": 0.8, "loss_coefficient": 0.004, "max_input_power": 1.8, "max_output_power": 1.8}
-    # 100 kWh consumption, 21.5 % from PV; yield 1000 W/kW for 200 h = 200 kWh/kW -> 0.1075 kW -> 0.11
-    assert pv_power(100.0, np.full(200, 1000.0), SizingRules()) == pytest.approx(0.11)
+    # 100 kWh consumption, 21.5 % from PV; yield 1000 W/kW for 200 h = 200 kWh/kW -> 0.1075 kW (0.11 in the schema)
+    zne = SizingRules().pv_zne_fraction
+    assert pv_power(100.0, np.full(200, 1000.0), zne_proportion=zne) == pytest.approx(0.1075)
+    # per year of 2 steps: consumption 4 then 2 kWh (mean 3), yield 2 then 1 kWh/kW (mean 1.5); x 0.5 x SF 2
+    assert pv_power(np.array([3.0, 1.0, 1.0, 1.0]), np.array([1000.0, 1000.0, 500.0, 500.0]), zne_proportion=0.5,
+                    safety_factor=2.0, steps_per_year=2) == pytest.approx(2.0)
+    assert pv_power(-5.0, np.full(3, 100.0), zne_proportion=zne) == 0.0
+    with pytest.raises(InputError, match=r"'solar_generation'.*PV yield is zero"):
+        pv_power(100.0, np.zeros(24), zne_proportion=zne)
 
 
 def test_rule_based_controllers_follow_the_paper():
