@@ -10,8 +10,8 @@ available offline, so this module applies the same sizing rules to what the data
 * baseline consumption [kWh per step] (:func:`baseline_consumption`): cooling, heating and DHW demand divided
   by their device's COP (heater: efficiency) plus the non-shiftable load, over the simulation range
   (upstream's ``_estimate_baseline_electricity_consumption``);
-* PV (:func:`autosize_pv`, through :func:`citylearn_env.sizing.pv_power`): ``nominal_power = ZNE x SF x demand / yield`` [kW], demand = the consumption summed
-  per year of steps and averaged over years (upstream's grouping), yield = the building file's
+* PV (:func:`autosize_pv`, through :func:`citylearn_env.sizing.pv_power`): ``nominal_power = ZNE x SF x
+  demand / yield`` [kW], demand = the consumption summed per year of steps and averaged over years (upstream's grouping), yield = the building file's
   ``solar_generation`` column [W/kW] summed the same way / 1000 (upstream: the PVWatts output for the drawn
   system on the EPW); capped at ``roof_area / 5.263`` kW (upstream's module area per kW when the drawn system
   has none). The drawn module size and its flooring to whole modules are not reproduced. A building file
