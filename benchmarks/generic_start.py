@@ -25,9 +25,9 @@ sys.path.insert(0, str(ROOT / "benchmarks"))
 
 from surrogate_judge import cached_table  # noqa: E402
 
-from pipeline.builder.steps import read_characteristics_row  # noqa: E402
 from pipeline.builder.surrogates import ilv_config  # noqa: E402
 from pipeline.config import read_build_config  # noqa: E402
+from pipeline.ingest.stock import read_characteristics_row  # noqa: E402
 from surrogates.config import BUILD_RECIPE  # noqa: E402
 from surrogates.generic import GENERIC_FILE, pool_tables, write_generic  # noqa: E402
 from surrogates.train import train_surrogate  # noqa: E402

@@ -254,8 +254,8 @@ def _ideal_loads(config, row: dict, run_period, year: int, schedule_seed: int = 
 def simulated_house_months(config_path: Path, district: Path | None, schedule_seed: int = 0) -> list[HouseMonth]:
     """The district's houses simulated now (ideal-loads pass over the configured period, current model;
     occupant schedules drawn with ``schedule_seed``, 0 = the build's)."""
-    from pipeline.builder.steps import read_characteristics_row
     from pipeline.config import read_build_config
+    from pipeline.ingest.stock import read_characteristics_row
 
     config = read_build_config(config_path)
     start, end = config.period.start, config.period.end
@@ -318,8 +318,8 @@ def own_row_table(config_path: Path, district: Path | None) -> str:
     row's own weather (named in the table with its heating design temperature), and the climate-independent
     heat-loss coefficient [W/K] of the house model against the row's Manual J design loads. ResStock's
     delivered loads count latent heat and duct losses, our ideal loads are sensible zone loads."""
-    from pipeline.builder.steps import read_characteristics_row
     from pipeline.config import read_build_config
+    from pipeline.ingest.stock import read_characteristics_row
     from surrogates.energyplus.envelope import house_heat_loss
 
     config = read_build_config(config_path)

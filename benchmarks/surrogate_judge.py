@@ -32,9 +32,9 @@ import pandas as pd  # noqa: E402
 
 import surrogates  # noqa: E402
 from pipeline.builder.cache import files_digest  # noqa: E402
-from pipeline.builder.steps import read_characteristics_row  # noqa: E402
 from pipeline.builder.surrogates import JUDGE_SOURCES, ilv_config, train_config  # noqa: E402
 from pipeline.config import read_build_config  # noqa: E402
+from pipeline.ingest.stock import read_characteristics_row  # noqa: E402
 from surrogates.config import BUILD_RECIPE, TrainConfig, season_months  # noqa: E402
 from surrogates.judge import JudgeConfig, judge_ilv_config, score_judge_table  # noqa: E402
 from surrogates.sources.energyplus import energyplus_ilv_table  # noqa: E402

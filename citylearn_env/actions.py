@@ -61,7 +61,7 @@ class Actions:
 
     def storage(self, end_use: str) -> np.ndarray:
         """The storage action of ``end_use`` (cooling, heating or dhw)."""
-        return getattr(self, END_USE_SLOTS[end_use][3])
+        return getattr(self, END_USE_SLOTS[end_use].action)
 
 
 def _positions(pairs: Sequence[tuple[str, int]], keep: Callable[[str], bool]) -> np.ndarray:
@@ -89,7 +89,7 @@ class ActionLayout:
                 raise SchemaError(f"{building_names[b]} has no device {name!r} (it belongs to "
                                   f"{building_names[owner]})", column=f"actions.{name}")
         self._battery, self._ev, self._settings = battery, ev, settings
-        self._tanks = {END_USE_SLOTS[p.name][3]: p for p in end_uses}
+        self._tanks = {END_USE_SLOTS[p.name].action: p for p in end_uses}
         bounds = [self._bounds(name, b, devices) for name, b in self.pairs]
         self.low = np.array([lo for lo, _ in bounds])
         self.high = np.array([hi for _, hi in bounds])

@@ -108,16 +108,16 @@ class District:
     # ------------------------------------------------------------------ construction
     def _end_use_params(self, k: str) -> EndUseParams:
         b = self.config.buildings
-        device_slot, storage_slot, demand_column, _ = END_USE_SLOTS[k]
-        devs = [getattr(x, device_slot) for x in b]
-        tanks = [getattr(x, storage_slot) for x in b]
+        slots = END_USE_SLOTS[k]
+        devs = [getattr(x, slots.device) for x in b]
+        tanks = [getattr(x, slots.storage) for x in b]
         tank = TankParams(
             capacity=_stack(t.capacity for t in tanks), loss_coefficient=_stack(t.loss_coefficient for t in tanks),
             one_way_efficiency=np.sqrt(_stack(t.efficiency for t in tanks)),
             initial_soc=_stack(t.initial_soc for t in tanks), max_input_power=_stack(t.max_input_power for t in tanks),
             max_output_power=_stack(t.max_output_power for t in tanks))
         nominal = _stack(d.nominal_power for d in devs)
-        demand = self.signals[demand_column]
+        demand = self.signals[slots.demand]
         return EndUseParams(
             name=k, nominal_power=nominal, cop=self._conversion(devs, k), demand=demand, tank=tank,
             live=bool((nominal > 0).any() or (tank.capacity > 0).any() or (demand > 0).any()),

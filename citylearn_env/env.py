@@ -118,9 +118,9 @@ class CityLearnEnv(gym.Env):
         context = rewards.RewardContext(
             central_agent=self.central_agent,
             building_names=self.building_names,
-            capacity={END_USE_SLOTS[p.name][1]: p.tank.capacity for p in d.end_use_params}
+            capacity={END_USE_SLOTS[p.name].storage: p.tank.capacity for p in d.end_use_params}
             | {"electrical_storage": d.battery.capacity},
-            initial_soc={END_USE_SLOTS[p.name][1]: p.tank.initial_soc for p in d.end_use_params}
+            initial_soc={END_USE_SLOTS[p.name].storage: p.tank.initial_soc for p in d.end_use_params}
             | {"electrical_storage": d.battery.initial_soc},
             active_actions={name: self.action_layout.active(name) for name in (*STORAGE_ACTIONS, *DEVICE_ACTIONS)},
             chargers=(lambda: rewards.charger_step(d, self._acted)) if d.ev is not None else None,

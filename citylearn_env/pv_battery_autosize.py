@@ -10,8 +10,8 @@ available offline, so this module applies the same sizing rules to what the data
 * baseline consumption [kWh per step] (:func:`baseline_consumption`): cooling, heating and DHW demand divided
   by their device's COP (heater: efficiency) plus the non-shiftable load, over the simulation range
   (upstream's ``_estimate_baseline_electricity_consumption``);
-* PV (:func:`pv_power`): ``nominal_power = ZNE x SF x demand / yield`` [kW], demand = the consumption summed
-  per year of steps and averaged over years (upstream's grouping), yield = the building file's
+* PV (:func:`autosize_pv`, through :func:`citylearn_env.sizing.pv_power`): ``nominal_power = ZNE x SF x
+  demand / yield`` [kW], demand = the consumption summed per year of steps and averaged over years (upstream's grouping), yield = the building file's
   ``solar_generation`` column [W/kW] summed the same way / 1000 (upstream: the PVWatts output for the drawn
   system on the EPW); capped at ``roof_area / 5.263`` kW (upstream's module area per kW when the drawn system
   has none). The drawn module size and its flooring to whole modules are not reproduced. A building file
@@ -38,7 +38,8 @@ import numpy as np
 
 from citylearn_env import devices
 from citylearn_env.config import ConversionDevice
-from citylearn_env.errors import SchemaError
+from citylearn_env.errors import InputError, SchemaError
+from citylearn_env.sizing import pv_power
 
 #: roof area one kW of PV takes [m2/kW] (upstream's ``5.263`` for a system without a module area)
 PV_AREA_PER_KW = 5.263
@@ -99,26 +100,21 @@ def baseline_consumption(series: Mapping[str, np.ndarray], cooling: ConversionDe
     return total
 
 
-def _per_period(values: np.ndarray, steps: int) -> np.ndarray:
-    """Sums of consecutive blocks of ``steps`` values (the last one partial)."""
-    edges = np.arange(0, len(values), steps)
-    return np.add.reduceat(values, edges) if len(values) else np.zeros(0)
-
-
-def pv_power(consumption_kwh: np.ndarray, solar_w_per_kw: np.ndarray, *, zne_proportion: float, safety_factor: float,
-             roof_area_m2: float | None, steps_per_year: int, where: str) -> float:
-    """PV nominal power [kW] = ZNE x SF x mean annual consumption / mean annual yield per kW, capped by the roof
-    (see the module docstring). ``solar_w_per_kw``: AC output per kW of PV [W/kW] per step."""
-    solar = np.nan_to_num(np.asarray(solar_w_per_kw, dtype=np.float64))
-    yield_kwh_per_kw = float(np.mean(_per_period(solar / 1000.0, steps_per_year)))
-    if yield_kwh_per_kw <= 0.0:
+def autosize_pv(consumption_kwh: np.ndarray, solar_w_per_kw: np.ndarray, *, zne_proportion: float,
+                safety_factor: float, roof_area_m2: float | None, steps_per_year: int, where: str) -> float:
+    """PV nominal power [kW] = ZNE x SF x mean annual consumption / mean annual yield per kW
+    (:func:`citylearn_env.sizing.pv_power`), capped by the roof (see the module docstring). ``consumption_kwh``
+    [kWh per step]; ``solar_w_per_kw``: AC output per kW of PV [W/kW] per step. No yield is a
+    :class:`SchemaError` at ``where`` naming the table upstream would download."""
+    try:
+        power = pv_power(consumption_kwh, solar_w_per_kw, zne_proportion=zne_proportion, safety_factor=safety_factor,
+                         steps_per_year=steps_per_year)
+    except InputError:
         raise SchemaError("PV autosize from the EPW file needs upstream's downloaded PV sizing table "
                           f"'{PV_SIZING_TABLE}' and PySAM's PVWatts; offline this environment sizes the PV on "
                           "the building file's solar_generation column [W/kW], which has no generation here: "
                           "give that column a PV profile, or the PV's nominal_power with autosize false",
-                          column=where)
-    demand = float(np.mean(_per_period(np.asarray(consumption_kwh, dtype=np.float64), steps_per_year)))
-    power = zne_proportion * safety_factor * max(demand, 0.0) / yield_kwh_per_kw
+                          column=where) from None
     if roof_area_m2 is not None:
         power = min(power, roof_area_m2 / PV_AREA_PER_KW)
     return float(power)

@@ -120,7 +120,7 @@ def _consumption(series: Mapping[str, np.ndarray], sized: Mapping[str, Any]) -> 
 
 def _pv_2_2(attributes: Mapping[str, Any], where: str, series: Mapping[str, np.ndarray], sized: Mapping[str, Any],
             sizing: Sizing, device_type: str) -> float:
-    """PV nominal power [kW] by CityLearn 2.2+'s rule, offline (:func:`pv_battery_autosize.pv_power`)."""
+    """PV nominal power [kW] by CityLearn 2.2+'s rule, offline (:func:`pv_battery_autosize.autosize_pv`)."""
     at = f"{where}.autosize_attributes"
     epw = attributes.get("epw_filepath")
     if epw is not None:
@@ -136,8 +136,8 @@ def _pv_2_2(attributes: Mapping[str, Any], where: str, series: Mapping[str, np.n
     roof = attributes.get("roof_area")
     if roof is not None:
         roof = pvb.draw_attribute(roof, 0.0, f"{at}.roof_area").low
-    return pvb.pv_power(_consumption(series, sized), series["solar_generation"], zne_proportion=zne,
-                        safety_factor=sf, roof_area_m2=roof, steps_per_year=8760, where=f"{where}.autosize")
+    return pvb.autosize_pv(_consumption(series, sized), series["solar_generation"], zne_proportion=zne,
+                           safety_factor=sf, roof_area_m2=roof, steps_per_year=8760, where=f"{where}.autosize")
 
 
 def _battery_2_2(device: Battery, attributes: Mapping[str, Any] | None, where: str, series: Mapping[str, np.ndarray],

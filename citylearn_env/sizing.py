@@ -119,12 +119,28 @@ def battery(rules: SizingRules) -> dict[str, object]:
             "capacity_loss_coefficient": 1e-5, "loss_coefficient": 1e-4, "power_efficiency_curve": curve}
 
 
-def pv_power(consumption_kwh: float, yield_w_per_kw: np.ndarray, rules: SizingRules) -> float:
-    """PV nominal power [kW] whose generation over the period is ``pv_zne_fraction`` of the consumption [kWh]."""
-    specific = float(np.sum(yield_w_per_kw)) / 1000.0  # kWh per kW over the period
-    if specific <= 0:
+def pv_power(consumption_kwh: float | np.ndarray, solar_w_per_kw: np.ndarray, *, zne_proportion: float,
+             safety_factor: float = 1.0, steps_per_year: int | None = None) -> float:
+    """PV nominal power [kW] whose yield covers ``zne_proportion`` x ``safety_factor`` of the consumption:
+    ZNE x SF x demand / yield, with demand = ``consumption_kwh`` [kWh per step, or its total] and yield =
+    ``solar_w_per_kw`` [W AC per kW DC per 1-h step] / 1000 [kWh per kW], each summed per ``steps_per_year``
+    steps and averaged over those years (None: the whole series is one period); a negative demand sizes 0 kW.
+    No yield (sum <= 0) is an :class:`InputError` on ``solar_generation``. The paper's rule
+    (:func:`size_devices`) and CityLearn 2.2+'s autosize
+    (:func:`citylearn_env.pv_battery_autosize.autosize_pv`) both size with this function."""
+    solar = np.nan_to_num(np.asarray(solar_w_per_kw, dtype=np.float64))
+    consumption = np.atleast_1d(np.asarray(consumption_kwh, dtype=np.float64))
+    yield_kwh_per_kw = float(np.mean(_per_period(solar / 1000.0, steps_per_year or max(solar.size, 1))))
+    if not yield_kwh_per_kw > 0.0:
         raise InputError("PV yield is zero over the sizing period", column="solar_generation")
-    return round(rules.pv_zne_fraction * consumption_kwh / specific, 2)
+    demand = float(np.mean(_per_period(consumption, steps_per_year or max(consumption.size, 1))))
+    return float(zne_proportion * safety_factor * max(demand, 0.0) / yield_kwh_per_kw)
+
+
+def _per_period(values: np.ndarray, steps: int) -> np.ndarray:
+    """Sums of consecutive blocks of ``steps`` values (the last one partial)."""
+    edges = np.arange(0, len(values), steps)
+    return np.add.reduceat(values, edges) if len(values) else np.zeros(0)
 
 
 def round_up(power_kw: float, decimals: int = 4) -> float:
@@ -173,6 +189,6 @@ def size_devices(series: Mapping[str, Any], outdoor_c: np.ndarray, rules: Sizing
         "dhw_device": {"nominal_power": round(heater, 4), "efficiency": rules.dhw_heater_efficiency},
         "dhw_storage": dhw_tank(dhw, round(heater, 4), rules),
         "electrical_storage": battery(rules),
-        "pv": {"nominal_power": pv_power(consumption, np.asarray(series["solar_generation"], dtype=float),
-                                         rules)},
+        "pv": {"nominal_power": round(pv_power(consumption, np.asarray(series["solar_generation"], dtype=float),
+                                               zne_proportion=rules.pv_zne_fraction), 2)},
     }

@@ -18,12 +18,24 @@ from typing import Self
 import numpy as np
 
 END_USES = ("cooling", "heating", "dhw")
-#: end use -> (device slot, storage slot, demand column, storage action) in the schema and data sets
-END_USE_SLOTS = {
-    "cooling": ("cooling_device", "cooling_storage", "cooling_demand", "cooling_storage"),
-    "heating": ("heating_device", "heating_storage", "heating_demand", "heating_storage"),
-    "dhw": ("dhw_device", "dhw_storage", "dhw_demand", "dhw_storage"),
-}
+
+
+@dataclass(frozen=True)
+class EndUseSlots:
+    """Where one end use lives in the schema and the data sets: its ``device`` slot (``cooling_device`` ...),
+    its ``storage`` slot (``cooling_storage`` ...), the data set's ``demand`` column [kWh thermal per step] and
+    the name of its storage ``action``."""
+
+    device: str
+    storage: str
+    demand: str
+    action: str
+
+
+#: end use -> its :class:`EndUseSlots`
+END_USE_SLOTS: Mapping[str, EndUseSlots] = MappingProxyType({
+    k: EndUseSlots(device=f"{k}_device", storage=f"{k}_storage", demand=f"{k}_demand", action=f"{k}_storage")
+    for k in END_USES})
 
 
 class Record:

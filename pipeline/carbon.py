@@ -1,46 +1,18 @@
 """Hourly grid carbon intensity from generation by fuel and life-cycle emission factors.
 
 Factors live in ``pipeline/data/emission_factors.csv`` (g CO2e per kWh generated, IPCC SRREN Annex II,
-Table A.II.4 medians, with the source of each row). A fuel with an empty factor is excluded from both the
+Table A.II.4 medians, with the source of each row), read by
+:func:`pipeline.ingest.fuel_mix.read_emission_factors`. A fuel with an empty factor is excluded from both the
 emissions and the generation it is averaged over (storage: its charging is already in the load).
 """
 
 from __future__ import annotations
 
-from importlib import resources
-from pathlib import Path
-
 import numpy as np
 import pandas as pd
 
 from pipeline.errors import InputError
-
-FACTOR_COLUMNS = ("fuel", "g_co2e_per_kwh", "srren_technology", "negative_allowed", "note")
-
-
-def read_emission_factors(path: str | Path | None = None) -> pd.DataFrame:
-    """Emission factor table indexed by ERCOT fuel name.
-
-    Returns columns ``g_co2e_per_kwh`` (float, NaN = excluded), ``srren_technology``, ``negative_allowed``
-    (bool: the fuel may report net negative energy) and ``note`` (the source of the number).
-    """
-    if path is None:
-        source = resources.files("pipeline") / "data" / "emission_factors.csv"
-        with resources.as_file(source) as file:
-            return read_emission_factors(file)
-    frame = pd.read_csv(path, dtype={"fuel": str, "srren_technology": str, "note": str})
-    for column in FACTOR_COLUMNS:
-        if column not in frame.columns:
-            raise InputError("missing column", file=path, column=column, row=1)
-    factors = pd.to_numeric(frame["g_co2e_per_kwh"], errors="coerce")
-    bad = frame["g_co2e_per_kwh"].notna() & factors.isna()
-    if bad.any() or (factors < 0).any():
-        first = int(np.argmax(bad.to_numpy() | (factors < 0).to_numpy()))
-        raise InputError("factor must be a non-negative number or empty", file=path,
-                         column="g_co2e_per_kwh", row=first + 2)
-    frame["g_co2e_per_kwh"] = factors
-    frame["negative_allowed"] = frame["negative_allowed"].astype(str).str.lower().eq("true")
-    return frame.set_index("fuel")
+from pipeline.ingest.fuel_mix import read_emission_factors
 
 
 def carbon_intensity(generation: pd.DataFrame, factors: pd.DataFrame | None = None) -> pd.Series:

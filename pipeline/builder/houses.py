@@ -18,7 +18,7 @@ from pipeline.builder.cache import FileCache, cache_key, cache_root, files_diges
 from pipeline.builder.manifest import (
     sha256_file,
 )
-from pipeline.builder.steps import eulp_metadata_row, read_characteristics_row
+from pipeline.builder.steps import eulp_metadata_row
 from pipeline.builder.surrogates import (
     ENERGYPLUS_SOURCES,
     SurrogateFiles,
@@ -28,6 +28,7 @@ from pipeline.builder.surrogates import (
 )
 from pipeline.config import BuildConfig
 from pipeline.ingest.eulp import citylearn_building
+from pipeline.ingest.stock import read_characteristics_row
 from pipeline.ingest.timeindex import period_index
 from pipeline.progress import report
 from surrogates.energyplus.metadata import parse_heating_system

@@ -1,5 +1,6 @@
 """The build's site and table steps: selection, the site's signals (weather, PV yield, prices, carbon), EULP
-building tables, sizing and the schema. Pure functions of the typed configuration returning frames/dicts.
+building tables, sizing and the schema. Pure functions of the typed configuration returning frames/dicts; they
+compose the readers of :mod:`pipeline.ingest` (files are read there, not here).
 """
 
 from __future__ import annotations
@@ -9,23 +10,20 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 import pandas as pd
 
 from citylearn_env.dataset import DynamicsBlock, write_table
 from citylearn_env.emit import BuildingEntry, schema_document
 from citylearn_env.sizing import size_devices
 from pipeline.config import BuildConfig
-from pipeline.errors import InputError
-from pipeline.ingest.commands import carbon_table, read_weather_file
-from pipeline.ingest.eulp import citylearn_building, locate_building, read_eulp_building, read_eulp_metadata
+from pipeline.ingest.carbon import read_carbon_intensity
+from pipeline.ingest.eulp import citylearn_building, read_eulp_building
+from pipeline.ingest.stock import read_eulp_metadata_row
 from pipeline.ingest.tariff import citylearn_pricing, read_tariff
 from pipeline.ingest.timeindex import period_index
-from pipeline.ingest.weather import ForecastSpec, citylearn_weather
+from pipeline.ingest.weather import ForecastSpec, check_weather, citylearn_weather, read_weather_file
 from pipeline.pv import site_pv_yield
-from pipeline.select import read_stock_table, select_from_file
-from surrogates.energyplus.end_uses import RESULT_PREFIXES
-from surrogates.energyplus.metadata import normalise_characteristics
+from pipeline.select import select_from_file
 
 OBSERVATIONS_SHARED = ("month", "day_type", "hour", "outdoor_dry_bulb_temperature",
                        "outdoor_dry_bulb_temperature_predicted_6h", "diffuse_solar_irradiance",
@@ -37,11 +35,6 @@ OBSERVATIONS_BUILDING = ("indoor_dry_bulb_temperature", "non_shiftable_load", "s
                          "dhw_storage_soc", "electrical_storage_soc", "net_electricity_consumption",
                          "cooling_demand", "dhw_demand", "occupant_count", "indoor_dry_bulb_temperature_set_point",
                          "indoor_dry_bulb_temperature_delta", "power_outage")
-
-
-#: largest mean |T_out difference| [degC] between a table's own outdoor temperature and the district's weather
-#: over their common hours before the build refuses the table as simulated on other weather
-WEATHER_TOLERANCE_C = 1.5
 
 
 def building_names(config: BuildConfig) -> list[str]:
@@ -59,31 +52,6 @@ def resolve_selection(config: BuildConfig) -> tuple[BuildConfig, Any]:
                                  seed=sel.seed, method=sel.method, max_clusters=sel.max_clusters)
     ids = [int(i) for i in selection.chosen["bldg_id"]]
     return config.model_copy(update={"inputs": config.inputs.model_copy(update={"buildings": ids})}), selection
-
-
-def check_weather(own_outdoor_c: pd.Series, weather_outdoor_c: pd.Series, *, what: str, file: object) -> float:
-    """Refuse (one line) a table whose own outdoor temperature [degC] differs from the district's weather by more
-    than :data:`WEATHER_TOLERANCE_C` on average over their common hours; returns that mean difference.
-
-    Both series are indexed by interval-beginning local standard time; no common hour is also a refusal.
-    """
-    common = own_outdoor_c.index.intersection(weather_outdoor_c.index)
-    if len(common) == 0:
-        raise InputError(f"{what} has no hour in common with the district's weather and period", file=file,
-                         column="outdoor_dry_bulb_temperature")
-    diff = float(np.mean(np.abs(own_outdoor_c.loc[common].to_numpy(dtype=float)
-                                - weather_outdoor_c.loc[common].to_numpy(dtype=float))))
-    if not diff <= WEATHER_TOLERANCE_C:
-        raise InputError(f"{what} was simulated on other weather than the district's (mean |dT_out| = {diff:.2f} "
-                         f"degC over {len(common)} h, limit {WEATHER_TOLERANCE_C}): re-simulate it with the "
-                         "district's weather file", file=file, column="outdoor_dry_bulb_temperature")
-    return diff
-
-
-def plain_value(value: object) -> object:
-    """A numpy scalar as a plain Python value; NaN -> None (JSON-safe cache-key parts)."""
-    value = value.item() if isinstance(value, np.generic) else value
-    return None if isinstance(value, float) and np.isnan(value) else value
 
 
 @dataclass(frozen=True)
@@ -112,7 +80,7 @@ def site_signals(config: BuildConfig) -> Signals:
     weather = citylearn_weather(frame, index, ForecastSpec(mode=config.forecast, seed=config.seed), file=i.weather)
     solar = site_pv_yield(frame, meta, tilt=config.pv.tilt, azimuth=config.pv.azimuth, file=i.weather)
     pricing = citylearn_pricing(read_tariff(i.tariff), index)
-    carbon = carbon_table(i.fuel_mix, index, timezone=config.timezone)
+    carbon = read_carbon_intensity(i.fuel_mix, index, timezone=config.timezone)
     return Signals(weather, pricing, carbon, solar, frame["outdoor_dry_bulb_temperature_c"].astype(float))
 
 
@@ -120,7 +88,7 @@ def ingest_building(config: BuildConfig, bldg_id: int, solar: pd.Series,
                     weather: pd.Series | None = None) -> pd.DataFrame:
     """One building's CityLearn table from its EULP metadata and timeseries, with the site's PV yield; with
     ``weather`` (the district's outdoor temperature [degC]) the timeseries' own outdoor temperature, when it
-    has one, must match it (:func:`check_weather`)."""
+    has one, must match it (:func:`pipeline.ingest.weather.check_weather`)."""
     i = config.inputs
     eulp = read_eulp_building(i.eulp, int(bldg_id), upgrade=i.upgrade, state=i.state)
     own = "out.outdoor_air_dryblub_temp.c"
@@ -153,12 +121,10 @@ def size_buildings(config: BuildConfig, frames: Mapping[str, pd.DataFrame], weat
 
 
 def eulp_metadata_row(config: BuildConfig, bldg_id: int) -> dict[str, object]:
-    """The building's EULP metadata row as plain JSON values (``bldg_id`` included; NaN -> None)."""
+    """The building's EULP metadata row of the district's release (:func:`pipeline.ingest.stock.read_eulp_metadata_row`)."""
 
     i = config.inputs
-    metadata_path, _ = locate_building(i.eulp, int(bldg_id), upgrade=i.upgrade, state=i.state)
-    row = read_eulp_metadata(metadata_path).loc[int(bldg_id)].to_dict()
-    return {"bldg_id": int(bldg_id), **{str(k): plain_value(v) for k, v in row.items()}}
+    return read_eulp_metadata_row(i.eulp, bldg_id, upgrade=i.upgrade, state=i.state)
 
 
 def schema_dict(config: BuildConfig, names: list[str], sizes: dict[str, dict],
@@ -193,21 +159,3 @@ def _resistance(size: Mapping[str, Mapping]) -> bool:
 
 def period_hours(config: BuildConfig) -> int:
     return ((config.period.end - config.period.start).days + 1) * 24
-
-
-def read_characteristics_row(path: Path, bldg_id: int) -> dict[str, object]:
-    """One stock row (either metadata layout) as plain JSON values in the published layout (``bldg_id``,
-    ``in.*``) with its annual end uses (:data:`surrogates.energyplus.end_uses.RESULT_PREFIXES`); NaN -> None."""
-
-    path = Path(path)
-    raw = read_stock_table(path)
-    id_column = "bldg_id" if "bldg_id" in raw.columns else "building_id"
-    if id_column not in raw.columns:
-        raise InputError("no building id column (expected 'bldg_id' or 'building_id')", file=path, column="bldg_id")
-    rows = raw[pd.to_numeric(raw[id_column], errors="coerce") == int(bldg_id)]
-    if rows.empty:
-        raise InputError(f"building {bldg_id} not in the characteristics", file=path, column=id_column)
-    keep = {k: v for k, v in rows.iloc[0].to_dict().items()
-            if str(k).startswith(("bldg_id", "building_id", "in.", "build_existing_model.", "upgrade_costs.floor",
-                                  *RESULT_PREFIXES))}
-    return {k: plain_value(v) for k, v in normalise_characteristics(keep).items()}

@@ -23,9 +23,11 @@ from pipeline.builder.manifest import (
     sha256_file,
 )
 from pipeline.builder.staging import write_new_file
-from pipeline.builder.steps import check_weather, eulp_metadata_row, read_characteristics_row
+from pipeline.builder.steps import eulp_metadata_row
 from pipeline.config import BuildConfig
 from pipeline.errors import InputError
+from pipeline.ingest.stock import read_characteristics_row
+from pipeline.ingest.weather import check_weather
 from pipeline.progress import epochs, report
 from surrogates.config import BUILD_RECIPE, season_months
 from surrogates.energyplus.ilv import ILVConfig, partial_runs_for

@@ -1,7 +1,9 @@
 """CLI sub-commands that write CityLearn input files (weather, tariff, carbon, eulp).
 
 Every command writes one row per hour from ``--start`` 00:00 to ``--end`` 23:00 (local standard time;
-row 0 is CityLearn hour 1) in the chosen layout, and is also a plain Python function (``write_*``).
+row 0 is CityLearn hour 1) in the chosen layout, and is also a plain Python function (``write_*``). Only the
+command handlers live here: they compose the readers of :mod:`pipeline.ingest` (nothing imports this module
+but the CLI and its tests).
 """
 
 from __future__ import annotations
@@ -16,24 +18,15 @@ from pathlib import Path
 import pandas as pd
 
 from citylearn_env.dataset import LAYOUTS, write_table
-from pipeline.carbon import carbon_intensity, read_emission_factors
-from pipeline.errors import InputError
+from pipeline.ingest.carbon import read_carbon_intensity
 from pipeline.ingest.eulp import citylearn_building, read_eulp_building, solar_noon_lag_hours
-from pipeline.ingest.fuel_mix import read_fuel_mix_csv, read_fuel_mix_workbook
 from pipeline.ingest.tariff import citylearn_pricing, read_tariff
-from pipeline.ingest.timeindex import period_index, select_period
-from pipeline.ingest.weather import ForecastSpec, citylearn_weather, read_epw, read_resstock_weather
+from pipeline.ingest.timeindex import period_index
+from pipeline.ingest.weather import ForecastSpec, citylearn_weather, read_weather_file
 
 DEFAULT_CACHE = Path(".cache") / "districtgen"
 PathLike = str | os.PathLike
 DateLike = str | dt.date
-
-
-def read_weather_file(path: PathLike, tmy_year: int | None = None) -> tuple[pd.DataFrame, dict]:
-    """EPW (``.epw``) or ResStock county CSV (anything else) -> ``(frame, metadata)``."""
-
-    path = Path(path)
-    return read_epw(path, tmy_year=tmy_year) if path.suffix.lower() == ".epw" else read_resstock_weather(path)
 
 
 def write_weather(path: PathLike, start: DateLike, end: DateLike, output: PathLike, *, layout: str = "v2.2",
@@ -58,22 +51,8 @@ def write_carbon(path: PathLike, start: DateLike, end: DateLike, output: PathLik
                  clock: str = "prevailing", timezone: str = "America/Chicago",
                  factors: PathLike | None = None) -> Path:
     """Write CityLearn ``carbon_intensity.csv`` from an ERCOT workbook (.xlsx) or a long CSV."""
-    table = carbon_table(path, period_index(start, end), clock=clock, timezone=timezone, factors=factors)
+    table = read_carbon_intensity(path, period_index(start, end), clock=clock, timezone=timezone, factors=factors)
     return _write(output, "carbon", table, layout)
-
-
-def carbon_table(path: PathLike, index: pd.DatetimeIndex, *, clock: str = "prevailing",
-                 timezone: str = "America/Chicago", factors: PathLike | None = None) -> pd.DataFrame:
-    """Hourly grid carbon intensity [kg CO2e/kWh] over ``index`` (local standard time, interval-beginning)
-    from an ERCOT fuel-mix workbook (.xlsx) or a long CSV; one column ``carbon_intensity``."""
-
-    path = Path(path)
-    if path.suffix.lower() in (".xlsx", ".xlsm"):
-        generation, _ = read_fuel_mix_workbook(path, timezone=timezone)
-    else:
-        generation, _ = read_fuel_mix_csv(path, clock=clock, timezone=timezone)
-    generation = select_period(generation, index, file=path)
-    return carbon_intensity(generation, read_emission_factors(factors)).to_frame("carbon_intensity")
 
 
 def write_building(source: PathLike, building: int, start: DateLike, end: DateLike, output: PathLike, *,
@@ -87,14 +66,10 @@ def write_building(source: PathLike, building: int, start: DateLike, end: DateLi
                               timestamp_offset_hours=timestamp_offset_hours)
     solar = None
     if weather is not None:
-        from pipeline.pv import PVSite, pv_yield  # pvlib (pipeline.pv) loads only when PV is asked for
+        from pipeline.pv import site_pv_yield  # pvlib (pipeline.pv) loads only when PV is asked for
 
         frame, meta = read_weather_file(weather, tmy_year=index[0].year)
-        if "latitude" not in meta:
-            raise InputError("PV needs an EPW (site latitude/longitude)", file=weather)
-        site = PVSite(meta["latitude"], meta["longitude"], tilt=tilt, azimuth=azimuth,
-                      altitude=meta.get("elevation_m", 0.0))
-        solar = pv_yield(frame, site, meta["utc_offset_hours"])
+        solar = site_pv_yield(frame, meta, tilt=tilt, azimuth=azimuth, file=weather)
         _warn_if_shifted(eulp.series, meta["longitude"], meta["utc_offset_hours"])
     table = citylearn_building(eulp.loads, index, holidays=holidays, timezone=timezone,
                                solar_generation=solar, file=eulp.series_path)

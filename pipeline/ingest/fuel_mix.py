@@ -1,6 +1,9 @@
 """ERCOT generation by fuel: the Fuel Mix Report workbook and a plain long CSV -> hourly MWh per fuel.
 
-Output of every reader: an hourly DataFrame, index = interval-beginning **local standard time** (tz-naive),
+The life-cycle emission factor of each fuel (``pipeline/data/emission_factors.csv``, the fuels a reader
+accepts) is read here too (:func:`read_emission_factors`).
+
+Output of every fuel-mix reader: an hourly DataFrame, index = interval-beginning **local standard time** (tz-naive),
 one column per fuel, values in MWh generated in that hour.
 
 Workbook (``IntGenbyFuel<year>.xlsx``): one sheet per month (``Jan`` .. ``Dec``), header ``Date, Fuel,
@@ -17,6 +20,7 @@ from __future__ import annotations
 import datetime as dt
 import functools
 import re
+from importlib import resources
 from pathlib import Path
 from typing import NamedTuple
 from zoneinfo import ZoneInfo
@@ -24,7 +28,6 @@ from zoneinfo import ZoneInfo
 import numpy as np
 import pandas as pd
 
-from pipeline.carbon import read_emission_factors
 from pipeline.errors import InputError
 from pipeline.ingest.messages import one_line
 
@@ -33,6 +36,33 @@ MONTH_SHEETS = ("Jan", "Feb", "Mar", "Apr", "May", "Jun", "Jul", "Aug", "Sep", "
 KEY_COLUMNS = ("Date", "Fuel", "Total")
 _LABEL = re.compile(r"^(\d{1,2}):(\d{2})( \(DST\))?$")
 STEP = pd.Timedelta(minutes=15)
+#: columns of the emission factor table (:func:`read_emission_factors`)
+FACTOR_COLUMNS = ("fuel", "g_co2e_per_kwh", "srren_technology", "negative_allowed", "note")
+
+
+def read_emission_factors(path: str | Path | None = None) -> pd.DataFrame:
+    """Emission factor table indexed by ERCOT fuel name.
+
+    Returns columns ``g_co2e_per_kwh`` (float, NaN = excluded), ``srren_technology``, ``negative_allowed``
+    (bool: the fuel may report net negative energy) and ``note`` (the source of the number).
+    """
+    if path is None:
+        source = resources.files("pipeline") / "data" / "emission_factors.csv"
+        with resources.as_file(source) as file:
+            return read_emission_factors(file)
+    frame = pd.read_csv(path, dtype={"fuel": str, "srren_technology": str, "note": str})
+    for column in FACTOR_COLUMNS:
+        if column not in frame.columns:
+            raise InputError("missing column", file=path, column=column, row=1)
+    factors = pd.to_numeric(frame["g_co2e_per_kwh"], errors="coerce")
+    bad = frame["g_co2e_per_kwh"].notna() & factors.isna()
+    if bad.any() or (factors < 0).any():
+        first = int(np.argmax(bad.to_numpy() | (factors < 0).to_numpy()))
+        raise InputError("factor must be a non-negative number or empty", file=path,
+                         column="g_co2e_per_kwh", row=first + 2)
+    frame["g_co2e_per_kwh"] = factors
+    frame["negative_allowed"] = frame["negative_allowed"].astype(str).str.lower().eq("true")
+    return frame.set_index("fuel")
 
 
 def read_fuel_mix_workbook(path: str | Path, timezone: str = TIMEZONE) -> tuple[pd.DataFrame, dict]:

@@ -58,6 +58,9 @@ CITYLEARN_SOURCES = {
 }
 HORIZONS = (6, 12, 24)
 EPW_HEADER_LINES = 8
+#: largest mean |T_out difference| [degC] between a table's own outdoor temperature and the district's weather
+#: over their common hours before :func:`check_weather` refuses the table as simulated on other weather
+WEATHER_TOLERANCE_C = 1.5
 
 
 def read_epw(path: str | Path, tmy_year: int | None = None) -> tuple[pd.DataFrame, dict]:
@@ -132,6 +135,32 @@ def read_resstock_weather(path: str | Path) -> tuple[pd.DataFrame, dict]:
     _validate(frame, path, first_row=2, names={v: k for k, v in RESSTOCK_COLUMNS.items()})
     return frame, {"file": str(path), "typical": False}
 
+
+def read_weather_file(path: str | Path, tmy_year: int | None = None) -> tuple[pd.DataFrame, dict]:
+    """EPW (``.epw``, :func:`read_epw`) or ResStock county CSV (anything else, :func:`read_resstock_weather`)
+    -> ``(frame, metadata)``."""
+
+    path = Path(path)
+    return read_epw(path, tmy_year=tmy_year) if path.suffix.lower() == ".epw" else read_resstock_weather(path)
+
+
+def check_weather(own_outdoor_c: pd.Series, weather_outdoor_c: pd.Series, *, what: str, file: object) -> float:
+    """Refuse (one line) a table whose own outdoor temperature [degC] differs from the district's weather by more
+    than :data:`WEATHER_TOLERANCE_C` on average over their common hours; returns that mean difference.
+
+    Both series are indexed by interval-beginning local standard time; no common hour is also a refusal.
+    """
+    common = own_outdoor_c.index.intersection(weather_outdoor_c.index)
+    if len(common) == 0:
+        raise InputError(f"{what} has no hour in common with the district's weather and period", file=file,
+                         column="outdoor_dry_bulb_temperature")
+    diff = float(np.mean(np.abs(own_outdoor_c.loc[common].to_numpy(dtype=float)
+                                - weather_outdoor_c.loc[common].to_numpy(dtype=float))))
+    if not diff <= WEATHER_TOLERANCE_C:
+        raise InputError(f"{what} was simulated on other weather than the district's (mean |dT_out| = {diff:.2f} "
+                         f"degC over {len(common)} h, limit {WEATHER_TOLERANCE_C}): re-simulate it with the "
+                         "district's weather file", file=file, column="outdoor_dry_bulb_temperature")
+    return diff
 
 @dataclasses.dataclass(frozen=True)
 class ForecastSpec:

@@ -19,13 +19,13 @@ What the env does that is not linear, and what the plant keeps of it (see also :
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
 from citylearn_env import devices
-from citylearn_env.state import END_USE_SLOTS
+from citylearn_env.state import END_USE_SLOTS, EndUseParams, TankParams
 from pipeline.errors import InputError
 
 BATTERY_SLOT = "electrical_storage"
@@ -65,7 +65,7 @@ class Storage:
     device-side]: 1 / COP for a tank, 1 for a battery; ``charge_max`` / ``discharge_max`` (n,) [kWh per step]:
     the limits that do not depend on the state of charge; ``action_scale`` [kWh per unit of action];
     ``low`` / ``high`` (n,) [kWh]: a window the device-side energy must stay in (None: none; the oracle's
-    trust region around its last plan, see :func:`trust`)."""
+    trust region around its last plan, see :func:`trust`); ``end_use``: a tank's end use (None: the battery)."""
 
     building: int
     slot: str
@@ -80,6 +80,7 @@ class Storage:
     battery: BatteryTerms | None = None
     low: np.ndarray | None = None
     high: np.ndarray | None = None
+    end_use: str | None = None
 
     def window(self) -> tuple[np.ndarray, np.ndarray]:
         """(low, high) [kWh] of the device-side energy per step, (n,) each."""
@@ -96,7 +97,9 @@ class Plant:
     ``storages``: the controllable ones (capacity > 0 and an active action). For a window of an episode (MPC,
     :mod:`pipeline.optimal.window`): ``day_offset`` [steps] of the first day already run before step 0 (days are
     blocks of 24 steps from the episode start), ``peak_floor`` [kW] that day's running district peak so far,
-    and ``episode_steps`` the episode's T that scales the peak's weight (0: this plant's own T)."""
+    and ``episode_steps`` the episode's T that scales the peak's weight (0: this plant's own T). ``end_uses``:
+    the env's parameters of each end use (devices and tanks; what :func:`base_net` and :func:`tank_storage`
+    rebuild a window from) and ``pv_nominal_power`` (B,) [kW]."""
 
     building_names: tuple[str, ...]
     base_net: np.ndarray
@@ -105,6 +108,8 @@ class Plant:
     outage: np.ndarray
     surplus: np.ndarray
     storages: tuple[Storage, ...]
+    end_uses: tuple[EndUseParams, ...] = ()
+    pv_nominal_power: np.ndarray | None = None
     day_offset: int = 0
     peak_floor: float = -np.inf
     episode_steps: int = 0
@@ -122,7 +127,31 @@ class Plant:
             self, building_names=tuple(self.building_names[b] for b in keep), base_net=self.base_net[keep],
             price=self.price[keep], carbon=self.carbon[keep], outage=self.outage[keep], surplus=self.surplus[keep],
             storages=tuple(dataclasses.replace(s, building=index[s.building]) for s in self.storages
-                           if s.building in index))
+                           if s.building in index),
+            end_uses=tuple(_params_of(p, keep) for p in self.end_uses),
+            pv_nominal_power=None if self.pv_nominal_power is None else self.pv_nominal_power[keep])
+
+
+def _params_of(p: EndUseParams, keep: list[int]) -> EndUseParams:
+    """End use ``p``'s parameters of the buildings ``keep`` (indices), in that order."""
+    tank = TankParams(*(getattr(p.tank, f.name)[keep] for f in dataclasses.fields(TankParams)))
+    return dataclasses.replace(p, nominal_power=p.nominal_power[keep], cop=p.cop[keep], demand=p.demand[keep],
+                               tank=tank)
+
+
+def base_net(non_shiftable: np.ndarray, end_uses: Sequence[EndUseParams], demands: Mapping[str, np.ndarray],
+             cops: Mapping[str, np.ndarray], pv: np.ndarray, outage: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Each building's net consumption with every storage idle and the PV surplus at its outage steps, (B, T)
+    each [kWh per step]: the ``non_shiftable`` load [kWh] plus the electricity of the devices serving the
+    thermal ``demands`` [kWh] at their ``cops`` [-] (per end use name; the env's device model, demand above
+    nominal power x COP unmet; an end use no building can ever use skipped, as the env skips it), less the
+    ``pv`` generation [kWh]; the net is 0 where ``outage`` (bool), the surplus max(0, pv - loads) there and
+    0 elsewhere."""
+    loads = np.array(non_shiftable, dtype=float)
+    for p in end_uses:
+        if p.live:
+            loads += devices.device_output(demands[p.name], p.nominal_power[:, None], cops[p.name], np.inf)[1]
+    return np.where(outage, 0.0, loads - pv), np.where(outage, np.maximum(0.0, pv - loads), 0.0)
 
 
 def plant_from_env(env) -> Plant:
@@ -133,22 +162,19 @@ def plant_from_env(env) -> Plant:
     d = env.district
     e = d.episode
     outage = e.outage > 0
-    loads = e["non_shiftable_load"].copy()
-    for u in d.end_uses:
-        if u.params.live:  # as the env: an end use no building can ever use is skipped
-            loads += devices.device_output(u.demand_data, u.params.nominal_power[:, None], u.cop, np.inf)[1]
-    pv = e.pv_generation
-    base = np.where(outage, 0.0, loads - pv)
+    params = tuple(u.params for u in d.end_uses)
+    base, surplus = base_net(e["non_shiftable_load"], params, {u.params.name: u.demand_data for u in d.end_uses},
+                             {u.params.name: u.cop for u in d.end_uses}, e.pv_generation, outage)
     base[:, 0] = d.building_record.net_electricity_consumption[:, 0]
     active = set(env.action_pairs)
     storages = [_tank(u, b, d) for u in d.end_uses for b in range(d.n)
-                if u.params.tank.capacity[b] > 0 and (END_USE_SLOTS[u.params.name][3], b) in active]
+                if u.params.tank.capacity[b] > 0 and (END_USE_SLOTS[u.params.name].action, b) in active]
     storages += [_battery(d, env.settings, b) for b in range(d.n) if (BATTERY_SLOT, b) in active
                  and d.battery.capacity[b] > 0 and d.battery.nominal_power[b] > 0]
     return Plant(building_names=tuple(env.building_names), base_net=base,
                  price=np.asarray(e["electricity_pricing"], dtype=float),
-                 carbon=np.asarray(e["carbon_intensity"], dtype=float), outage=outage,
-                 surplus=np.where(outage, np.maximum(0.0, pv - loads), 0.0), storages=tuple(storages))
+                 carbon=np.asarray(e["carbon_intensity"], dtype=float), outage=outage, surplus=surplus,
+                 storages=tuple(storages), end_uses=params, pv_nominal_power=d.pv_nominal_power)
 
 
 def _check_supported(env) -> None:
@@ -166,24 +192,24 @@ def _check_supported(env) -> None:
 
 def _tank(u, b: int, d) -> Storage:
     """Tank of end use ``u`` (an EndUseState) in building ``b`` over the episode's controlled steps."""
-    return tank_storage(u, b, u.cop[b, 1:], u.demand_data[b, 1:])
+    return tank_storage(u.params, b, u.cop[b, 1:], u.demand_data[b, 1:])
 
 
-def tank_storage(u, b: int, cop: np.ndarray, demand: np.ndarray) -> Storage:
-    """Tank of end use ``u`` (an EndUseState) in building ``b`` at the device ``cop`` [-] and thermal ``demand``
+def tank_storage(p: EndUseParams, b: int, cop: np.ndarray, demand: np.ndarray) -> Storage:
+    """Tank of end use ``p`` (its parameters) in building ``b`` at the device ``cop`` [-] and thermal ``demand``
     [kWh] (n,) of the steps planned: charge up to the device's headroom nominal x COP - demand, discharge up to
     the demand (none where the device is undersized); starting from the tank's initial state."""
-    tank = u.params.tank
-    reach = u.params.nominal_power[b] * cop
+    tank = p.tank
+    reach = p.nominal_power[b] * cop
     undersized = demand > reach + UNDERSIZED_TOLERANCE
     n = cop.size
     return Storage(
-        building=b, slot=END_USE_SLOTS[u.params.name][1], capacity=float(tank.capacity[b]),
+        building=b, slot=END_USE_SLOTS[p.name].storage, capacity=float(tank.capacity[b]),
         retention=1.0 - float(tank.loss_coefficient[b]), initial_energy=float(tank.initial_soc[b] * tank.capacity[b]),
         one_way=np.full(n, float(tank.one_way_efficiency[b])), electricity=1.0 / cop,
         charge_max=np.minimum(np.maximum(0.0, reach - demand), tank.max_input_power[b]),
         discharge_max=np.where(undersized, 0.0, np.minimum(demand, tank.max_output_power[b])),
-        action_scale=float(tank.capacity[b]))
+        action_scale=float(tank.capacity[b]), end_use=p.name)
 
 
 def curve_lines(xs: np.ndarray, ys: np.ndarray) -> np.ndarray:

@@ -17,8 +17,9 @@ from collections.abc import Mapping
 import numpy as np
 
 from citylearn_env import devices
+from citylearn_env.state import END_USE_SLOTS, EndUseParams
 from pipeline.optimal.objectives import DAY_STEPS
-from pipeline.optimal.plant import Plant, Storage, tank_storage
+from pipeline.optimal.plant import Plant, Storage, base_net, tank_storage
 
 
 def horizon_plant(full: Plant, env, t: int, length: int) -> Plant:
@@ -42,7 +43,7 @@ def _window(s: Storage, env, t: int, length: int) -> Storage:
     cut = slice(t, t + length)
     d = env.district
     if s.battery is None:
-        soc = float(d.end_use(s.slot.removesuffix("_storage")).record.storage_soc[s.building, t])
+        soc = float(d.end_use(s.end_use).record.storage_soc[s.building, t])
         return dataclasses.replace(s, initial_energy=soc * s.capacity, one_way=s.one_way[cut],
                                    electricity=s.electricity[cut], charge_max=s.charge_max[cut],
                                    discharge_max=s.discharge_max[cut])
@@ -58,41 +59,38 @@ def _window(s: Storage, env, t: int, length: int) -> Storage:
 
 def forecast_plant(window: Plant, env, forecast: Mapping[str, np.ndarray]) -> Plant:
     """``window`` (a :func:`horizon_plant` at t, H controlled steps) with its controlled steps rebuilt from
-    ``forecast`` (name -> (B, H), :data:`pipeline.optimal.forecasts.UNCERTAIN`): nets without storage, carbon
-    intensity, the tanks' COPs and limits; no outage after t."""
-    d = env.district
-    demands = {u.params.name: forecast[f"{u.params.name}_demand"] for u in d.end_uses}
-    cops = {u.params.name: device_cop(env, u.params.name, forecast["outdoor_dry_bulb_temperature"])
-            for u in d.end_uses}
-    loads = forecast["non_shiftable_load"].copy()
-    for u in d.end_uses:
-        if u.params.live:  # as plant_from_env: the electricity of the devices serving the demands
-            name = u.params.name
-            loads += devices.device_output(demands[name], u.params.nominal_power[:, None], cops[name], np.inf)[1]
-    pv = devices.pv_generation(d.pv_nominal_power[:, None], forecast["solar_generation"])
+    ``forecast`` (name -> (B, H), :data:`pipeline.optimal.forecasts.UNCERTAIN`): nets without storage
+    (:func:`pipeline.optimal.plant.base_net` over the window's own device parameters), carbon intensity, the
+    tanks' COPs and limits; no outage after t."""
+    params = {p.name: p for p in window.end_uses}
+    demands = {name: forecast[END_USE_SLOTS[name].demand] for name in params}
+    cops = {name: device_cop(env, name, forecast["outdoor_dry_bulb_temperature"]) for name in params}
+    pv = devices.pv_generation(window.pv_nominal_power[:, None], forecast["solar_generation"])
     base = window.base_net.copy()
-    base[:, 1:] = loads - pv
+    surplus = window.surplus.copy()
+    base[:, 1:], surplus[:, 1:] = base_net(forecast["non_shiftable_load"], window.end_uses, demands, cops, pv,
+                                           np.zeros(pv.shape, dtype=bool))
     carbon = window.carbon.copy()
     carbon[:, 1:] = forecast["carbon_intensity"]
     outage = window.outage.copy()
     outage[:, 1:] = False
-    surplus = np.where(outage, window.surplus, 0.0)
-    storages = tuple(s if s.battery is not None else _forecast_tank(s, env, cops, demands) for s in window.storages)
+    storages = tuple(s if s.battery is not None else _forecast_tank(s, params[s.end_use], cops, demands)
+                     for s in window.storages)
     return dataclasses.replace(window, base_net=base, carbon=carbon, outage=outage, surplus=surplus,
                                storages=storages)
 
 
-def _forecast_tank(s: Storage, env, cops: Mapping[str, np.ndarray], demands: Mapping[str, np.ndarray]) -> Storage:
-    """Tank ``s`` of a window with its COPs and limits from the forecast, its state kept."""
-    name = s.slot.removesuffix("_storage")
-    fresh = tank_storage(env.district.end_use(name), s.building, cops[name][s.building], demands[name][s.building])
+def _forecast_tank(s: Storage, p: EndUseParams, cops: Mapping[str, np.ndarray],
+                   demands: Mapping[str, np.ndarray]) -> Storage:
+    """Tank ``s`` (of end use ``p``) of a window with its COPs and limits from the forecast, its state kept."""
+    fresh = tank_storage(p, s.building, cops[p.name][s.building], demands[p.name][s.building])
     return dataclasses.replace(fresh, initial_energy=s.initial_energy)
 
 
 def device_cop(env, end_use: str, outdoor_c: np.ndarray) -> np.ndarray:
     """COP (heat pump: Carnot at ``outdoor_c`` [degC], (B, H)) or efficiency (heater) [-] of each building's
     device for ``end_use``, (B, H): the env's own device model (:class:`citylearn_env.district.District`)."""
-    devs = [getattr(b, f"{end_use}_device") for b in env.config.buildings]
+    devs = [getattr(b, END_USE_SLOTS[end_use].device) for b in env.config.buildings]
     cooling = end_use == "cooling"
     return devices.conversion_table(
         [d.kind for d in devs], [d.efficiency for d in devs],

@@ -29,7 +29,7 @@ from surrogates.energyplus.house_schedules import (
     schedule_peaks,
     write_schedule_file,
 )
-from surrogates.energyplus.metadata import HouseParameters, setpoint_schedules
+from surrogates.energyplus.metadata import HouseParameters
 from surrogates.energyplus.occupancy import daylight_days
 from surrogates.energyplus.schedules import AWAKE_ACTIVITY_W
 
@@ -273,7 +273,7 @@ def _schedules(house: HouseParameters, schedule_file: Path, timesteps_per_hour: 
                 "number_of_hours_of_data": hours, "column_separator": "Comma", "interpolate_to_timestep": "No",
                 "minutes_per_item": 60 // timesteps_per_hour}
 
-    cooling, heating, _ = setpoint_schedules(house)
+    cooling, heating, _ = house.setpoints()
     return {
         "ScheduleTypeLimits": {"fraction": {"lower_limit_value": 0.0, "upper_limit_value": 1.0,
                                             "numeric_type": "Continuous"},

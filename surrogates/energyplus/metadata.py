@@ -41,7 +41,7 @@ and_fuel`` / ``hvac_heating_efficiency``
 ======================================== ============================== ==========================================
 
 Set-point repair (:mod:`surrogates.energyplus.setpoints`): where heating >= cooling, both move 0.5 K either
-side of their mean; :func:`setpoint_schedules` reports how many hours were repaired.
+side of their mean; :meth:`HouseParameters.setpoints` reports how many hours were repaired.
 """
 
 from __future__ import annotations
@@ -54,8 +54,7 @@ from typing import TypeVar
 
 from citylearn_env.errors import InputError
 from surrogates.energyplus.end_uses import EndUses, parse_end_uses
-from surrogates.energyplus.setpoints import OffsetPeriod, parse_offset_period
-from surrogates.energyplus.setpoints import setpoint_schedules as schedules_with_offsets
+from surrogates.energyplus.setpoints import OffsetPeriod, parse_offset_period, setpoint_schedules
 
 T = TypeVar("T")
 FT2_TO_M2 = 0.09290304
@@ -161,6 +160,13 @@ class HouseParameters:
     def ach_natural(self) -> float:
         """Natural infiltration in air changes per hour."""
         return self.ach50 * ACH50_TO_ACH_NATURAL
+
+    def setpoints(self) -> tuple[tuple[list[float], list[float]], tuple[list[float], list[float]], int]:
+        """The house's hourly set points [degC], ``(weekday, weekend)`` for cooling then heating, with its
+        offsets and the repair rule applied, and the hours of the day repaired
+        (:func:`surrogates.energyplus.setpoints.setpoint_schedules`)."""
+        return setpoint_schedules(self.cooling_setpoint_c, self.heating_setpoint_c, self.offsets_k,
+                                  self.offset_periods)
 
 
 def _missing(value: object) -> bool:
@@ -327,15 +333,6 @@ def normalise_characteristics(row: Mapping[str, object]) -> dict[str, object]:
 def parse_offset_f(text: object) -> float:
     """Set-point offset magnitude ``'2F'`` (degF difference) -> K."""
     return _number(r"\s*(\d+(?:\.\d+)?)\s*F?\s*", text, "expected e.g. '2F'", whole=True) * 5.0 / 9.0
-
-
-def setpoint_schedules(house: HouseParameters) -> tuple[tuple[list[float], list[float]],
-                                                       tuple[list[float], list[float]], int]:
-    """The house's hourly set points [degC], ``(weekday, weekend)`` for cooling then heating, with its offsets
-    and the repair rule applied, and the hours of the day repaired
-    (:func:`surrogates.energyplus.setpoints.setpoint_schedules`)."""
-    return schedules_with_offsets(house.cooling_setpoint_c, house.heating_setpoint_c, house.offsets_k,
-                                  house.offset_periods)
 
 
 def parse_heating_system(fuel: object, system: object) -> str:

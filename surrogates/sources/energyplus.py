@@ -16,7 +16,7 @@ import pandas as pd
 
 from citylearn_env.errors import InputError
 from surrogates.energyplus.ilv import ILVConfig, ILVResult, generate_ilv
-from surrogates.energyplus.metadata import HouseParameters, house_parameters_from_metadata, setpoint_schedules
+from surrogates.energyplus.metadata import HouseParameters, house_parameters_from_metadata
 from surrogates.ilv import validate_ilv
 
 
@@ -64,7 +64,7 @@ def build_ilv_table(metadata_row: Mapping[str, object], epw: str | Path, output:
 def house_summary(house: HouseParameters) -> dict[str, object]:
     """What the report says about a simulated house: heating fuel and system, set points [degC] as used
     (after offsets and the repair rule) and how many hours of the day were repaired."""
-    cooling, heating, repaired = setpoint_schedules(house)
+    cooling, heating, repaired = house.setpoints()
     return {"bldg_id": house.bldg_id, "floor_area_m2": round(house.floor_area_m2, 1), "stories": house.stories,
             "vintage": house.vintage, "occupants": house.occupants, "heating_fuel": house.heating_fuel,
             "heating_system": house.heating_system,

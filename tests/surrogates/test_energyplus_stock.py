@@ -13,7 +13,6 @@ import pytest
 from surrogates.energyplus.metadata import (
     house_parameters_from_metadata,
     normalise_characteristics,
-    setpoint_schedules,
 )
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -44,7 +43,7 @@ def test_crossed_set_points_are_repaired_by_the_rule(rows):
     # building 21: heating 75F at or above cooling 72F, no offsets -> every hour repaired:
     # mean m = (23.889 + 22.222) / 2 = 23.056 degC; heating m - 0.5, cooling m + 0.5
     house = house_parameters_from_metadata(rows[21])
-    cooling, heating, repaired = setpoint_schedules(house)
+    cooling, heating, repaired = house.setpoints()
     mean = (f_to_c(75) + f_to_c(72)) / 2
     assert repaired == 24
     for day_type in (0, 1):
@@ -57,7 +56,7 @@ def test_night_offsets_by_hand(rows):
     # ResStock's options table: the night window is 22:00-07:00; "Night Setback +4h" LOWERS the cooling set
     # point (-1 x magnitude) in hours 2..10, "Night +2h" lowers heating in hours 0..8, every day.
     house = house_parameters_from_metadata(rows[69])
-    cooling, heating, repaired = setpoint_schedules(house)
+    cooling, heating, repaired = house.setpoints()
     assert repaired == 0
     for day_type in (0, 1):
         assert [h for h in range(24) if heating[day_type][h] < f_to_c(68) - 1e-3] == list(range(0, 9))

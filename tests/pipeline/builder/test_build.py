@@ -15,7 +15,7 @@ from citylearn_env import CityLearnEnv
 from citylearn_env.sizing import SizingRules, dhw_tank, heat_pump_power, pv_power
 from pipeline.builder.driver import build_district_local
 from pipeline.builder.manifest import verify_district
-from pipeline.builder.steps import check_weather, ingest_building, schema_dict, site_signals
+from pipeline.builder.steps import ingest_building, schema_dict, site_signals
 from pipeline.builder.surrogates import surrogate_cache_parts, train_config
 from pipeline.config import parse_build_config, read_build_config
 from pipeline.controllers import cost_rbc, emission_rbc, peak_rbc
@@ -68,8 +68,15 @@ def test_heat_pump_sized_at_peak_electric_input():
 def test_dhw_tank_is_half_the_peak_and_pv_meets_zne_fraction():
     tank = dhw_tank(np.array([0.2, 1.6, 0.4]), 1.8, SizingRules())
     assert tank == {"capacity": 0.8, "loss_coefficient": 0.004, "max_input_power": 1.8, "max_output_power": 1.8}
-    # 100 kWh consumption, 21.5 % from PV; yield 1000 W/kW for 200 h = 200 kWh/kW -> 0.1075 kW -> 0.11
-    assert pv_power(100.0, np.full(200, 1000.0), SizingRules()) == pytest.approx(0.11)
+    # 100 kWh consumption, 21.5 % from PV; yield 1000 W/kW for 200 h = 200 kWh/kW -> 0.1075 kW (0.11 in the schema)
+    zne = SizingRules().pv_zne_fraction
+    assert pv_power(100.0, np.full(200, 1000.0), zne_proportion=zne) == pytest.approx(0.1075)
+    # per year of 2 steps: consumption 4 then 2 kWh (mean 3), yield 2 then 1 kWh/kW (mean 1.5); x 0.5 x SF 2
+    assert pv_power(np.array([3.0, 1.0, 1.0, 1.0]), np.array([1000.0, 1000.0, 500.0, 500.0]), zne_proportion=0.5,
+                    safety_factor=2.0, steps_per_year=2) == pytest.approx(2.0)
+    assert pv_power(-5.0, np.full(3, 100.0), zne_proportion=zne) == 0.0
+    with pytest.raises(InputError, match=r"'solar_generation'.*PV yield is zero"):
+        pv_power(100.0, np.zeros(24), zne_proportion=zne)
 
 
 def test_rule_based_controllers_follow_the_paper():
@@ -228,16 +235,6 @@ def test_schema_activates_heating_where_a_heating_device_is(short_config):
     assert one["heating_device"]["type"] == "citylearn.energy_model.ElectricHeater"
     assert "heating_device" not in two and "heating_device" in two["inactive_actions"]
     assert "heating_device" not in one["inactive_actions"]
-
-
-def test_weather_check_by_hand():
-    index = pd.date_range("2018-06-01", periods=4, freq="h")
-    weather = pd.Series([20.0, 22.0, 24.0, 26.0], index=index)
-    assert check_weather(weather + 1.0, weather, what="t", file="f") == pytest.approx(1.0)
-    with pytest.raises(InputError, match=r"t was simulated on other weather.*mean \|dT_out\| = 2.00"):
-        check_weather(weather - 2.0, weather, what="t", file="f")
-    with pytest.raises(InputError, match="no hour in common"):
-        check_weather(weather.set_axis(index + pd.Timedelta(days=1)), weather, what="t", file="f")
 
 
 def test_loads_and_ilv_on_other_weather_are_refused(short_config):

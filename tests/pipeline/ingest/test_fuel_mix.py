@@ -11,7 +11,8 @@ import pytest
 
 from pipeline.carbon import carbon_intensity
 from pipeline.errors import InputError
-from pipeline.ingest.fuel_mix import read_fuel_mix_csv, read_fuel_mix_workbook
+from pipeline.ingest.carbon import read_carbon_intensity
+from pipeline.ingest.fuel_mix import read_emission_factors, read_fuel_mix_csv, read_fuel_mix_workbook
 
 FUELS = ("Biomass", "Coal", "Gas", "Gas-CC", "Hydro", "Nuclear", "Other", "Solar", "Wind")
 LABELS = [f"{(m // 60) % 24}:{m % 60:02d}" for m in range(15, 1441, 15)]
@@ -212,3 +213,34 @@ def test_period_outside_the_workbook(tmp_path):
         write_carbon(path, "2018-06-01", "2018-06-03", tmp_path / "ci3.csv")
     assert str(path) in str(caught.value) and "2018-06-03 23:00:00" in str(caught.value)
     assert not (tmp_path / "ci3.csv").exists()
+
+
+def test_factor_table_holds_srren_medians_with_sources():
+    factors = read_emission_factors()
+    # IPCC SRREN Annex II Table A.II.4 medians [g CO2e/kWh]
+    srren = {"Coal": 1001, "Gas": 469, "Gas-CC": 469, "Nuclear": 16, "Wind": 12, "Solar": 46, "Hydro": 4,
+             "Biomass": 18}
+    for fuel, value in srren.items():
+        assert factors.at[fuel, "g_co2e_per_kwh"] == value
+    assert factors["note"].str.len().min() > 10  # every row says where its number comes from
+    assert pd.isna(factors.at["Power Storage", "g_co2e_per_kwh"])
+
+
+def test_bad_factor_file(tmp_path):
+    path = tmp_path / "f.csv"
+    path.write_text("fuel,g_co2e_per_kwh,srren_technology,negative_allowed,note\nCoal,lots,Coal,false,x\n")
+    with pytest.raises(InputError, match=r"column/key 'g_co2e_per_kwh', row 2"):
+        read_emission_factors(path)
+
+
+def test_carbon_intensity_of_a_period_from_a_long_csv(tmp_path):
+    # two hours of standard-time generation: Coal 1 + Wind 3 MWh, then Coal 2 + Nuclear 2 MWh
+    path = tmp_path / "mix.csv"
+    path.write_text("timestamp,fuel,mwh\n2018-06-01 01:00,Coal,1\n2018-06-01 01:00,Wind,3\n"
+                    "2018-06-01 02:00,Coal,2\n2018-06-01 02:00,Nuclear,2\n")
+    index = pd.date_range("2018-06-01 00:00", periods=2, freq="h")
+    table = read_carbon_intensity(path, index, clock="standard")
+    assert list(table.columns) == ["carbon_intensity"] and list(table.index) == list(index)
+    assert table["carbon_intensity"].tolist() == pytest.approx([(1001 + 3 * 12) / 4000, (2 * 1001 + 2 * 16) / 4000])
+    with pytest.raises(InputError, match="mix.csv"):
+        read_carbon_intensity(path, pd.date_range("2018-06-01 00:00", periods=3, freq="h"), clock="standard")

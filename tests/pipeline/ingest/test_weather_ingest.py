@@ -8,7 +8,14 @@ import pytest
 
 from pipeline.errors import InputError
 from pipeline.ingest.timeindex import period_index
-from pipeline.ingest.weather import ForecastSpec, citylearn_weather, read_epw, read_resstock_weather
+from pipeline.ingest.weather import (
+    ForecastSpec,
+    check_weather,
+    citylearn_weather,
+    read_epw,
+    read_resstock_weather,
+    read_weather_file,
+)
 
 
 @pytest.fixture(scope="module")
@@ -152,3 +159,21 @@ def test_resstock_missing_column_and_period_outside(tmp_path, resstock_weather_p
     with pytest.raises(InputError, match="outside the file") as caught:
         citylearn_weather(frame, period_index("2012-01-02", "2012-01-03"), file=path)
     assert str(path) in str(caught.value) and "2012-01-03 00:00:00" in str(caught.value)
+
+
+def test_weather_check_by_hand():
+    index = pd.date_range("2018-06-01", periods=4, freq="h")
+    weather = pd.Series([20.0, 22.0, 24.0, 26.0], index=index)
+    assert check_weather(weather + 1.0, weather, what="t", file="f") == pytest.approx(1.0)
+    with pytest.raises(InputError, match=r"t was simulated on other weather.*mean \|dT_out\| = 2.00"):
+        check_weather(weather - 2.0, weather, what="t", file="f")
+    with pytest.raises(InputError, match="no hour in common"):
+        check_weather(weather.set_axis(index + pd.Timedelta(days=1)), weather, what="t", file="f")
+
+
+def test_weather_file_reader_picks_the_format_by_suffix(epw_path, resstock_weather_path):
+    frame, meta = read_weather_file(epw_path, tmy_year=2018)
+    assert meta["latitude"] == pytest.approx(30.32, abs=0.01) and len(frame) == 8760
+    assert frame.index[0] == pd.Timestamp("2018-01-01 00:00")
+    frame, meta = read_weather_file(resstock_weather_path)
+    assert "latitude" not in meta and "outdoor_dry_bulb_temperature_c" in frame.columns

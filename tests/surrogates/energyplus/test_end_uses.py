@@ -143,7 +143,7 @@ def test_mains_mean_is_the_mean_air_temperature_plus_the_offset():
 def test_real_stock_rows_carry_their_end_uses():
     import pandas as pd
 
-    from pipeline.builder.steps import read_characteristics_row
+    from pipeline.ingest.stock import read_characteristics_row
 
     row = read_characteristics_row(STOCK, 8)
     uses = house_parameters_from_metadata(row).end_uses
