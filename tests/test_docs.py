@@ -26,7 +26,7 @@ PATH_PREFIXES = (*(p + "/" for p in PACKAGES), "tests/", "tools/")
 LINK = re.compile(r"(?<!!)\[[^\]]*\]\(([^)\s]+)\)")
 CODE_SPAN = re.compile(r"`([^`\n]+)`")
 FENCE = re.compile(r"^```.*?^```", re.S | re.M)
-DOTTED = re.compile(r"^(?:%s)(?:\.[A-Za-z_]\w*)+$" % "|".join(PACKAGES))
+DOTTED = re.compile(r"^(?:" + "|".join(PACKAGES) + r")(?:\.[A-Za-z_]\w*)+$")
 SUFFIXES = {"py", "md", "json", "csv", "toml", "pth", "png", "parquet", "txt", "epw", "xlsx"}
 SECTION = re.compile(r"([\w./-]+\.md)\)?[,:]?\s*\(?(?:section |sections? )?\"([^\"]+)\"")
 
@@ -39,8 +39,8 @@ def _slug(heading: str) -> str:
 
 @cache
 def _headings(path: Path, bold: bool = False) -> tuple[str, ...]:
-    """The headings of a markdown file (outside code blocks), as written, and the bold leads that open a
-    paragraph with ``bold`` (``**Cooling compares weathers as much as houses.**``), which the documents cite as sections."""
+    """The headings of a markdown file (outside code blocks), as written; with ``bold`` also the bold leads
+    that open a paragraph (``**Cooling compares weathers as much as houses.**``), which documents cite too."""
     text = FENCE.sub("", path.read_text())
     heads = [m.group(1).strip() for m in re.finditer(r"^#{1,6}\s+(.+)$", text, re.M)]
     if bold:
@@ -143,10 +143,8 @@ def _rest_problem(module: Path, rest: list[str]) -> str | None:
     return dotted_problem(".".join([*module.parent.relative_to(ROOT).parts, *rest]))
 
 
-def _problems(doc: Path, text: str | None = None) -> list[str]:
-    """Every dangling reference of the markdown file ``doc`` (its ``text`` when given), one line each."""
-    text = doc.read_text() if text is None else text
-    where = doc.relative_to(ROOT)
+def _link_problems(doc: Path, text: str) -> list[str]:
+    """Relative markdown links of ``text`` (in ``doc``) to a missing file or heading."""
     problems = []
     for match in LINK.finditer(text):
         target = match.group(1)
@@ -156,9 +154,15 @@ def _problems(doc: Path, text: str | None = None) -> list[str]:
         file_part, _, anchor = target.partition("#")
         path = (doc.parent / file_part).resolve() if file_part else doc
         if not path.exists():
-            problems.append(f"{where}:{line}: link to missing {target}")
+            problems.append(f"{line}: link to missing {target}")
         elif anchor and path.suffix == ".md" and anchor not in {_slug(h) for h in _headings(path)}:
-            problems.append(f"{where}:{line}: no heading #{anchor} in {file_part or where}")
+            problems.append(f"{line}: no heading #{anchor} in {file_part or doc.name}")
+    return problems
+
+
+def _code_problems(text: str) -> list[str]:
+    """Repository paths and dotted project names in code spans and blocks that do not resolve."""
+    problems = []
     for line, token in _code_tokens(text):
         token = _clean(token)
         if token.startswith(PATH_PREFIXES) and not re.search(r"[<>*{$]|\.\.\.|-v\d+$", token):
@@ -168,16 +172,30 @@ def _problems(doc: Path, text: str | None = None) -> list[str]:
         else:
             continue
         if why:
-            problems.append(f"{where}:{line}: {token}: {why}")
+            problems.append(f"{line}: {token}: {why}")
+    return problems
+
+
+def _section_problems(doc: Path, text: str) -> list[str]:
+    """Quoted sections cited in another markdown file (``docs/build.md, "Surrogate cache"``) that it lacks."""
+    problems = []
     for match in SECTION.finditer(text):
         cited, title = match.group(1), " ".join(match.group(2).split())
         path = next((p for p in ((doc.parent / cited), ROOT / cited) if p.is_file()), None)
         line = text.count("\n", 0, match.start()) + 1
         if path is None:
-            problems.append(f"{where}:{line}: cites missing {cited}")
+            problems.append(f"{line}: cites missing {cited}")
         elif not any(title.lower() in h.lower() for h in _headings(path, bold=True)):
-            problems.append(f"{where}:{line}: {cited} has no section {title!r}")
+            problems.append(f"{line}: {cited} has no section {title!r}")
     return problems
+
+
+def _problems(doc: Path, text: str | None = None) -> list[str]:
+    """Every dangling reference of the markdown file ``doc`` (its ``text`` when given), one line each."""
+    text = doc.read_text() if text is None else text
+    where = doc.relative_to(ROOT)
+    found = _link_problems(doc, text) + _code_problems(text) + _section_problems(doc, text)
+    return [f"{where}:{problem}" for problem in found]
 
 
 @pytest.mark.parametrize("doc", DOCS, ids=lambda p: str(p.relative_to(ROOT)))
