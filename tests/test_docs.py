@@ -223,3 +223,25 @@ def test_checker_catches_what_it_should() -> None:
     assert path_problem("tests/test_docs.py::test_gone") is not None
     for part in ("nowhere.md", "#nope", "gone.py", "results.gone", "No such part"):
         assert part in joined
+
+
+CODE = sorted(p for package in (*PACKAGES, "tests", "tools") for p in (ROOT / package).rglob("*.py")
+              if p != Path(__file__).resolve())
+CODE_CITATION = re.compile(r"(docs/[\w-]+\.md|benchmarks/README\.md),?\s+(?:section\s+)?\"([A-Za-z][^\"()=,]{2,80})\"")
+
+
+def test_code_cites_existing_documents_and_sections() -> None:
+    """Comments and docstrings that cite a document (``docs/energyplus.md, "Cooling realism"``) name a file
+    that exists and, when they quote one, a section it has."""
+    problems = []
+    for path in CODE:
+        text = path.read_text()
+        where = path.relative_to(ROOT)
+        for match in re.finditer(r"\b(docs/[\w-]+\.md|benchmarks/README\.md)", text):
+            if not (ROOT / match.group(1)).is_file():
+                problems.append(f"{where}: cites missing {match.group(1)}")
+        for match in CODE_CITATION.finditer(text):
+            cited, title = match.group(1), " ".join(re.sub(r"\n\s*#:?", " ", match.group(2)).split())
+            if not any(title.lower() in h.lower() for h in _headings(ROOT / cited, bold=True)):
+                problems.append(f"{where}: {cited} has no section {title!r}")
+    assert not problems, "\n".join(problems)
