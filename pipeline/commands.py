@@ -94,6 +94,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                        default=["rbc", "sac", "oracle", "mpc"],
                        help="controllers to run (default all): the RBC and SAC rows, and the perfect-foresight oracle "
                             "and 24-h MPC on each storage configuration (regret.md; docs/paper.md)")
+    paper.add_argument("--docs", type=Path, metavar="PAGE",
+                       help="also write the tables, with the command, date and CPU, to this markdown page "
+                            "(e.g. docs/paper_results.md); rerun on a finished folder to regenerate it")
     paper.set_defaults(func=paper_command)
 
     verify = subparsers.add_parser("verify", help="re-check a built district's manifest hashes and validate it")
@@ -298,7 +301,30 @@ def paper_command(args: argparse.Namespace) -> int:
     for name in ("results.md", "regret.md", "multiplier_sweep.md"):
         if (args.output / name).is_file():
             print((args.output / name).read_text())
+    if args.docs:
+        from pipeline.paper.results import write_docs_page
+
+        print(f"wrote {write_docs_page(args.output, args.docs, command=paper_command_line(args))}")
     return 0
+
+
+def paper_command_line(args: argparse.Namespace) -> str:
+    """The ``districtgen paper`` command line that reproduces ``args`` (the options that change results)."""
+    parts = ["districtgen paper", str(args.schema), "-o", str(args.output)]
+    if args.only:
+        parts += ["--only", *args.only]
+    if args.buildings:
+        parts += ["--buildings", *args.buildings]
+    parts += [f"--{name.replace('_', '-')} {value}" for name, value, default in (
+        ("rules", args.rules, "described"), ("sac", args.sac, "fast"), ("precision", args.precision, "auto"),
+        ("sac_episodes", args.sac_episodes, 150), ("multiplier", args.multiplier, 3.0), ("seed", args.seed, 0),
+        ("seeds", args.seeds, 1)) if value != default]
+    parts += ["--compat"] * args.compat + ["--full"] * args.full
+    if args.sweep:
+        parts += ["--sweep", *map(str, args.sweep)]
+    if args.controllers != ["rbc", "sac", "oracle", "mpc"]:
+        parts += ["--controllers", *args.controllers]
+    return " ".join([*parts, "--docs", str(args.docs)])
 
 
 def register_surrogate_install(surrogate_commands: argparse._SubParsersAction) -> None:

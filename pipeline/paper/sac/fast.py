@@ -1,7 +1,7 @@
 """SB3's SAC update with hand-written gradients: the ``fast`` back end of :mod:`pipeline.paper.sac.train`.
 
-:class:`FastSAC` runs exactly the update of :class:`pipeline.paper.sac.train.LeanSAC` (the same parameters, random
-draws, losses and Adam steps; the module docstring there lists the stable-baselines3 defaults reproduced)
+:class:`FastSAC` runs exactly the update of :class:`pipeline.paper.sac.lean.LeanSAC` (the same parameters, random
+draws, losses and Adam steps; :mod:`pipeline.paper.sac.train` lists the stable-baselines3 defaults reproduced)
 without autograd: every gradient is written out below, so one update is ~25 matrix products and a few dozen
 element-wise operations instead of a recorded graph. With ``bf16=True`` (where
 :func:`pipeline.paper.sac.train.sac_precision` chooses bfloat16) the matrix products take bfloat16 operands, while
