@@ -71,8 +71,16 @@ def raw_schema(schema: str | Path | Mapping[str, Any]) -> tuple[dict[str, Any], 
     if isinstance(schema, Mapping):
         return copy.deepcopy(dict(schema)), None
     path = Path(schema)
-    if not path.is_file():
-        raise SchemaError("schema file not found", file=path)
+    try:
+        found_file = path.is_file()
+    except OSError as error:  # a name too long for the file system
+        raise SchemaError(f"not a usable schema path or data-set name ({error.strerror}): {str(schema)[:60]!r}...",
+                          column="schema") from None
+    if not found_file:
+        hint = "" if "/" in str(schema) or str(schema).endswith(".json") else \
+            " (nor a data-set name: letters, digits, _ . - and at most 200 characters)"
+        raise SchemaError(f"schema file not found{hint}", file=path if len(str(path)) <= 300 else None,
+                          column=None if len(str(path)) <= 300 else "schema")
     try:
         raw = read_json(path)
     except (ValueError, OSError) as error:
