@@ -1,15 +1,16 @@
-"""``CityLearnEnv`` with CityLearn 2.1's API over the native environment (mirrors ``citylearn.citylearn``).
+"""``CityLearnEnv`` with CityLearn's API over the native environment (mirrors ``citylearn.citylearn``).
 
 An upstream program runs after replacing ``citylearn.`` with ``citylearn_env.compat.`` in its imports:
 ``CityLearnEnv(dataset name | schema path | schema dict, central_agent=, buildings=, simulation_start_time_step=,
 simulation_end_time_step=, episode_time_steps=, random_seed=, reward_function=, ...)``; observations and actions
-as lists of lists (one list for a central agent, one per building otherwise); rewards as lists; ``reset()``
-returning ``(observations, info)`` and ``step()`` five values (gymnasium API, as CityLearn 2.1.2 with gym 0.26);
+as lists of lists (one list for a central agent, one per building otherwise); rewards as lists; ``reset()`` and
+``step()`` in the API of the program's CityLearn version (2.1: observations, four values; 2.2+: gymnasium's;
+:mod:`citylearn_env.compat.version`);
 ``time_steps``, ``terminated``, ``episode_tracker``, ``rewards``, ``episode_rewards``, ``get_metadata()``,
 ``evaluate()`` and ``env.buildings[i]`` (:mod:`citylearn_env.compat.building`).
 
-The physics is the native environment's (:attr:`CityLearnEnv.native`), run with ``settings`` (default
-"citylearn-2.1": CityLearn 2.1.2's numbers, its quirks included; docs/compat.md). The environment is reset once
+The physics is the native environment's (:attr:`CityLearnEnv.native`), run with ``settings`` (default: the mirrored
+version's preset, "citylearn-2.1" or "citylearn-2.5", quirks included; docs/compat.md). The environment is reset once
 at construction, as upstream, so ``time_steps`` (alias ``episode_length``) and the observations are known before
 the first ``reset()``; the first ``reset()`` still starts episode 0.
 """
