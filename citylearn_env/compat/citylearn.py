@@ -28,6 +28,7 @@ import numpy as np
 
 from citylearn_env.compat.base import EpisodeTracker
 from citylearn_env.compat.building import Building, BuildingObservations, building_view
+from citylearn_env.compat.data import is_dataset_name, releases_holding
 from citylearn_env.compat.loading import (
     check_keywords,
     plain_numbers,
@@ -40,6 +41,7 @@ from citylearn_env.compat.reward_function import RewardFunction, computes_native
 from citylearn_env.compat.utilities import read_json
 from citylearn_env.compat.version import (
     MIRRORS,
+    Mirror,
     choose,
     explicit_version,
     notice,
@@ -87,6 +89,10 @@ class CityLearnEnv(Results, gym.Env):
         self.schema_source = resolve_schema(schema, MIRRORS[named][1] if named else None)
         #: the CityLearn version mirrored: its API, default physics and data sets (:mod:`~.version`)
         self.mirror = choose(explicit, self._layout(root_directory), settings)
+        held = releases_holding(schema) if named is None and is_dataset_name(schema) else []
+        if len(held) > 1:  # a name both releases hold: say that the newest was read
+            self.mirror = Mirror(self.mirror.version, f"data set {schema!r} of {held[-1]} (the newest of "
+                                 f"{', '.join(held)}), {self.mirror.reason}")
         notice(self.mirror)
         self.settings = resolve(self.mirror.preset if settings is None else settings)
         keywords = dict(

@@ -63,8 +63,16 @@ def dataset_release(name: str, release: str | None) -> str:
         release = MIRRORS[parse_version(os.environ[VERSION_VAR], VERSION_VAR)][1]
     if release is not None:
         return release
-    held = [r for r in sorted(set(VERSIONS.values())) if (cache_root() / r / name / "schema.json").is_file()]
+    held = releases_holding(name)
     return held[0] if len(held) == 1 else VERSIONS["citylearn-2.5"]
+
+
+def releases_holding(name: str) -> list[str]:
+    """The release folders of the cache holding data set ``name`` (sorted, oldest first); [] when
+    ``$DISTRICTGEN_CITYLEARN_VERSION`` chooses the release."""
+    if os.environ.get(VERSION_VAR):
+        return []
+    return [r for r in sorted(set(VERSIONS.values())) if (cache_root() / r / name / "schema.json").is_file()]
 
 
 def is_dataset_name(schema: Any) -> bool:
@@ -179,5 +187,5 @@ class DataSet:
         return read_dataset_schema(name, dataset_release(name, self.version))
 
 
-__all__ = ["MAX_PATH", "DataSet", "cache_root", "dataset_release", "dataset_schema_path", "dataset_version", "get_dataset", "is_dataset_name",
+__all__ = ["MAX_PATH", "DataSet", "cache_root", "dataset_release", "releases_holding", "dataset_schema_path", "dataset_version", "get_dataset", "is_dataset_name",
            "read_dataset_names", "read_dataset_schema"]

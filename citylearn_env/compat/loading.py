@@ -18,10 +18,10 @@ from typing import Any
 
 import numpy as np
 
-from citylearn_env import paths
+from citylearn_env import paths, ranges
 from citylearn_env.compat.data import MAX_PATH, dataset_release, dataset_schema_path, is_dataset_name
 from citylearn_env.compat.utilities import read_json
-from citylearn_env.config import DistrictConfig
+from citylearn_env.config import ACTION_NAMES, DistrictConfig
 from citylearn_env.errors import SchemaError
 from citylearn_env.schema import load_schema
 from citylearn_env.settings import Behaviour
@@ -134,10 +134,8 @@ def check_keywords(keywords: Mapping[str, Any]) -> None:
         if value is None:
             continue
         wrong = not isinstance(value, types) or (isinstance(value, (bool, np.bool_)) and bool not in types)
-        if not wrong and key in ("simulation_start_time_step", "simulation_end_time_step", "random_seed"):
-            wrong = int(value) < 0
-        if not wrong and key == "seconds_per_time_step":
-            wrong = not 0 < float(value) < float("inf")
+        if not wrong and key in ranges.KEY_RANGES:  # the schema's own range for the key
+            ranges.check_key({key: plain_numbers(value)}, key, None, where=key)
         if not wrong and key == "root_directory":
             wrong = "\x00" in str(value) or len(str(value)) > MAX_PATH
         if wrong:
@@ -191,20 +189,31 @@ def _flat_names(value: Any, keyword: str) -> list[str]:
     return list(value)
 
 
+def _known(names: Any, known: set[str], keyword: str) -> None:
+    """One SchemaError line naming the first of ``names`` that is not in ``known``."""
+    unknown = [n for n in _flat_names(names, keyword) if n not in known]
+    if unknown:
+        raise SchemaError(f"unknown name {unknown[0][:80]!r}; known: {', '.join(sorted(known))}", column=keyword)
+
+
 def _active(config: DistrictConfig, given: Mapping[str, Any]) -> DistrictConfig:
     """The observation and action keywords: shared, active and inactive names (one list for every building)."""
     if "shared_observations" in given:
         shared = set(_flat_names(given["shared_observations"], "shared_observations"))
+        _known(sorted(shared), {n for n, _ in config.observations}, "shared_observations")
         config = config.replace(observations=tuple((n, n in shared) for n, _ in config.observations))
     if "active_observations" in given:
         config = config.with_observations(_flat_names(given["active_observations"], "active_observations"),
                                           shared=config.shared_observations)
     if "inactive_observations" in given:
+        _known(given["inactive_observations"], {n for n, _ in config.observations}, "inactive_observations")
         config = _per_building(config, "active_observations",
                                _flat_names(given["inactive_observations"], "inactive_observations"))
     if "active_actions" in given:
         config = config.with_actions(_flat_names(given["active_actions"], "active_actions"))
     if "inactive_actions" in given:
+        _known(given["inactive_actions"], {a for b in config.buildings for a in b.active_actions} | set(ACTION_NAMES),
+               "inactive_actions")
         config = _per_building(config, "active_actions", _flat_names(given["inactive_actions"], "inactive_actions"))
     return config
 

@@ -15,6 +15,7 @@ each step with upstream's list of per-building mappings (read on access).
 from __future__ import annotations
 
 import logging
+import math
 import sys
 from collections.abc import Iterator, Mapping, Sequence
 from typing import Any, ClassVar
@@ -234,10 +235,16 @@ def reward_from_spec(spec: Mapping[str, Any] | str | None) -> RewardFunction:
 def _built(cls: type, name: str, attributes: Mapping[str, Any]) -> Any:
     """``cls(None, **attributes)`` (upstream's construction; the environment sets ``env_metadata``)."""
     try:
-        return cls(None, **attributes)
+        reward = cls(None, **attributes)
     except TypeError as error:
         raise SchemaError(f"{name} does not take attributes {sorted(attributes)} ({error})",
                           column="reward_function.attributes") from None
+    if cls in BUILT_IN.values():  # numbers the native reward computes with
+        for key, value in reward.native_attributes().items():
+            values = value if isinstance(value, list) else [value]
+            if not all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in values):
+                raise SchemaError(f"expected a finite number, got {value!r}", column=f"reward_function.attributes.{key}")
+    return reward
 
 
 def program_class(name: Any) -> type | None:

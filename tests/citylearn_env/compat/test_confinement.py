@@ -83,6 +83,9 @@ def test_bad_schema_arguments_are_one_line(tmp_path, monkeypatch, schema, keywor
     {"seconds_per_time_step": "3600"}, {"random_seed": True}, {"buildings": "Building_1"},
     {"active_observations": "hour"}, {"reward_function_kwargs": [1]}, {"root_directory": 5},
     {"root_directory": "a\x00b"}, {"reward_function": "some.string"}, {"reward_function": 5},
+    {"seconds_per_time_step": 1e9}, {"random_seed": 2**80}, {"simulation_end_time_step": 10**9},
+    {"inactive_actions": ["nonexistent"]}, {"shared_observations": ["nope"]}, {"episode_time_steps": 0},
+    {"reward_function": "citylearn.reward_function.ComfortReward", "reward_function_kwargs": {"band": "x"}},
 ])
 def test_wrongly_typed_keywords_are_one_line(tmp_path, monkeypatch, keywords) -> None:
     schema = write_example_district(tmp_path / "d", n_buildings=2, hours=48, seed=0)
