@@ -15,8 +15,9 @@ available offline, so this module applies the same sizing rules to what the data
   ``solar_generation`` column [W/kW] summed the same way / 1000 (upstream: the PVWatts output for the drawn
   system on the EPW); capped at ``roof_area / 5.263`` kW (upstream's module area per kW when the drawn system
   has none). The drawn module size and its flooring to whole modules are not reproduced. A building file
-  without any solar generation (all 0) cannot be sized this way: that is one clear error naming the table
-  upstream downloads. ``use_sample_target`` (the drawn system's own size) needs the table too: an error.
+  without any solar generation (all 0) gets the EPW's PVWatts yield first (:mod:`citylearn_env.pvwatts`, called
+  by :mod:`citylearn_env.schema_devices`); without an EPW that is one clear error naming the table upstream
+  downloads. ``use_sample_target`` (the drawn system's own size) needs the table too: an error.
 * battery (:func:`battery_size`): demand = the mean of the daily peaks of the baseline consumption [kW];
   ``capacity = demand x duration x SF`` [kWh] and ``nominal_power = demand`` [kW] (upstream: the drawn
   catalogue model with power <= demand, as many units as reach the capacity; its efficiency, depth of

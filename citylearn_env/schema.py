@@ -99,7 +99,7 @@ def _parse(raw: dict[str, Any], root: paths.DatasetFolder, source: str, settings
             sizing = Sizing(name, spec.get("type") or "citylearn.citylearn.Building", int(raw.get("random_seed") or 0),
                              settings.battery_autosize_from_placeholder_pv, ranges.check_key(
                                  raw, "seconds_per_time_step", 3600.0, where="seconds_per_time_step") / 3600.0, root,
-                             settings.thermal_device_defaults_drawn)
+                             settings.thermal_device_defaults_drawn, start)
             building = _building(name, spec, root, (start, end), cache, (active_obs, active_actions),
                                  settings.missing_hvac_mode_is_off, sizing)
             buildings.append(_with_devices(building, spec, len(buildings), ev, machines, drawn_seed))

@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from citylearn_env import autosize, paths, ranges
+from citylearn_env import autosize, paths, pvwatts, ranges
 from citylearn_env import pv_battery_autosize as pvb
 from citylearn_env.config import Battery, ConversionDevice, Tank
 from citylearn_env.errors import SchemaError
@@ -74,6 +74,8 @@ class Sizing:
     root: paths.DatasetFolder
     #: ``settings.thermal_device_defaults_drawn``: draw what a tank, heat pump or heater leaves out
     thermal_defaults_drawn: bool = False
+    #: first data row of the simulation range (aligns an EPW's PV yield, :mod:`citylearn_env.pvwatts`)
+    simulation_start: int = 0
 
     def uniform(self, slot: str, device_type: str) -> float:
         """The first uniform number of the device's upstream seed (its drawn attributes' ``u``)."""
@@ -124,7 +126,11 @@ def _pv_2_2(attributes: Mapping[str, Any], where: str, series: Mapping[str, np.n
     at = f"{where}.autosize_attributes"
     epw = attributes.get("epw_filepath")
     if epw is not None:
-        sizing.root.file(epw, where=f"{at}.epw_filepath")  # upstream reads it: inside the folder, present
+        path = sizing.root.file(epw, where=f"{at}.epw_filepath")  # upstream reads it: inside the folder, present
+        solar = series["solar_generation"]
+        if not np.any(np.nan_to_num(solar) > 0):  # no profile in the data: PVWatts on the EPW, as upstream
+            series["solar_generation"] = pvwatts.aligned(pvwatts.epw_yield(path), sizing.simulation_start,
+                                                         len(solar))  # type: ignore[index]
     if attributes.get("use_sample_target"):
         raise SchemaError("sizes the PV as a system drawn from upstream's downloaded PV sizing table "
                           f"'{pvb.PV_SIZING_TABLE}', which is not available offline; set it false to size for "

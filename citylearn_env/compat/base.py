@@ -16,6 +16,7 @@ import numpy as np
 
 from citylearn_env.config import DistrictConfig
 from citylearn_env.env import CityLearnEnv as NativeEnv
+from citylearn_env.settings import Behaviour
 
 
 class CompatEnv(Protocol):
@@ -23,6 +24,7 @@ class CompatEnv(Protocol):
 
     native: NativeEnv
     series_names: frozenset[str]
+    settings: Behaviour
 
     @property
     def config(self) -> DistrictConfig: ...

@@ -57,7 +57,11 @@ class DataView:
     def __getattr__(self, name: str) -> np.ndarray:
         if name.startswith("_"):
             raise AttributeError(name)
-        series = self._env.native.district.static_series(name)
+        district = self._env.native.district
+        if name == "solar_generation":  # upstream's data column [W/kW], not the building's generation [kWh]
+            series = district.episode.columns.get("solar_generation")
+        else:
+            series = district.static_series(name)
         if series is None:
             raise AttributeError(f"no data column {name!r}")
         return series[self._index]

@@ -117,6 +117,35 @@ class Battery(StorageTank):
         """The capacity after the current step [kWh]."""
         return float(self.capacity_history[-1])
 
+    @property
+    def efficiency(self) -> float:
+        """The current round-trip efficiency [-] (upstream's ``efficiency``: the last entry of
+        :attr:`efficiency_history`, set by the power-efficiency curve each step); the nominal one is
+        ``spec.efficiency``."""
+        return float(self.efficiency_history[-1])
+
+    @property
+    def round_trip_efficiency(self) -> float:
+        """``sqrt(efficiency)`` [-], the one-way efficiency applied to each charge and discharge (upstream's name
+        for it)."""
+        return float(np.sqrt(self.efficiency))
+
+    def get_max_input_power(self) -> float:
+        """The largest charge of the next step [kWh per step]: nominal power times the capacity-power curve at the
+        state of charge after standby losses (CityLearn 2.1 extrapolates its first segment past the last point
+        when its preset says so)."""
+        spec, soc = self.spec, float(self.soc[-1])
+        e0 = max(0.0, soc * spec.capacity * (1.0 - spec.loss_coefficient))
+        curve = devices.Curve.from_points([spec.capacity_power_curve])
+        fraction = devices.interpolate_curve(np.array([e0 / max(spec.capacity, 1e-6)]), curve,
+                                             extrapolate_first_segment=self._env.settings.battery_curve_extrapolates_first_segment)
+        return float(spec.nominal_power * fraction[0])
+
+    def get_max_output_power(self) -> float:
+        """The largest discharge of the next step [kWh per step]: the same curve limit as
+        :meth:`get_max_input_power` (as upstream)."""
+        return self.get_max_input_power()
+
 
 class PV(Device):
     """Photovoltaics: ``nominal_power`` [kW peak]."""
@@ -130,6 +159,12 @@ class PV(Device):
     def nominal_power(self) -> float:
         """Nominal power [kW peak]."""
         return float(self._env.config.buildings[self._index].pv_nominal_power)
+
+    def get_generation(self, inverter_ac_power_per_kw: Any) -> np.ndarray:
+        """PV output [kWh per step] of this system for a yield ``inverter_ac_power_per_kw`` [W of AC per kW of
+        PV]: ``nominal_power * yield / 1000``."""
+        return devices.pv_generation(np.float64(self.nominal_power), np.asarray(inverter_ac_power_per_kw,
+                                                                                dtype=np.float64))
 
     def get_metadata(self) -> dict[str, Any]:
         """``{"type": "PV", "nominal_power": kW}``."""

@@ -16,9 +16,12 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from citylearn_env.compat.data import dataset_schema_path, dataset_version, is_dataset_name
+import numpy as np
+
+from citylearn_env import paths, ranges
+from citylearn_env.compat.data import MAX_PATH, dataset_release, dataset_schema_path, is_dataset_name
 from citylearn_env.compat.utilities import read_json
-from citylearn_env.config import DistrictConfig
+from citylearn_env.config import ACTION_NAMES, DistrictConfig
 from citylearn_env.errors import SchemaError
 from citylearn_env.schema import load_schema
 from citylearn_env.settings import Behaviour
@@ -32,26 +35,65 @@ TYPED_KEYWORDS = ("central_agent", "episode_time_steps", "rolling_episode_split"
                   "solar_generation")
 
 
-def resolve_schema(schema: Any, settings: Behaviour | str) -> str | Path | Mapping[str, Any] | DistrictConfig:
-    """A data-set name becomes its cached ``schema.json`` path; anything else is returned as given."""
+def resolve_schema(schema: Any, release: str | None) -> str | Path | Mapping[str, Any] | DistrictConfig:
+    """A data-set name becomes its cached ``schema.json`` path (of ``release``, else the one release holding it,
+    else the newest; :func:`~citylearn_env.compat.data.dataset_release`); a dict gets plain Python numbers for
+    numpy scalars and arrays; anything else is returned as given (a wrong type is one SchemaError line)."""
     if is_dataset_name(schema):
-        return dataset_schema_path(schema, dataset_version(settings))
+        return dataset_schema_path(schema, dataset_release(schema, release))
+    if isinstance(schema, Mapping):
+        return plain_numbers(schema)
+    if isinstance(schema, str) and ("\x00" in schema or len(schema) > MAX_PATH):
+        raise SchemaError(f"not a schema path or data-set name (NUL character or over {MAX_PATH} characters): "
+                          f"{schema[:40]!r}...", column="schema")
+    if not isinstance(schema, (str, Path, DistrictConfig)):
+        raise SchemaError(f"a schema is a data-set name, a schema.json path, a dict or a DistrictConfig; got "
+                          f"{type(schema).__name__}", column="schema")
     return schema
 
 
-def _raw(schema: str | Path | Mapping[str, Any]) -> dict[str, Any]:
-    """A deep copy of the schema as a dict, ``root_directory`` absolute for a schema file (it resolves against
-    the file's folder, as the file itself would)."""
+def plain_numbers(value: Any) -> Any:
+    """``value`` (a schema dict, recursively) with numpy scalars and arrays as Python numbers and lists, as
+    upstream's JSON-like schemas hold them (``{"simulation_end_time_step": np.int64(23)}`` is 23)."""
+    if isinstance(value, Mapping):
+        return {k: plain_numbers(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [plain_numbers(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return plain_numbers(value.tolist())
+    return value.item() if isinstance(value, np.generic) else value
+
+
+def raw_schema(schema: str | Path | Mapping[str, Any]) -> tuple[dict[str, Any], Path | None]:
+    """A deep copy of the schema as a dict and the schema file's folder (None for a dict), ``root_directory``
+    made absolute for a schema file and refused (one SchemaError line, the outside never read) when it leaves the
+    file's folder."""
     if isinstance(schema, Mapping):
-        return copy.deepcopy(dict(schema))
+        return copy.deepcopy(dict(schema)), None
     path = Path(schema)
-    if not path.is_file():
-        raise SchemaError("schema file not found", file=path)
-    raw = read_json(path)
-    root = raw.get("root_directory")
+    try:
+        found_file = path.is_file()
+    except OSError as error:  # a name too long for the file system
+        raise SchemaError(f"not a usable schema path or data-set name ({error.strerror}): {str(schema)[:60]!r}...",
+                          column="schema") from None
+    if not found_file:
+        hint = "" if "/" in str(schema) or str(schema).endswith(".json") else \
+            " (nor a data-set name: letters, digits, _ . - and at most 200 characters)"
+        raise SchemaError(f"schema file not found{hint}", file=path if len(str(path)) <= 300 else None,
+                          column=None if len(str(path)) <= 300 else "schema")
+    try:
+        raw = read_json(path)
+    except (ValueError, OSError) as error:
+        raise SchemaError(f"not a readable JSON schema ({type(error).__name__})", file=path) from None
+    if not isinstance(raw, dict):
+        raise SchemaError("a schema file holds one JSON object", file=path)
     folder = path.resolve().parent
-    raw["root_directory"] = str(folder if not root else (folder / root).resolve())
-    return raw
+    try:
+        found = paths.dataset_folder(raw.get("root_directory"), folder)
+    except SchemaError as error:
+        raise SchemaError(str(error), file=path) from None
+    raw["root_directory"] = str(found.root.resolve())
+    return raw, folder
 
 
 def _building_names(raw: Mapping[str, Any], buildings: Sequence[Any]) -> list[str]:
@@ -69,9 +111,42 @@ def _building_names(raw: Mapping[str, Any], buildings: Sequence[Any]) -> list[st
     return chosen
 
 
+#: keyword -> (accepted types, what the error says is expected)
+KEYWORD_TYPES: dict[str, tuple[tuple[type, ...], str]] = {
+    **dict.fromkeys(("simulation_start_time_step", "simulation_end_time_step", "random_seed"),
+                    ((int, np.integer), "an integer >= 0")),
+    **dict.fromkeys(("central_agent", "rolling_episode_split", "random_episode_split", "simulate_power_outage",
+                     "solar_generation"), ((bool, np.bool_), "True or False")),
+    "seconds_per_time_step": ((int, float, np.integer, np.floating), "a number of seconds > 0"),
+    "episode_time_steps": ((int, np.integer, list, tuple), "an integer >= 1 or a list of [start, end] pairs"),
+    "root_directory": ((str, Path), "a folder path"),
+    "buildings": ((list, tuple), "a list of building names or indices"),
+    **dict.fromkeys(("shared_observations", "active_observations", "inactive_observations", "active_actions",
+                     "inactive_actions"), ((list, tuple), "a list of names")),
+    "reward_function_kwargs": ((Mapping,), "a dict of the reward's keyword arguments"),
+}
+
+
+def check_keywords(keywords: Mapping[str, Any]) -> None:
+    """One SchemaError line for the first keyword of the wrong type or range (None means: not given)."""
+    for key, (types, expected) in KEYWORD_TYPES.items():
+        value = keywords.get(key)
+        if value is None:
+            continue
+        wrong = not isinstance(value, types) or (isinstance(value, (bool, np.bool_)) and bool not in types)
+        if not wrong and key in ranges.KEY_RANGES:  # the schema's own range for the key
+            ranges.check_key({key: plain_numbers(value)}, key, None, where=key)
+        if not wrong and key == "root_directory":
+            wrong = "\x00" in str(value) or len(str(value)) > MAX_PATH
+        if wrong:
+            shown = repr(value) if len(repr(value)) <= 60 else f"{repr(value)[:57]}..."
+            raise SchemaError(f"expected {expected}, got {shown} ({type(value).__name__})", column=key)
+
+
 def read_config(schema: Any, keywords: Mapping[str, Any], settings: Behaviour) -> DistrictConfig:
     """Load ``schema`` with the read keywords applied, then apply the typed ones."""
-    given = {k: v for k, v in keywords.items() if v is not None}
+    check_keywords(keywords)
+    given = {k: plain_numbers(v) for k, v in keywords.items() if v is not None}
     if isinstance(schema, DistrictConfig):
         if any(k in given for k in READ_KEYWORDS):
             raise SchemaError(f"{', '.join(k for k in READ_KEYWORDS if k in given)} cannot change a loaded "
@@ -79,7 +154,7 @@ def read_config(schema: Any, keywords: Mapping[str, Any], settings: Behaviour) -
         return apply_typed(schema, given)
     chosen = None
     if any(k in given for k in READ_KEYWORDS):
-        raw = _raw(schema)
+        raw, _ = raw_schema(schema)
         for key in ("root_directory", "simulation_start_time_step", "simulation_end_time_step"):
             if key in given:
                 raw[key] = str(given[key]) if key == "root_directory" else given[key]
@@ -114,20 +189,31 @@ def _flat_names(value: Any, keyword: str) -> list[str]:
     return list(value)
 
 
+def _known(names: Any, known: set[str], keyword: str) -> None:
+    """One SchemaError line naming the first of ``names`` that is not in ``known``."""
+    unknown = [n for n in _flat_names(names, keyword) if n not in known]
+    if unknown:
+        raise SchemaError(f"unknown name {unknown[0][:80]!r}; known: {', '.join(sorted(known))}", column=keyword)
+
+
 def _active(config: DistrictConfig, given: Mapping[str, Any]) -> DistrictConfig:
     """The observation and action keywords: shared, active and inactive names (one list for every building)."""
     if "shared_observations" in given:
         shared = set(_flat_names(given["shared_observations"], "shared_observations"))
+        _known(sorted(shared), {n for n, _ in config.observations}, "shared_observations")
         config = config.replace(observations=tuple((n, n in shared) for n, _ in config.observations))
     if "active_observations" in given:
         config = config.with_observations(_flat_names(given["active_observations"], "active_observations"),
                                           shared=config.shared_observations)
     if "inactive_observations" in given:
+        _known(given["inactive_observations"], {n for n, _ in config.observations}, "inactive_observations")
         config = _per_building(config, "active_observations",
                                _flat_names(given["inactive_observations"], "inactive_observations"))
     if "active_actions" in given:
         config = config.with_actions(_flat_names(given["active_actions"], "active_actions"))
     if "inactive_actions" in given:
+        _known(given["inactive_actions"], {a for b in config.buildings for a in b.active_actions} | set(ACTION_NAMES),
+               "inactive_actions")
         config = _per_building(config, "active_actions", _flat_names(given["inactive_actions"], "inactive_actions"))
     return config
 
@@ -155,4 +241,5 @@ def apply_typed(config: DistrictConfig, given: Mapping[str, Any]) -> DistrictCon
     return _devices(_active(config, given), given)
 
 
-__all__ = ["READ_KEYWORDS", "TYPED_KEYWORDS", "apply_typed", "read_config", "resolve_schema"]
+__all__ = ["KEYWORD_TYPES", "READ_KEYWORDS", "check_keywords", "TYPED_KEYWORDS", "apply_typed", "plain_numbers", "raw_schema", "read_config",
+           "resolve_schema"]

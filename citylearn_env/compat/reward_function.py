@@ -14,6 +14,9 @@ each step with upstream's list of per-building mappings (read on access).
 
 from __future__ import annotations
 
+import logging
+import math
+import sys
 from collections.abc import Iterator, Mapping, Sequence
 from typing import Any, ClassVar
 
@@ -22,6 +25,8 @@ import numpy as np
 from citylearn_env import rewards
 from citylearn_env.errors import SchemaError
 from citylearn_env.settings import CITYLEARN_2_1, Behaviour
+
+LOGGER = logging.getLogger("citylearn_env.compat")
 
 #: storage slots whose capacity and initial SOC the native rewards read
 STORAGES = ("cooling_storage", "heating_storage", "dhw_storage", "electrical_storage")
@@ -188,22 +193,72 @@ def computes_natively(reward: Any) -> bool:
 
 
 def reward_from_spec(spec: Mapping[str, Any] | str | None) -> RewardFunction:
-    """The compat reward of a schema's ``reward_function`` entry (or a type string; None: the default): a
-    built-in class for upstream's type strings, else a :class:`NativeReward`."""
+    """The compat reward of a schema's ``reward_function`` entry (or a type string; None: the default):
+
+    1. upstream's built-in type strings (``citylearn.reward_function.X``): this module's class;
+    2. ``module.Class`` of a module the running program has imported (:func:`program_class`): that class, so
+       the program's own reward runs, never a copy of it;
+    3. another name of the native registry (:data:`citylearn_env.rewards.REWARDS`): a :class:`NativeReward`,
+       with one notice line when the name is a program's module path (the SimBuild ``src.reward_function.*``);
+    4. anything else: one SchemaError line. Nothing is ever imported.
+    """
     if spec is None:
         return RewardFunction()
     if isinstance(spec, str):
         spec = {"type": spec}
-    name, attributes = spec.get("type"), dict(spec.get("attributes") or {})
+    if not isinstance(spec, Mapping):
+        raise SchemaError(f"expected {{\"type\": ..., \"attributes\": ...}} or a type string, got "
+                          f"{type(spec).__name__}", column="reward_function")
+    name, attributes = spec.get("type"), spec.get("attributes") or {}
+    if not isinstance(attributes, Mapping):
+        raise SchemaError(f"expected a dict, got {type(attributes).__name__}", column="reward_function.attributes")
+    attributes = dict(attributes)
     short = name.rsplit(".", 1)[-1] if isinstance(name, str) else None
     if isinstance(name, str) and name.startswith(("citylearn.reward_function.", "citylearn_env.compat.reward_function.")) \
             and short in BUILT_IN:
-        try:
-            return BUILT_IN[short](None, **attributes)
-        except TypeError as error:
-            raise SchemaError(f"{name} does not take attributes {sorted(attributes)} ({error})",
-                              column="reward_function.attributes") from None
+        return _built(BUILT_IN[short], name, attributes)
+    loaded = program_class(name)
+    if loaded is not None:
+        return _built(loaded, name, attributes)
+    if isinstance(name, str) and name in rewards.REWARDS and "." in name and name.split(".", 1)[0] != "citylearn":
+        LOGGER.warning("citylearn_env.compat: reward_function %s: module %s is not imported by the program, so the "
+                       "project's copy in citylearn_env.rewards runs (import it first to run yours)",
+                       name, name.rsplit(".", 1)[0])
+    if isinstance(name, str) and name not in rewards.REWARDS:
+        raise SchemaError(f"unknown reward function type {name[:100]!r}: not upstream's, not the project's "
+                          f"({', '.join(rewards.REWARDS)}), and not a class the running program has imported (a "
+                          "schema never makes the project import code: import its module first, or pass "
+                          "reward_function=TheClass)", column="reward_function.type")
     return NativeReward(None, type=name, **attributes)
+
+
+def _built(cls: type, name: str, attributes: Mapping[str, Any]) -> Any:
+    """``cls(None, **attributes)`` (upstream's construction; the environment sets ``env_metadata``)."""
+    try:
+        reward = cls(None, **attributes)
+    except TypeError as error:
+        raise SchemaError(f"{name} does not take attributes {sorted(attributes)} ({error})",
+                          column="reward_function.attributes") from None
+    if cls in BUILT_IN.values():  # numbers the native reward computes with
+        for key, value in reward.native_attributes().items():
+            values = value if isinstance(value, list) else [value]
+            if not all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in values):
+                raise SchemaError(f"expected a finite number, got {value!r}", column=f"reward_function.attributes.{key}")
+    return reward
+
+
+def program_class(name: Any) -> type | None:
+    """The class a dotted ``name`` ("module.Class") names when the running program has imported (or, as
+    ``__main__``, defines) that module and the class has a ``calculate`` method; None otherwise. Nothing is
+    imported: only :data:`sys.modules` is read."""
+    if not isinstance(name, str) or "." not in name or len(name) > 300:
+        return None
+    module_name, _, class_name = name.rpartition(".")
+    module = sys.modules.get(module_name)
+    cls = getattr(module, class_name, None) if module is not None else None
+    if isinstance(cls, type) and callable(getattr(cls, "calculate", None)):
+        return cls
+    return None
 
 
 def reward_from_keyword(value: Any, kwargs: Mapping[str, Any] | None, schema_spec: Mapping[str, Any] | None) -> Any:
@@ -216,16 +271,9 @@ def reward_from_keyword(value: Any, kwargs: Mapping[str, Any] | None, schema_spe
             return reward_from_spec(schema_spec)
         return reward_from_spec({"type": schema_spec.get("type"), "attributes": kwargs})
     if isinstance(value, str):
-        short = value.rsplit(".", 1)[-1]
-        if value.startswith(("citylearn.reward_function.", "citylearn_env.compat.reward_function.")) \
-                and short in BUILT_IN:
-            return BUILT_IN[short](None, **kwargs)
-        if value in rewards.REWARDS:
-            return NativeReward(None, type=value, **kwargs)
-        raise SchemaError(f"unknown reward function {value!r}: pass the class itself (reward_function=MyReward) or "
-                          f"a known type ({', '.join(rewards.REWARDS)})", column="reward_function")
+        return reward_from_spec({"type": value, "attributes": kwargs})
     if isinstance(value, type):
-        return value(None, **kwargs)
+        return _built(value, value.__name__, kwargs)
     if not callable(getattr(value, "calculate", None)):
         raise SchemaError(f"a reward function needs a calculate(observations) method; got {type(value).__name__}",
                           column="reward_function")
@@ -234,4 +282,4 @@ def reward_from_keyword(value: Any, kwargs: Mapping[str, Any] | None, schema_spe
 
 __all__ = ["BUILT_IN", "MARL", "ComfortReward", "IndependentSACReward", "NativeReward", "RewardFunction",
            "SolarPenaltyAndComfortReward", "SolarPenaltyReward", "StackedObservations", "computes_natively",
-           "reward_context", "reward_from_keyword", "reward_from_spec"]
+           "program_class", "reward_context", "reward_from_keyword", "reward_from_spec"]

@@ -19,17 +19,31 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+from citylearn_env.compat.version import program_call, reset_form, step_form
 from citylearn_env.dataset import PERIODS, periodic_encoding
 from citylearn_env.errors import SchemaError
 
 
 class Forwarding:
-    """Mixin: a public attribute the wrapper lacks is read from the wrapped environment."""
+    """Mixin: a public attribute the wrapper lacks is read from the wrapped environment; ``reset`` and ``step``
+    answer in the API of the program's CityLearn version (2.1: the observations alone, four step values) when the
+    program calls them, in gymnasium's when gymnasium, Stable-Baselines3 or this package does
+    (:mod:`citylearn_env.compat.version`)."""
 
     def __getattr__(self, name: str) -> Any:
         if name.startswith("_") or name == "env":
             raise AttributeError(name)
         return getattr(self.env, name)
+
+    def _api(self) -> str:
+        mirror = getattr(self.env.unwrapped, "mirror", None)
+        return mirror.api if mirror is not None else "gymnasium"
+
+    def reset(self, **kwargs: Any) -> Any:
+        return reset_form(self._api(), super().reset(**kwargs), program_call())
+
+    def step(self, action: Any) -> Any:
+        return step_form(self._api(), super().step(action), program_call())
 
 
 class Normalizer:

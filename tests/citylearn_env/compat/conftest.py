@@ -18,6 +18,7 @@ import pytest
 from citylearn_env import CityLearnEnv as NativeEnv
 from citylearn_env.compat.data import ENV_VAR
 from citylearn_env.compat.utilities import read_json
+from citylearn_env.compat.version import VERSION_VAR
 from tests.conftest import SHARED, need_shared
 
 UPSTREAM = SHARED / "data" / "citylearn" / "upstream"
@@ -28,10 +29,12 @@ IMPORT = re.compile(r"^(\s*)(from|import)(\s+)citylearn\.", re.MULTILINE)
 
 @pytest.fixture(scope="module")
 def cache() -> Iterator[Path]:
-    """The shared upstream data sets as the data-set cache (skip when ../shared is absent)."""
+    """The shared upstream data sets as the data-set cache, data-set names read as CityLearn 2.1 programs read
+    them (``$DISTRICTGEN_CITYLEARN_VERSION=2.1``; skip when ../shared is absent)."""
     need_shared(UPSTREAM / "v2.1.2" / PHASE_1 / "schema.json")
     with pytest.MonkeyPatch.context() as mp:
         mp.setenv(ENV_VAR, str(UPSTREAM))
+        mp.setenv(VERSION_VAR, "2.1")
         yield UPSTREAM
 
 

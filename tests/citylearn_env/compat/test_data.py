@@ -25,7 +25,9 @@ def test_names_resolve_in_the_cache_per_preset(cache) -> None:
     env = CityLearnEnv(schema, simulation_end_time_step=23)  # upstream's DataSet().get_schema(name) route
     assert env.time_steps == 24
     # the 2.5 preset reads the v2.4.2 data sets, where the EV set is
-    ev = CityLearnEnv("citylearn_challenge_2022_phase_all_plus_evs", settings="citylearn-2.5", simulation_end_time_step=23)
+    ev = CityLearnEnv("citylearn_challenge_2022_phase_all_plus_evs", citylearn_version="2.5",
+                      simulation_end_time_step=23)
+    assert ev.mirror.api == "gymnasium" and ev.settings.kpi_names_2_5
     assert "electric_vehicle_storage_charger_1_1" in ev.action_names[0]
     assert ev.get_metadata()["reward_function"] == "Electric_Vehicles_Reward_Function"
 
@@ -55,7 +57,7 @@ def test_get_dataset_copies_a_folder_into_the_cache(monkeypatch, tmp_path) -> No
     assert schema == tmp_path / "cache" / "v2.1.2" / "example_district" / "schema.json" and schema.is_file()
     env = CityLearnEnv("example_district")
     native = NativeEnv(source / "schema.json", settings="citylearn-2.1")
-    observations, _ = env.reset()
+    observations = env.reset()  # the example district is written in the v2.1 layout: CityLearn 2.1's API
     native_observations, _ = native.reset()
     expected = native_observations if env.central_agent else native.flat_observations().astype(np.float32)
     np.testing.assert_array_equal(np.concatenate(observations), expected)

@@ -1,6 +1,7 @@
-"""An RBC and a Stable-Baselines3 SAC program written the upstream way (``BasicRBC.learn``, then SAC through
+"""An RBC and a Stable-Baselines3 SAC program written the CityLearn 2.1 way (``BasicRBC.learn``, then SAC through
 ``NormalizedObservationWrapper`` and ``StableBaselines3Wrapper``, trained for ``2 * env.unwrapped.time_steps``),
-run unchanged but for its imports; its actions and KPIs equal the native environment's (the RBC replayed, the SAC
+run unchanged but for its imports (its own ``reset``/``step`` calls get CityLearn 2.1's API, SB3's calls gymnasium's
+while it trains); its actions and KPIs equal the native environment's (the RBC replayed, the SAC
 trained the same way on the native env and its native normalising wrapper)."""
 
 from __future__ import annotations
@@ -35,12 +36,12 @@ env = StableBaselines3Wrapper(env)
 model = SAC('MlpPolicy', env, **sac_kwargs)
 model.learn(total_timesteps=2 * env.unwrapped.time_steps)
 
-observations, _ = env.reset()
+observations = env.reset()
 sac_actions = []
 while not env.unwrapped.terminated:
     actions, _ = model.predict(observations, deterministic=True)
     sac_actions.append(actions)
-    observations, _, _, _, _ = env.step(actions)
+    observations, _, done, _ = env.step(actions)
 
 sac_kpis = env.unwrapped.evaluate()
 """

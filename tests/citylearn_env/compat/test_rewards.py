@@ -116,5 +116,5 @@ def test_schema_and_native_reward_types(cache) -> None:
                           reward_function_kwargs={"signal": "electricity_pricing", "exponent": 1.0})
     assert signal.get_metadata()["reward_function"] == "SignalReward"
     assert isinstance(signal.reward_function, RewardFunction)
-    with pytest.raises(SchemaError, match="pass the class itself"):
+    with pytest.raises(SchemaError, match="pass reward_function=TheClass"):
         CityLearnEnv(PHASE_1, simulation_end_time_step=END, reward_function="my_module.MyReward")

@@ -22,18 +22,18 @@ def test_central_values_equal_the_native_wrapper(cache, clip) -> None:
     assert env.observation_names == [[n.split(".")[-1] for n in native.observation_names]]
     assert env.observation_space[0].shape == native.observation_space.shape
     assert (env.observation_space[0].high == native.observation_space.high).all()
-    observations, _ = env.reset()
+    observations = env.reset()  # CityLearn 2.1's API (v2.1 data set)
     rng = np.random.default_rng(0)
     for _ in range(END):
         np.testing.assert_array_equal(observations[0], native.observation(env.unwrapped.native.flat_observations()[
             env.unwrapped.native.layout.central_index].astype(np.float32)))
-        observations, *_ = env.step([rng.uniform(-0.5, 0.5, size=env.action_space[0].shape)])
+        observations, _, _, _ = env.step([rng.uniform(-0.5, 0.5, size=env.action_space[0].shape)])
     assert env.unwrapped.terminated
 
 
 def test_per_building_values_use_each_building_bounds(cache) -> None:
     env = NormalizedObservationWrapper(CityLearnEnv(PHASE_1, simulation_end_time_step=END))
-    observations, _ = env.reset()
+    observations = env.reset()  # CityLearn 2.1's API (v2.1 data set)
     names = env.observation_names
     assert len(observations) == 5 and [len(o) for o in observations] == [31] * 5
     assert names[0][:6] == ["month_cos", "month_sin", "day_type_cos", "day_type_sin", "hour_cos", "hour_sin"]
