@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import re
+import shutil
 import struct
 from datetime import date
 from pathlib import Path
@@ -13,6 +14,7 @@ import pandas as pd
 import pytest
 
 from pipeline.builder.driver import build_district_local
+from pipeline.builder.install import revalidate
 from pipeline.builder.report import (
     SelectionSummary,
     district_report,
@@ -233,3 +235,31 @@ def test_a_rule_that_raises_its_own_objective_is_named_once():
     assert len(notes) == 1 and "cost RBC raises cost by +2.0 %" in notes[0]
     objectives["cost_rbc"]["cost"] = 99.0
     assert rule_misfits(objectives) == []
+
+
+def test_install_rewrites_the_report_as_the_build_wrote_it(small_build, tmp_path):
+    """``surrogate install``'s rewrite (install.revalidate): every report file anew from what the district holds,
+    the selection from the manifest's record (the default district's, rendered as its baseline build printed
+    it), or, for a district built before the manifest held it, the k of selection.csv; nothing of the old
+    summary is kept."""
+    district = tmp_path / small_build.name
+    shutil.copytree(small_build, district)
+    (district / "report" / "summary.md").write_text("# stale\n\n## Buildings\n\nold rows\n")
+    schema = json.loads((district / "schema.json").read_text())
+    record = {"k": 6, "validity": [{"k": 6, "sse": 4.729027996008899, "calinski_harabasz": 4.843162756110561,
+                                    "silhouette": 0.218913619305749, "davies_bouldin": 1.0210800613239492}]}
+    revalidate(district, small_build.name, schema, {"selection": record})
+    built = (small_build / "report" / "summary.md").read_text()
+    selection = ("\n## Selection (k = 6, one building per k-means cluster)\n\n```\n"
+                 "   k        SSE  Calinski-H  silhouette  Davies-B\n"
+                 "  6*     4.7290      4.8432      0.2189    1.0211\n```\n")
+    assert (district / "report" / "summary.md").read_text() == built + selection
+    for path in (small_build / "report").iterdir():
+        if path.name != "summary.md":
+            assert (district / "report" / path.name).read_bytes() == path.read_bytes(), path.name
+
+    pd.DataFrame({"bldg_id": [7, 9], "cluster": [0, 1], "k": [2, 2],
+                  "building": list(BUILDINGS)}).to_csv(district / "selection.csv", index=False)
+    revalidate(district, small_build.name, schema, {})
+    assert (district / "report" / "summary.md").read_text() == built + (
+        "\n## Selection (k = 2, one building per k-means cluster)\n\nValidity indices: not recorded by the build.\n")
