@@ -8,8 +8,9 @@ A district folder holds two record files:
   the build read (weather, tariff, fuel mix, stock / characteristics file, EULP files, ILV tables of
   ``surrogate.source = "csv"``, the FMU) and of every artifact (building timeseries, weather, pricing,
   carbon, schema, surrogates and their training tables, report, selection, ...), package versions, seeds and
-  each building's surrogate cache key (and, for a judged house, its judgement cache key). Two builds of the
-  same configuration write the same bytes.
+  each building's surrogate cache key (and, for a judged house, its judgement cache key) and, for a k-means
+  selection, its k and validity indices (``selection``: what the report shows, kept for ``surrogate install``'s
+  rewrite of it). Two builds of the same configuration write the same bytes.
 * ``timings.json`` -- what only this run knows: seconds per stage, the surrogates' training seconds (taken
   out of their ``.metrics.json``), surrogate and judgement cache hits, where the configuration file and the
   cache were. It differs between two builds, so the manifest does not hash it.
