@@ -1,4 +1,4 @@
-"""Time the build report of a built district: the two policy runs once, then ``write_report`` repeated.
+"""Time the build report of a built district: the validation (two policy runs, the oracle) once, then ``write_report`` repeated.
 
     .venv/bin/python benchmarks/build_report.py artifacts/default --repeats 5
 
@@ -16,34 +16,31 @@ import tempfile
 import time
 from pathlib import Path
 
-import numpy as np
-
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("district", type=Path, help="a built district folder (schema.json, surrogates/)")
     parser.add_argument("--repeats", type=int, default=5)
     args = parser.parse_args()
-    from citylearn_env import load_schema
-    from pipeline.builder.report import report_series, write_report
-    from pipeline.controllers import run_policy
+    from pipeline.builder.install import recorded_selection
+    from pipeline.builder.manifest import read_manifest
+    from pipeline.builder.report import district_report, write_report
+    from pipeline.builder.validate import validate_district
 
     print(f"load average before: {os.getloadavg()}")
     started = time.perf_counter()
-    district = load_schema(args.district / "schema.json")
-    results = {}
-    for policy in ("no_control", "cost_rbc"):
-        env = run_policy(district, policy)
-        results[policy] = {"objectives": {k: v for k, v in env.objectives().items() if np.isscalar(v)},
-                           "kpis": env.evaluate(), "series": report_series(env)}
-    steps = results["no_control"]["series"]["hour"].shape
-    print(f"policy runs: {time.perf_counter() - started:.1f} s wall, (buildings, steps) = {steps}")
+    validation = validate_district(args.district / "schema.json")
+    steps = validation.runs["no_control"].series["hour"].shape
+    print(f"validation (policy runs, oracle): {time.perf_counter() - started:.1f} s wall, (buildings, steps) = "
+          f"{steps}")
     schema = json.loads((args.district / "schema.json").read_text())
+    selection = recorded_selection(args.district, read_manifest(args.district))
+    inputs = district_report(args.district, args.district.name, schema, validation, selection)
     walls, cpus = [], []
     with tempfile.TemporaryDirectory() as scratch:
         for _ in range(args.repeats):
             wall, cpu = time.perf_counter(), time.process_time()
-            write_report(Path(scratch), args.district.name, schema, results, args.district / "surrogates")
+            write_report(Path(scratch), inputs)
             walls.append(time.perf_counter() - wall)
             cpus.append(time.process_time() - cpu)
         pngs = sorted(Path(scratch).glob("*.png"))

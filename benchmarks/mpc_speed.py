@@ -28,7 +28,7 @@ sys.path.insert(0, str(ROOT))
 from oracle_speed import cpu_name  # noqa: E402  (this folder is on the path when the script runs)
 
 from citylearn_env import CityLearnEnv, load_schema  # noqa: E402  (after the path set-up: runs from a checkout)
-from pipeline.optimal.command import district  # noqa: E402
+from pipeline.optimal.optimum import district  # noqa: E402
 
 UPSTREAM = ROOT.parent / "shared" / "data" / "citylearn" / "upstream"
 STORAGE = UPSTREAM / "v2.1.2" / "citylearn_challenge_2022_phase_1" / "schema.json"

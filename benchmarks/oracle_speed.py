@@ -27,7 +27,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from citylearn_env import CityLearnEnv  # noqa: E402  (after the path set-up: runs from a checkout)
-from pipeline.optimal.command import district  # noqa: E402
+from pipeline.optimal.optimum import district  # noqa: E402
 from pipeline.optimal.oracle import oracle  # noqa: E402
 from pipeline.optimal.replay import replay  # noqa: E402
 

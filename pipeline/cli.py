@@ -1,8 +1,12 @@
 """The ``districtgen`` command.
 
-Each feature area registers its own sub-commands through a ``register(subparsers)`` function, so this file
-stays a thin dispatcher: ingest commands live in :mod:`pipeline.ingest.commands`, surrogate commands in
-:mod:`surrogates.cli`, environment commands in :mod:`pipeline.commands`, stock selection in :mod:`pipeline.select`.
+This file only creates the parser and calls each wing's ``register(subparsers)``, which adds that wing's
+sub-commands and their handlers: the environment's ``run`` (:mod:`pipeline.commands`), the builder's ``build``
+and ``verify`` (:mod:`pipeline.builder.commands`), the paper's ``paper`` (:mod:`pipeline.paper.commands`), stock
+selection (:mod:`pipeline.select`), ``optimal`` (:mod:`pipeline.optimal.commands`), ingest's converters
+(:mod:`pipeline.ingest.commands`) and ``surrogate train|evaluate|install`` (:mod:`surrogates.cli`, handed the
+builder's district handlers: that package may not import the pipeline). Every wing keeps its heavy imports
+inside the command that needs them, so ``districtgen --help`` and ``run`` stay light.
 """
 
 from __future__ import annotations
@@ -21,30 +25,24 @@ _EXTRA_OF = dict.fromkeys(("prefect", "pydantic", "fastapi", "pvlib", "pyarrow",
 
 
 def build_parser() -> argparse.ArgumentParser:
-    # the feature areas load here, inside main's try: one a missing extra breaks is one line naming the extra
+    """The ``districtgen`` parser: every wing's sub-commands."""
+    # the wings load here, inside main's try: one a missing extra breaks is one line naming the extra
+    from pipeline import commands as environment_commands
     from pipeline import select as stock_selection
-    from pipeline.commands import register, register_surrogate_install
+    from pipeline.builder import commands as builder_commands
     from pipeline.ingest import commands as ingest_commands
-    from pipeline.optimal import cli as optimal_commands
+    from pipeline.optimal import commands as optimal_commands
+    from pipeline.paper import commands as paper_commands
     from surrogates import cli as surrogate_commands
 
     parser = argparse.ArgumentParser(prog="districtgen", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True)
-    register(sub)
-    stock_selection.register(sub)
-    optimal_commands.register(sub)
-    ingest_commands.register(sub)
-    surrogate_sub = surrogate_commands.register(sub)
-    register_surrogate_install(surrogate_sub)
-    surrogate_sub.choices["evaluate"].set_defaults(judge_handler=_judge_command)
+    for wing in (environment_commands, builder_commands, paper_commands, stock_selection, optimal_commands,
+                 ingest_commands):
+        wing.register(sub)
+    surrogate_commands.register(sub, install=builder_commands.install_command,
+                                judge=builder_commands.judge_command)
     return parser
-
-
-def _judge_command(args: argparse.Namespace) -> int:
-    # the build (pydantic, torch, EnergyPlus): imported only when judging
-    from pipeline.builder.judge import judge_command
-
-    return judge_command(args)
 
 
 #: the arguments that name where a command writes, in the order they are looked for

@@ -1,10 +1,13 @@
-"""CLI sub-commands ``districtgen surrogate train|evaluate`` (each also a plain Python function)."""
+"""CLI sub-commands ``districtgen surrogate train|evaluate|install`` (train and evaluate also plain Python
+functions). ``install`` and ``evaluate --judge`` work on a built district, which is pipeline work this package
+may not import: :func:`register` takes their handlers from the caller (``districtgen``: pipeline.builder.commands)."""
 
 from __future__ import annotations
 
 import argparse
 import json
 import os
+from collections.abc import Callable
 from pathlib import Path
 
 from citylearn_env.errors import InputError
@@ -93,11 +96,10 @@ def _evaluate_command(args: argparse.Namespace) -> int:
     from surrogates.evaluate import month_table  # torch: the CLI builds its parser without it
 
     if args.judge:
-        handler = getattr(args, "judge_handler", None)
-        if handler is None:
+        if args.judge_handler is None:
             raise InputError("--judge needs the district pipeline: install districtgen[pipeline,energyplus]",
                              column="--judge")
-        return handler(args)
+        return args.judge_handler(args)
     if args.table is None:
         raise InputError("give an ILV table, or --judge CONFIG to score against a fresh EnergyPlus run",
                          column="table")
@@ -114,9 +116,20 @@ def _evaluate_command(args: argparse.Namespace) -> int:
     return 0
 
 
-def register(subparsers: argparse._SubParsersAction) -> argparse._SubParsersAction:
-    """Add the surrogate sub-commands to ``districtgen``; returns their sub-parsers (the pipeline adds
-    ``surrogate install`` there and the ``evaluate --judge`` handler: a district's houses are pipeline work)."""
+#: a sub-command's handler: parsed arguments -> exit status
+Handler = Callable[[argparse.Namespace], int]
+
+
+def _needs_the_pipeline(args: argparse.Namespace) -> int:
+    raise InputError("surrogate install needs the district pipeline: install districtgen[pipeline]",
+                     column="install")
+
+
+def register(subparsers: argparse._SubParsersAction, *, install: Handler | None = None,
+             judge: Handler | None = None) -> None:
+    """Add ``surrogate train|evaluate|install`` to ``districtgen``. ``install`` runs ``surrogate install`` and
+    ``judge`` runs ``surrogate evaluate --judge`` (both on a built district: pipeline work, given by the caller;
+    None: the command says it needs the pipeline)."""
     parser = subparsers.add_parser("surrogate", help="train or evaluate an LSTM indoor-temperature surrogate")
     sub = parser.add_subparsers(dest="surrogate_command", required=True)
     defaults = TrainConfig()
@@ -160,5 +173,13 @@ def register(subparsers: argparse._SubParsersAction) -> argparse._SubParsersActi
                                   "from its metrics record; all: every month)")
     eval_parser.add_argument("--plot", help="PNG of prediction vs simulation (default: <model>.evaluate.png)")
     eval_parser.add_argument("--json", action="store_true", help="print the metrics as JSON instead")
-    eval_parser.set_defaults(func=_evaluate_command)
-    return sub
+    eval_parser.set_defaults(func=_evaluate_command, judge_handler=judge)
+    install_parser = sub.add_parser(
+        "install", help="put a retrained model into a built district (checked, validated, manifest rewritten)")
+    install_parser.add_argument("district", type=Path, help="a built district folder (with manifest.json)")
+    install_parser.add_argument("building", help="the schema building to replace the model of, e.g. Building_1")
+    install_parser.add_argument("model", type=Path, help="<name>.pth written by 'surrogate train' (dynamics JSON "
+                                                         "beside it), or its folder")
+    install_parser.add_argument("--force", action="store_true",
+                                help="install even when the district no longer matches its manifest")
+    install_parser.set_defaults(func=install or _needs_the_pipeline)

@@ -13,7 +13,7 @@ Steps (inputs -> in-memory tables -> outputs)::
     surrogate_files   ILV table (or EnergyPlus inputs) -> trained LSTM files and the training table, through the
                       surrogate cache; a house's judge through the judgement cache (per building; see
                       pipeline.builder.cache)
-    schema_dict       -> schema.json;  validate_district -> report/;  write_manifest -> manifest.json
+    schema_dict       -> schema.json;  validate_district -> write_report -> report/;  write_manifest -> manifest.json
 
 Tables are ``pandas.DataFrame`` of internal (v2.2) column names, one row per hour from ``period.start``
 00:00 (local standard time; row 0 is CityLearn hour 1); they are written with
@@ -46,7 +46,7 @@ from pipeline.builder.manifest import (
     write_manifest,
     write_timings,
 )
-from pipeline.builder.report import append_building_report
+from pipeline.builder.report import SelectionSummary, district_report, write_report
 from pipeline.builder.staging import staging
 from pipeline.builder.steps import (
     Signals,
@@ -146,12 +146,14 @@ def run_build(config: BuildConfig, output_root: str | Path = "artifacts", runner
             selection.chosen.assign(building=names).to_csv(out / "selection.csv", index=False)
         started = time.perf_counter()
         progress.stage("validate")
-        validate_district(schema_path, out / "report", config.name, schema)
+        validation = validate_district(schema_path)
         progress.end("validate")
-        append_building_report(out / "report" / "summary.md", buildings, selection)
+        chosen = SelectionSummary.of(selection) if selection is not None else None
+        write_report(out / "report", district_report(out, config.name, schema, validation, chosen))
         timings["validate"] = time.perf_counter() - started
         write_manifest(out, config, {n: trained[n].key for n in cache_use},
-                       {n: trained[n].judge_key for n in cache_use if trained[n].judge_key is not None})
+                       {n: trained[n].judge_key for n in cache_use if trained[n].judge_key is not None},
+                       selection=chosen.to_json() if chosen is not None else None)
         write_timings(out, config, timings, cache_use, precision)
         make_world_readable(out)
     return Path(output_root) / config.name

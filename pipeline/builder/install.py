@@ -10,11 +10,12 @@ import datetime as dt
 import json
 import os
 import shutil
-import tempfile
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
+
+import pandas as pd
 
 from pipeline.builder.manifest import (
     MANIFEST,
@@ -28,6 +29,7 @@ from pipeline.builder.manifest import (
     write_json_file,
     write_sidecar,
 )
+from pipeline.builder.report import SelectionSummary, district_report, write_report
 from pipeline.builder.staging import (
     at_step,
     check_no_links,
@@ -159,22 +161,29 @@ def replace_file(path: Path, data: bytes) -> None:
     write_new_file(path, data)
 
 
-def revalidate(folder: Path, name: str, schema: dict) -> None:
-    """Run the district validation (no control + the cost RBC) and replace ``report/`` with its report,
-    keeping the old summary's sections from ``## Buildings`` on (the build appends them)."""
+def revalidate(folder: Path, name: str, schema: dict, manifest: Mapping[str, Any]) -> None:
+    """Run the district validation (no control + the cost RBC + the oracle) and write ``report/`` anew from what
+    the district holds, as its build does (:func:`pipeline.builder.report.write_report`): the selection from
+    the ``manifest`` (:func:`recorded_selection`)."""
+    validation = validate_district(folder / "schema.json")
+    shutil.rmtree(folder / "report", ignore_errors=True)
+    write_report(folder / "report", district_report(folder, name, schema, validation,
+                                                    recorded_selection(folder, manifest)))
 
 
-    summary = folder / "report" / "summary.md"
-    old = summary.read_text() if summary.is_file() else ""
-    tail = old[old.index("\n## Buildings"):] if "\n## Buildings" in old else ""
-    with tempfile.TemporaryDirectory(prefix="districtgen_install_") as scratch:
-        report = Path(scratch) / "report"
-        validate_district(folder / "schema.json", report, name, schema)
-        shutil.rmtree(folder / "report", ignore_errors=True)
-        shutil.copytree(report, folder / "report")
-    if tail:
-        with open(summary, "a") as handle:
-            handle.write(tail if tail.endswith("\n") else tail + "\n")
+def recorded_selection(folder: Path, manifest: Mapping[str, Any]) -> SelectionSummary | None:
+    """The district's k-means selection as its manifest records it (``selection``); for a district built
+    before the manifest held it, the k of ``selection.csv`` without the validity indices; None: the buildings
+    were listed."""
+    if isinstance(manifest.get("selection"), Mapping):
+        return SelectionSummary.from_json(manifest["selection"])
+    table = folder / "selection.csv"
+    if not table.is_file():
+        return None
+    try:
+        return SelectionSummary(int(pd.read_csv(table)["k"].iloc[0]))
+    except (OSError, ValueError, KeyError, IndexError) as error:
+        raise InputError(f"cannot read the selection's k: {error}", file=table, column="k") from None
 
 
 def install_surrogate(district: str | os.PathLike, building: str, model: str | os.PathLike, *,
@@ -227,7 +236,7 @@ def install_into(folder: Path, work: Path, building: str, files: ModelFiles, sch
         at_step("place model")
         seconds = place_model(work, building, files, schema, block)
         at_step("revalidate")
-        revalidate(work, manifest.get("district") or folder.name, schema)
+        revalidate(work, manifest.get("district") or folder.name, schema, manifest)
         manifest["outputs"] = output_hashes(work)
         manifest.setdefault("surrogate_cache", {})[building] = {"key": None, "installed": files.pth.name,
                                                               "sha256": sha256_file(files.pth)}

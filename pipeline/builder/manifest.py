@@ -8,8 +8,9 @@ A district folder holds two record files:
   the build read (weather, tariff, fuel mix, stock / characteristics file, EULP files, ILV tables of
   ``surrogate.source = "csv"``, the FMU) and of every artifact (building timeseries, weather, pricing,
   carbon, schema, surrogates and their training tables, report, selection, ...), package versions, seeds and
-  each building's surrogate cache key (and, for a judged house, its judgement cache key). Two builds of the
-  same configuration write the same bytes.
+  each building's surrogate cache key (and, for a judged house, its judgement cache key) and, for a k-means
+  selection, its k and validity indices (``selection``: what the report shows, kept for ``surrogate install``'s
+  rewrite of it). Two builds of the same configuration write the same bytes.
 * ``timings.json`` -- what only this run knows: seconds per stage, the surrogates' training seconds (taken
   out of their ``.metrics.json``), surrogate and judgement cache hits, where the configuration file and the
   cache were. It differs between two builds, so the manifest does not hash it.
@@ -181,16 +182,19 @@ def write_json_file(path: Path, data: Mapping[str, Any]) -> Path:
 
 
 def manifest_document(out: Path, config: BuildConfig, surrogate_keys: Mapping[str, str | None] | None = None,
-                      judge_keys: Mapping[str, str] | None = None) -> dict[str, Any]:
+                      judge_keys: Mapping[str, str] | None = None,
+                      selection: Mapping[str, Any] | None = None) -> dict[str, Any]:
     """The manifest of the district in ``out`` (see the module docstring); deterministic. ``surrogate_keys``:
-    each building's surrogate cache key; ``judge_keys``: each judged house's judgement cache key."""
+    each building's surrogate cache key; ``judge_keys``: each judged house's judgement cache key; ``selection``:
+    the k-means selection's k and validity indices (:class:`pipeline.builder.report.SelectionSummary`, for the
+    report a ``surrogate install`` rewrites; None: the buildings were listed)."""
     return {"district": config.name, "config": portable_config(config), "inputs": input_hashes(config),
             "outputs": output_hashes(out), "versions": {d: package_version(d) for d in VERSIONED},
             "python": platform.python_version(),
             "seeds": {"build": config.seed, "surrogate": config.surrogate.seed},
             "surrogate_cache": {name: surrogate_cache_entry(key, (judge_keys or {}).get(name))
                                 for name, key in (surrogate_keys or {}).items()},
-            "run_record": TIMINGS}
+            "run_record": TIMINGS, **({"selection": dict(selection)} if selection is not None else {})}
 
 
 def surrogate_cache_entry(key: str | None, judge_key: str | None = None) -> dict[str, str | None]:
@@ -200,10 +204,10 @@ def surrogate_cache_entry(key: str | None, judge_key: str | None = None) -> dict
 
 
 def write_manifest(out: Path, config: BuildConfig, surrogate_keys: Mapping[str, str | None] | None = None,
-                   judge_keys: Mapping[str, str] | None = None) -> Path:
+                   judge_keys: Mapping[str, str] | None = None, selection: Mapping[str, Any] | None = None) -> Path:
     """Write ``out/manifest.json`` (:func:`manifest_document`) and the sidecar (:func:`write_sidecar`);
     returns the manifest's path."""
-    path = write_json_file(out / MANIFEST, manifest_document(out, config, surrogate_keys, judge_keys))
+    path = write_json_file(out / MANIFEST, manifest_document(out, config, surrogate_keys, judge_keys, selection))
     write_sidecar(out)
     return path
 

@@ -1,25 +1,31 @@
-"""The build report: ``report/summary.md`` (tables) and the PNG figures it shows (:mod:`pipeline.builder.report_figures`).
+"""The build report: ``report/summary.md`` (tables), ``kpis_<policy>.csv`` and the PNG figures the summary shows
+(:mod:`pipeline.builder.report_figures`), written once by :func:`write_report` from what the district holds
+(:class:`ReportInputs`: the schema, the validation's runs and oracle bounds, the surrogates' records,
+``buildings.json`` and the selection). Formatting only: the runs and the LPs are the validation's
+(:mod:`pipeline.builder.validate`).
 
 ``summary.md`` holds the devices the sizing chose, the surrogates' held-out fit, the no-control vs cost-RBC
 objectives (absolute units, district and per building), the oracle's bound on cost, emissions and average
-daily peak (:func:`oracle_bounds`: the perfect-foresight storage schedule of :mod:`pipeline.optimal`; one
-line saying why where it does not apply) and the district KPIs of ``kpis_<policy>.csv``
-(CityLearn's ``evaluate``: ratios to the no-storage baseline), then the figures. It holds no timings and no
-dates, so two builds of the same configuration write the same bytes.
+daily peak (the perfect-foresight storage schedule of :mod:`pipeline.optimal`; one line saying why where it
+does not apply), the district KPIs of ``kpis_<policy>.csv`` (CityLearn's ``evaluate``: ratios to the
+no-storage baseline), the figures, each building's heating device and set points, and the selection. It holds
+no timings and no dates, so two builds of the same configuration write the same bytes, and a district's report
+rewritten (``surrogate install``) is what a build of it would write.
 """
 
 from __future__ import annotations
 
 import json
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+import pandas as pd
 
 from pipeline.builder.report_figures import (
-    END_USES,
     POLICY_LABELS,
     heatmap_figure,
     load_figure,
@@ -29,55 +35,104 @@ from pipeline.builder.report_figures import (
     safe_name,
     temperature_figure,
 )
+from pipeline.builder.validate import ORACLE_BOUNDS, OracleBounds, Validation
 from pipeline.controllers import MISFIT_REASON, RULE_OBJECTIVES
 from pipeline.select import format_validity
 
-#: episode series the report needs (env.series() names), (B, T)
-SERIES = ("net_electricity_consumption", "solar_generation", "electricity_pricing", "carbon_intensity",
-          "indoor_dry_bulb_temperature", "indoor_dry_bulb_temperature_set_point", "outdoor_dry_bulb_temperature",
-          *(key for key, _, _ in END_USES))
-#: data columns the report needs for its calendar (env.data() names), (B, T)
-CALENDAR = ("hour", "month", "day_type")
 #: objective -> (unit, decimals) of :func:`citylearn_env.kpis.objectives`
 OBJECTIVES = {"cost": ("$", 2), "emissions": ("kg CO2", 1), "discomfort": ("degC h", 1),
               "consumption": ("kWh", 1), "average_daily_peak": ("kW", 3)}
 #: KPI name prefix -> unit of the KPI table (first match; else a ratio to the no-storage baseline)
 KPI_UNITS = (("discomfort_delta", "degC"), ("discomfort", "fraction of occupied hours"),
              ("one_minus_thermal_resilience", "fraction of outage hours"))
+#: the columns of a selection's validity table (pipeline.select.validity_table)
+VALIDITY = ("k", "sse", "calinski_harabasz", "silhouette", "davies_bouldin")
 
 
-def report_series(env: Any) -> dict[str, np.ndarray]:
-    """What the report needs of a finished episode of ``env`` (a CityLearnEnv): name -> (B, T) arrays."""
-    series = env.series()
-    return {**{k: series[k] for k in SERIES}, **{k: env.data(k) for k in CALENDAR}}
+@dataclass(frozen=True)
+class SelectionSummary:
+    """What the report shows of a k-means selection: the chosen ``k`` and the validity-index rows
+    (:data:`VALIDITY`; empty when the build did not record them). Its JSON form (:meth:`to_json`) is kept in
+    the district's ``manifest.json`` (``selection``), so a rewritten report shows it again."""
+
+    k: int
+    validity: tuple[Mapping[str, float], ...] = ()
+
+    @classmethod
+    def of(cls, selection: Any) -> SelectionSummary:
+        """From a :class:`pipeline.select.Selection`."""
+        rows = selection.validity[list(VALIDITY)].to_dict("records")
+        return cls(int(selection.chosen["k"].iloc[0]),
+                   tuple({key: int(row["k"]) if key == "k" else float(row[key]) for key in VALIDITY} for row in rows))
+
+    def to_json(self) -> dict[str, Any]:
+        return {"k": self.k, "validity": [dict(row) for row in self.validity]}
+
+    @classmethod
+    def from_json(cls, data: Mapping[str, Any]) -> SelectionSummary:
+        return cls(int(data["k"]), tuple(dict(row) for row in data.get("validity") or ()))
 
 
-def write_report(report_dir: Path, name: str, schema: dict, results: dict, surrogates_dir: Path,
-                 bounds: Mapping[str, Any] | None = None) -> Path:
-    """Write ``summary.md`` and its figures into ``report_dir``; return the summary's path.
+@dataclass(frozen=True)
+class ReportInputs:
+    """Everything the report shows: the district ``name`` and ``schema`` (dict), the :class:`Validation`, the
+    surrogates' ``*.metrics.json`` records (sorted by file name; none without surrogates), the buildings' notes
+    (``buildings.json``; None: no Buildings section) and the selection (None: the buildings were listed)."""
 
-    ``results``: policy ("no_control", "cost_rbc") -> {"objectives": name -> float, "per_building": name ->
-    (B,) array (:func:`citylearn_env.kpis.objectives`), "kpis": the KPI table (cost_function, value, name,
-    level), "series": :func:`report_series` of the finished episode}; ``bounds``: the oracle's
-    (:func:`oracle_bounds`; None: no oracle section).
-    """
-    buildings = included_buildings(schema)
-    series = {p: r["series"] for p, r in results.items()}
-    steps = next(iter(series.values()))["net_electricity_consumption"].shape[1]
-    lines = [f"# District {name}", "",
+    name: str
+    schema: Mapping[str, Any]
+    validation: Validation
+    surrogates: Sequence[Mapping[str, Any]] = ()
+    buildings: Mapping[str, Mapping[str, Any]] | None = None
+    selection: SelectionSummary | None = None
+
+
+def district_report(folder: Path, name: str, schema: Mapping[str, Any], validation: Validation,
+                    selection: SelectionSummary | None) -> ReportInputs:
+    """The report's inputs of the district in ``folder``: its surrogates' records (``surrogates/``) and
+    ``buildings.json`` read from there, with the ``schema`` (dict), ``validation`` and ``selection`` given."""
+    notes = folder / "buildings.json"
+    buildings = json.loads(notes.read_text()) if notes.is_file() else None
+    return ReportInputs(name, schema, validation, read_surrogate_metrics(folder / "surrogates"), buildings,
+                        selection)
+
+
+def write_report(report_dir: Path, inputs: ReportInputs) -> Path:
+    """Write ``kpis_<policy>.csv``, every figure and ``summary.md`` into ``report_dir`` (created); return the
+    summary's path."""
+    report_dir.mkdir(parents=True, exist_ok=True)
+    runs = inputs.validation.runs
+    for policy, run in runs.items():
+        run.kpis.to_csv(report_dir / f"kpis_{policy}.csv", index=False)
+    buildings = included_buildings(inputs.schema)
+    figures = write_figures(report_dir, buildings, {p: r.series for p, r in runs.items()})
+    path = report_dir / "summary.md"
+    path.write_text(summary_text(inputs, figures))
+    return path
+
+
+def summary_text(inputs: ReportInputs, figures: list[tuple[str, str, str]]) -> str:
+    """``summary.md``: the tables of ``inputs`` and the links of ``figures`` ((section, caption, file name),
+    :func:`write_figures`)."""
+    buildings = included_buildings(inputs.schema)
+    runs = inputs.validation.runs
+    objectives = {p: r.objectives for p, r in runs.items()}
+    steps = next(iter(runs.values())).series["net_electricity_consumption"].shape[1]
+    lines = [f"# District {inputs.name}", "",
              f"{len(buildings)} buildings, {steps} hourly time steps; each policy runs once over the period with "
              "the heat pumps serving the ideal load (pipeline/controllers.py).", ""]
-    lines += sizing_table(schema, buildings)
-    lines += surrogate_table(read_surrogate_metrics(surrogates_dir))
-    lines += objectives_table({p: r["objectives"] for p, r in results.items()})
-    if bounds is not None:
-        lines += oracle_table(bounds, {p: r["objectives"] for p, r in results.items()})
-    lines += building_objectives_table({p: r["per_building"] for p, r in results.items()}, buildings)
-    lines += kpi_table({p: r["kpis"] for p, r in results.items()})
-    lines += figure_section(write_figures(report_dir, buildings, series))
-    path = report_dir / "summary.md"
-    path.write_text("\n".join(lines) + "\n")
-    return path
+    lines += sizing_table(inputs.schema, buildings)
+    lines += surrogate_table(list(inputs.surrogates))
+    lines += objectives_table(objectives)
+    lines += oracle_table(inputs.validation.oracle, objectives)
+    lines += building_objectives_table({p: r.per_building for p, r in runs.items()}, buildings)
+    lines += kpi_table({p: r.kpis for p, r in runs.items()})
+    lines += figure_section(figures)
+    if inputs.buildings is not None:
+        lines += building_section(inputs.buildings)
+    if inputs.selection is not None:
+        lines += selection_section(inputs.selection)
+    return "\n".join(lines) + "\n"
 
 
 def included_buildings(schema: Mapping[str, Any]) -> list[str]:
@@ -214,57 +269,27 @@ def rule_misfits(objectives: Mapping[str, Mapping[str, float]]) -> list[str]:
     return out
 
 
-#: the oracle bounds of the report: objective (pipeline.optimal.objectives) -> (label, unit, decimals)
-ORACLE_BOUNDS = {"cost": ("cost", "$", 2), "emissions": ("emissions", "kg CO2", 1),
-                 "average_daily_peak": ("average daily peak", "kW", 3)}
-
-
-def oracle_bounds(district: Any, seed: int = 0, env: Any = None) -> dict[str, Any]:
-    """The perfect-foresight optimum of ``district``'s storage (a loaded DistrictConfig) for each objective of
-    :data:`ORACLE_BOUNDS`, over the episode the report's policies run (heat pumps serving the ideal load):
-    {"bounds": objective -> {"bound", "no_control"} [the objective's unit], "storages": count} or, when the
-    oracle does not apply, {"reason": one line}. ``env``: the report's no-control env of ``district`` (reset
-    and reused; default: a new one). The cost and emission LPs are per building; the peak is one LP for the
-    district, the slowest (one-month 6-building default district on a shared 2-core AMD EPYC: cost 0.5 s,
-    emissions 0.5 s, peak 3.1 s)."""
-    from citylearn_env import CityLearnEnv
-    from pipeline.controllers import without_device_actions
-    from pipeline.errors import InputError
-    from pipeline.optimal.oracle import oracle
-    from pipeline.optimal.solver import SolveError
-
-    try:
-        env = env if env is not None else CityLearnEnv(without_device_actions(district))
-        env.reset(seed=seed)
-        solved = {k: oracle(env, k) for k in ORACLE_BOUNDS}
-    except (InputError, SolveError) as error:
-        return {"reason": str(error).splitlines()[0]}
-    storages = len(next(iter(solved.values())).schedule.storages)
-    return {"storages": storages,
-            "bounds": {k: {"bound": o.value, "no_control": o.baseline[k]} for k, o in solved.items()}}
-
-
-def oracle_table(bounds: Mapping[str, Any], objectives: Mapping[str, Mapping[str, float]]) -> list[str]:
+def oracle_table(bounds: OracleBounds, objectives: Mapping[str, Mapping[str, float]]) -> list[str]:
     """The oracle's bound per objective next to each policy's value (``objectives``: policy -> name -> value),
     with the share of the bound's saving each policy captures; one line with the reason where the oracle does
     not apply."""
     head = ["## Oracle bound (perfect-foresight storage schedule)", ""]
-    if "reason" in bounds:
-        return [*head, f"No oracle bound: {bounds['reason']}", ""]
+    if bounds.reason is not None:
+        return [*head, f"No oracle bound: {bounds.reason}", ""]
     policies = list(objectives)
     rows = []
     for key, (label, unit, decimals) in ORACLE_BOUNDS.items():
-        found = bounds["bounds"][key]
-        base = objectives.get("no_control", {}).get(key, found["no_control"])
+        found = bounds.bounds[key]
+        base = objectives.get("no_control", {}).get(key, found.no_control)
         values = [objectives[p][key] for p in policies]
-        rows.append([label, unit, *(f"{v:.{decimals}f}" for v in values), f"{found['bound']:.{decimals}f}",
-                     _change(found["bound"], base),
-                     *(_captured(base, v, found["bound"]) for p, v in zip(policies, values, strict=True)
+        rows.append([label, unit, *(f"{v:.{decimals}f}" for v in values), f"{found.bound:.{decimals}f}",
+                     _change(found.bound, base),
+                     *(_captured(base, v, found.bound) for p, v in zip(policies, values, strict=True)
                        if p != "no_control")])
     labels = [POLICY_LABELS.get(p, p) for p in policies]
     header = ["objective", "unit", *labels, "oracle bound", "oracle vs no control",
               *(f"{POLICY_LABELS.get(p, p)}: share of the oracle's saving" for p in policies if p != "no_control")]
-    return [*head, f"The lowest value each objective can reach by scheduling the {bounds['storages']} storages "
+    return [*head, f"The lowest value each objective can reach by scheduling the {bounds.storages} storages "
             "(DHW tanks, batteries) alone, with perfect knowledge of the period (pipeline/optimal, "
             "docs/controllers.md); one schedule per objective. Share = (no control - policy) / (no control - "
             "oracle).", "", *_table(header, rows), ""]
@@ -343,8 +368,9 @@ def figure_section(figures_written: list[tuple[str, str, str]]) -> list[str]:
     return lines[:-1]
 
 
-def append_building_report(summary: Path, buildings: Mapping[str, dict], selection: Any) -> None:
-    """Append the buildings' heating devices, set-point repairs and the selection to ``report/summary.md``."""
+def building_section(buildings: Mapping[str, Mapping[str, Any]]) -> list[str]:
+    """The buildings' stock heating, heating device [kW], demands [kWh], set points [degC] and set-point
+    repairs, from their notes (``buildings.json``), after a blank line."""
     lines = ["", "## Buildings", "",
              "| building | bldg_id | stock heating | heating device | kW | heating / cooling demand kWh | "
              "set points degC (heat / cool) | set-point hours repaired |", "|---|---|---|---|---|---|---|---|"]
@@ -361,10 +387,14 @@ def append_building_report(summary: Path, buildings: Mapping[str, dict], selecti
     if any(b.get("set_point_hours_repaired") for b in buildings.values()):
         lines += ["", "Repaired set points: where the stock's heating set point is at or above its cooling set "
                       "point (EnergyPlus refuses it), both move to their mean -/+ 0.5 K."]
-    if selection is not None:
+    return lines
 
-        k = int(selection.chosen["k"].iloc[0])
-        lines += ["", f"## Selection (k = {k}, one building per k-means cluster)", "", "```",
-                  format_validity(selection.validity, k), "```"]
-    with open(summary, "a") as handle:
-        handle.write("\n".join(lines) + "\n")
+
+def selection_section(selection: SelectionSummary) -> list[str]:
+    """The selection's k and its validity-index table (:func:`pipeline.select.format_validity`), after a blank
+    line."""
+    lines = ["", f"## Selection (k = {selection.k}, one building per k-means cluster)", ""]
+    if not selection.validity:
+        return [*lines, "Validity indices: not recorded by the build."]
+    table = pd.DataFrame(list(selection.validity), columns=list(VALIDITY))
+    return [*lines, "```", format_validity(table, selection.k), "```"]

@@ -1,6 +1,6 @@
 """The build report's figures: one PNG each, readable for a week and for a year, byte-identical on a rebuild.
 
-Every figure is drawn from the episode series of :func:`pipeline.builder.report.report_series` (name -> (B, T) arrays,
+Every figure is drawn from the episode series of :func:`pipeline.builder.validate.report_series` (name -> (B, T) arrays,
 kWh per 1-h step = kW, temperatures degC, price $/kWh, carbon intensity kg CO2/kWh, ``hour`` 1..24
 hour-ending, ``day_type`` 1..7 Monday..Sunday and 8 holiday). Days are the blocks that start at hour 1
 (00:00-01:00); a period that starts mid-day has a short first day. Two views of time are used everywhere:

@@ -6,10 +6,11 @@ Modules: ``plant`` reads the env's storage problem (typed config + episode serie
 their fixed point and assembles the schedule, ``replay`` runs a schedule in the env, ``objectives`` defines the
 objectives, ``mpc`` plans over a moving horizon (``forecasts``: what a controller could know ahead; ``window``: the
 plant of one horizon, from forecasts), ``surrogate`` plans heat pumps through the LSTM by sampling (``snapshot``:
-copies of the env's state for rollouts), ``command`` is the CLI entry point :func:`optimal`.
+copies of the env's state for rollouts), ``optimum`` is the oracle (and MPC) as one call, :func:`optimal`, and
+``commands`` registers ``districtgen optimal``.
 """
 
-from pipeline.optimal.command import Result, optimal, write_schedule
+from pipeline.optimal.optimum import Result, optimal, write_schedule
 
 # the other entry points keep their module's path (pipeline.optimal.oracle.oracle, .replay.replay, .mpc.mpc):
 # re-exporting a function under its module's name would hide the module

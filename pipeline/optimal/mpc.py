@@ -41,7 +41,7 @@ SOLVES_PER_STEP = 2
 class MpcRun:
     """An MPC episode: the env's ``objectives``, the ``horizon`` [steps], LP ``solves``, wall ``seconds``, the
     ``forecast`` used and the ``schedule`` it applied (the actions sent to the env and the states of charge and
-    nets the env reported, in the oracle's layout: :func:`pipeline.optimal.command.write_schedule` writes it)."""
+    nets the env reported, in the oracle's layout: :func:`pipeline.optimal.optimum.write_schedule` writes it)."""
 
     objectives: Mapping[str, float]
     horizon: int

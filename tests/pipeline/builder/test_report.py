@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import re
+import shutil
 import struct
 from datetime import date
 from pathlib import Path
@@ -13,7 +14,15 @@ import pandas as pd
 import pytest
 
 from pipeline.builder.driver import build_district_local
-from pipeline.builder.report import objectives_table, rule_misfits
+from pipeline.builder.install import revalidate
+from pipeline.builder.report import (
+    SelectionSummary,
+    district_report,
+    objectives_table,
+    rule_misfits,
+    selection_section,
+    write_report,
+)
 from pipeline.builder.report_figures import day_hour_matrix, parse_calendar, peak_week, price_bands, runs
 from pipeline.builder.validate import validate_district
 from pipeline.config import read_build_config
@@ -143,15 +152,37 @@ def test_no_control_objectives_by_hand_from_the_emitted_files(small_build):
 
 
 def test_a_second_report_has_the_same_bytes(small_build, tmp_path):
-    validate_district(small_build / "schema.json", tmp_path, "default")
+    """The report rewritten from what the district holds (what ``surrogate install`` does) is the build's,
+    byte for byte, its Buildings section included (written once, not appended)."""
+    schema = json.loads((small_build / "schema.json").read_text())
+    validation = validate_district(small_build / "schema.json")
+    write_report(tmp_path, district_report(small_build, small_build.name, schema, validation, None))
     first = small_build / "report"
     written = sorted(p.name for p in tmp_path.iterdir())
-    assert set(FIGURES) | {"summary.md"} <= set(written)
+    assert sorted(p.name for p in first.iterdir()) == written
+    assert set(FIGURES) | {"summary.md", "kpis_no_control.csv", "kpis_cost_rbc.csv"} <= set(written)
     for name in written:
-        again, built = (tmp_path / name).read_bytes(), (first / name).read_bytes()
-        if name == "summary.md":                                       # the build appends its Buildings
-            built = built[:built.index(b"\n\n## Buildings") + 1]
-        assert again == built, name
+        assert (tmp_path / name).read_bytes() == (first / name).read_bytes(), name
+    summary = (first / "summary.md").read_text()
+    assert summary.count("## Buildings") == 1 and summary.index("## Figures") < summary.index("## Buildings")
+    assert "## Selection" not in summary                              # the fixture lists its buildings
+
+
+def test_the_selection_section_from_its_record():
+    """A selection's k and validity rows, through the manifest's JSON and back, as pipeline.select prints
+    them (NaN where an index is undefined)."""
+    record = SelectionSummary(3, ({"k": 2, "sse": 9.5, "calinski_harabasz": 4.0, "silhouette": float("nan"),
+                                   "davies_bouldin": 1.25},
+                                  {"k": 3, "sse": 4.729, "calinski_harabasz": 4.84321, "silhouette": 0.2189,
+                                   "davies_bouldin": 1.0211}))
+    again = SelectionSummary.from_json(json.loads(json.dumps(record.to_json())))
+    lines = selection_section(again)
+    assert lines[:3] == ["", "## Selection (k = 3, one building per k-means cluster)", ""]
+    assert lines[3] == lines[5] == "```" and len(lines) == 6
+    table = [row.split() for row in lines[4].split("\n")]
+    assert table == [["k", "SSE", "Calinski-H", "silhouette", "Davies-B"],
+                     ["2", "9.5000", "4.0000", "nan", "1.2500"], ["3*", "4.7290", "4.8432", "0.2189", "1.0211"]]
+    assert selection_section(SelectionSummary(6))[-1] == "Validity indices: not recorded by the build."
 
 
 def test_calendar_days_heat_map_and_peak_week_by_hand():
@@ -204,3 +235,31 @@ def test_a_rule_that_raises_its_own_objective_is_named_once():
     assert len(notes) == 1 and "cost RBC raises cost by +2.0 %" in notes[0]
     objectives["cost_rbc"]["cost"] = 99.0
     assert rule_misfits(objectives) == []
+
+
+def test_install_rewrites_the_report_as_the_build_wrote_it(small_build, tmp_path):
+    """``surrogate install``'s rewrite (install.revalidate): every report file anew from what the district holds,
+    the selection from the manifest's record (the default district's, rendered as its baseline build printed
+    it), or, for a district built before the manifest held it, the k of selection.csv; nothing of the old
+    summary is kept."""
+    district = tmp_path / small_build.name
+    shutil.copytree(small_build, district)
+    (district / "report" / "summary.md").write_text("# stale\n\n## Buildings\n\nold rows\n")
+    schema = json.loads((district / "schema.json").read_text())
+    record = {"k": 6, "validity": [{"k": 6, "sse": 4.729027996008899, "calinski_harabasz": 4.843162756110561,
+                                    "silhouette": 0.218913619305749, "davies_bouldin": 1.0210800613239492}]}
+    revalidate(district, small_build.name, schema, {"selection": record})
+    built = (small_build / "report" / "summary.md").read_text()
+    selection = ("\n## Selection (k = 6, one building per k-means cluster)\n\n```\n"
+                 "   k        SSE  Calinski-H  silhouette  Davies-B\n"
+                 "  6*     4.7290      4.8432      0.2189    1.0211\n```\n")
+    assert (district / "report" / "summary.md").read_text() == built + selection
+    for path in (small_build / "report").iterdir():
+        if path.name != "summary.md":
+            assert (district / "report" / path.name).read_bytes() == path.read_bytes(), path.name
+
+    pd.DataFrame({"bldg_id": [7, 9], "cluster": [0, 1], "k": [2, 2],
+                  "building": list(BUILDINGS)}).to_csv(district / "selection.csv", index=False)
+    revalidate(district, small_build.name, schema, {})
+    assert (district / "report" / "summary.md").read_text() == built + (
+        "\n## Selection (k = 2, one building per k-means cluster)\n\nValidity indices: not recorded by the build.\n")

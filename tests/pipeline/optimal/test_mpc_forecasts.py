@@ -13,8 +13,8 @@ from citylearn_env.example import write_example_district
 from pipeline.controllers import run_policy
 from pipeline.errors import InputError
 from pipeline.optimal import forecasts
-from pipeline.optimal.command import district
 from pipeline.optimal.mpc import mpc
+from pipeline.optimal.optimum import district
 from pipeline.optimal.plant import plant_from_env
 from pipeline.optimal.window import forecast_plant, horizon_plant
 

@@ -11,8 +11,8 @@ from citylearn_env.example import write_example_district
 from pipeline.controllers import run_policy
 from pipeline.optimal import lp
 from pipeline.optimal import objectives as obj
-from pipeline.optimal.command import district, optimal
 from pipeline.optimal.mpc import mpc
+from pipeline.optimal.optimum import district, optimal
 from pipeline.optimal.plant import plant_from_env
 from pipeline.optimal.window import horizon_plant
 

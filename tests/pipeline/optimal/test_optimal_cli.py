@@ -10,7 +10,7 @@ from citylearn_env import CityLearnEnv
 from citylearn_env.example import write_example_district
 from pipeline.cli import main
 from pipeline.controllers import run_episode
-from pipeline.optimal.command import district
+from pipeline.optimal.optimum import district
 from tests.conftest import SHARED, need_shared
 
 pytest.importorskip("highspy")

@@ -9,8 +9,8 @@ from citylearn_env import CityLearnEnv
 from citylearn_env.example import write_example_district
 from pipeline.controllers import run_policy
 from pipeline.errors import InputError
-from pipeline.optimal.command import district, optimal
 from pipeline.optimal.mpc import mpc
+from pipeline.optimal.optimum import district, optimal
 
 
 @pytest.fixture(scope="module")

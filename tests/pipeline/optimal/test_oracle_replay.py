@@ -19,7 +19,7 @@ from citylearn_env.example import write_example_district
 from citylearn_env.settings import CORRECTED, PRESETS
 from pipeline.controllers import run_policy
 from pipeline.errors import InputError
-from pipeline.optimal.command import district, optimal
+from pipeline.optimal.optimum import district, optimal
 from pipeline.optimal.oracle import oracle
 from pipeline.optimal.plant import UNSUPPORTED_SETTINGS
 from pipeline.optimal.replay import replay

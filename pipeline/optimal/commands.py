@@ -1,5 +1,5 @@
 """``districtgen optimal SCHEMA``: the perfect-foresight bound of a district's storage, printed, and its schedule
-written as CSV (:func:`pipeline.optimal.command.optimal`); with ``--mpc``, receding-horizon MPC beside it (its
+written as CSV (:func:`pipeline.optimal.optimum.optimal`); with ``--mpc``, receding-horizon MPC beside it (its
 actions written instead). The parser loads nothing heavy (HiGHS loads when
 the command runs)."""
 
@@ -66,7 +66,7 @@ def parse_objective(terms: list[str]) -> str | dict[str, float]:
 
 def optimal_command(args: argparse.Namespace) -> int:
     from pipeline.errors import InputError
-    from pipeline.optimal.command import optimal
+    from pipeline.optimal.optimum import optimal
 
     if args.workers < 1:
         raise InputError("--workers N needs N >= 1", column="--workers")
