@@ -21,8 +21,8 @@ import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
-from surrogates.energyplus.ilv import ILVConfig
-from surrogates.energyplus.runner import find_energyplus
+from surrogates.energyplus.engine import find_energyplus
+from surrogates.energyplus.ilv_runs import ILVConfig
 from surrogates.sources.energyplus import energyplus_ilv_table
 
 ROW = {"bldg_id": 1, "in.sqft": 1900, "in.geometry_stories": "2", "in.vintage": "1990s",

@@ -228,12 +228,12 @@ def _district_houses(config, district: Path | None) -> list[tuple[str, int]]:
 def _ideal_loads(config, row: dict, run_period, year: int, schedule_seed: int = 0) -> tuple[pd.DataFrame, object]:
     """One EnergyPlus ideal-loads pass of a stock row (the build's house model and timestep; the build's
     schedules at ``schedule_seed`` 0, other draws of the same method otherwise): (hourly loads of
-    :func:`surrogates.energyplus.ilv.hourly_loads`, the house parameters)."""
+    :func:`surrogates.energyplus.ilv_runs.hourly_loads`, the house parameters)."""
+    from surrogates.energyplus.engine import run_energyplus
     from surrogates.energyplus.epw import read_epw_ground_temperatures, read_epw_latitude, read_epw_mains_mean
     from surrogates.energyplus.house import build_house_model
-    from surrogates.energyplus.ilv import hourly_loads
+    from surrogates.energyplus.ilv_runs import hourly_loads
     from surrogates.energyplus.metadata import house_parameters_from_metadata
-    from surrogates.energyplus.runner import run_energyplus
     from surrogates.energyplus.sqlite import read_report_variables, read_zone_floor_areas
 
     epw = Path(config.inputs.weather)

@@ -39,7 +39,7 @@ says (:func:`aggregate_loads`):
 loads    ``cooling_demand`` / ``heating_demand``
 ======== ============================================================================================
 net      ``clip(cool - heat, 0)`` / ``clip(heat - cool, 0)``: at most one is > 0 in an hour (the default,
-         and the aggregation of our own houses' tables and emitted demands, :mod:`surrogates.energyplus.ilv`)
+         and the aggregation of our own houses' tables and emitted demands, :mod:`surrogates.energyplus.ilv_runs`)
 gross    sum of the zones' cooling / sum of the zones' heating (both can be > 0 in one hour: a kitchen
          cooled while the dining room is heated); an ablation: on the fast-food restaurant, the only suite
          house where it matters (14-27 % of hours), it trained worse surrogates (docs/surrogates.md)
@@ -66,9 +66,9 @@ import numpy as np
 import pandas as pd
 
 from citylearn_env.errors import InputError
+from surrogates.energyplus.engine import EnergyPlusError, find_energyplus, run_energyplus
 from surrogates.energyplus.epw import read_epw_ground_temperatures
-from surrogates.energyplus.ilv import ILVCheckError, write_replay_schedule
-from surrogates.energyplus.runner import EnergyPlusError, find_energyplus, run_energyplus
+from surrogates.energyplus.ilv_runs import ILVCheckError, write_replay_schedule
 from surrogates.energyplus.sqlite import area_weighted, read_report_variables, read_zone_floor_areas
 from surrogates.ilv import write_ilv
 from surrogates.sources.fmu import load_multipliers

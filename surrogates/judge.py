@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from surrogates.energyplus.ilv import ILVConfig, partial_runs_for
+from surrogates.energyplus.ilv_runs import ILVConfig, partial_runs_for
 
 #: monthly closed-loop RMSE bounds of a shipped surrogate against the judge [degC]
 MEDIAN_BOUND_C = 0.25

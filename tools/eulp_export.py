@@ -14,10 +14,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from surrogates.energyplus.engine import run_energyplus
 from surrogates.energyplus.epw import read_epw_ground_temperatures
 from surrogates.energyplus.house import build_house_model, zone_names
 from surrogates.energyplus.metadata import HouseParameters
-from surrogates.energyplus.runner import run_energyplus
 from surrogates.energyplus.sqlite import area_weighted, read_report_variables, read_zone_floor_areas
 
 KWH_PER_KBTU = 0.29307107017222

@@ -27,10 +27,10 @@ import numpy as np
 import pandas as pd
 
 from citylearn_env.errors import InputError
+from surrogates.energyplus.engine import find_energyplus
 from surrogates.energyplus.house import footprint
-from surrogates.energyplus.ilv import ILVConfig, generate_ilv
+from surrogates.energyplus.ilv_runs import ILVConfig, generate_ilv
 from surrogates.energyplus.metadata import FT2_TO_M2, house_parameters_from_metadata
-from surrogates.energyplus.runner import find_energyplus
 from surrogates.sources.energyplus import write_ilv_table
 from tools.eulp_export import simulate_eulp_timeseries
 from tools.synthetic_fuel_mix import write_synthetic_fuel_mix

@@ -183,7 +183,9 @@ def install_command(args: argparse.Namespace) -> int:
 
 
 def judge_command(args: argparse.Namespace) -> int:
-    """``surrogate evaluate MODEL --judge CONFIG``: :func:`pipeline.builder.judge.judge_command`."""
-    from pipeline.builder.judge import judge_command as judge  # the build (pydantic, torch, EnergyPlus)
+    """``surrogate evaluate MODEL --judge CONFIG``: :func:`pipeline.builder.judge_district.judge_command`."""
+    from pipeline.builder.judge_district import (
+        judge_command as judge,  # the build (pydantic, torch, EnergyPlus)
+    )
 
     return judge(args)

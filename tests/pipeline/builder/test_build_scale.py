@@ -26,7 +26,7 @@ def _benchmark():
 
 @pytest.mark.slow  # 2 EnergyPlus passes of June and 2 short trainings, twice the training
 def test_two_houses_on_a_two_process_dask_cluster_match_the_in_process_build(tmp_path):
-    from surrogates.energyplus.runner import find_energyplus
+    from surrogates.energyplus.engine import find_energyplus
 
     try:
         find_energyplus()

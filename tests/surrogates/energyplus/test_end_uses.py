@@ -13,16 +13,16 @@ from citylearn_env.errors import InputError
 from surrogates.energyplus.end_uses import END_USE_GROUPS, KWH_PER_MBTU, parse_end_uses
 from surrogates.energyplus.epw import MAINS_OFFSET_K, read_epw_mains_mean
 from surrogates.energyplus.house import build_house_model
-from surrogates.energyplus.house_schedules import (
+from surrogates.energyplus.metadata import HouseParameters, house_parameters_from_metadata
+from surrogates.energyplus.occupancy import daylight_days
+from surrogates.energyplus.occupant_schedules import EXTERIOR_HOURS, ScheduleTargets, generate_schedules
+from surrogates.energyplus.schedule_file import (
     HOT_WATER_USE_C,
     SCHEDULE_COLUMNS,
     WATER_KJ_PER_L_K,
     house_schedules,
     schedule_targets,
 )
-from surrogates.energyplus.metadata import HouseParameters, house_parameters_from_metadata
-from surrogates.energyplus.occupancy import daylight_days
-from surrogates.energyplus.schedules import EXTERIOR_HOURS, ScheduleTargets, generate_schedules
 
 ROOT = Path(__file__).resolve().parents[3]
 STOCK = ROOT / "raw" / "eulp" / "resstock_characteristics_100_dwellings.parquet"

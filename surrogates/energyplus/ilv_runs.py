@@ -41,6 +41,7 @@ import numpy as np
 import pandas as pd
 
 from surrogates.energyplus.csv_text import csv_text
+from surrogates.energyplus.engine import EnergyPlusError, run_energyplus
 from surrogates.energyplus.epw import (
     read_epw_ground_temperatures,
     read_epw_latitude,
@@ -49,7 +50,6 @@ from surrogates.energyplus.epw import (
 )
 from surrogates.energyplus.house import build_house_model, replay_column_names, zone_names
 from surrogates.energyplus.metadata import HouseParameters
-from surrogates.energyplus.runner import EnergyPlusError, run_energyplus
 from surrogates.energyplus.sqlite import area_weighted, read_report_variables, read_zone_floor_areas
 
 ILV_COLUMNS = ["reference", "timestamp", "month", "hour", "day_type", "direct_solar_irradiance",

