@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import json
 import os
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -21,6 +21,7 @@ from citylearn_env.dynamics import LSTMBank, LSTMSpec, read_pth_state_dict
 from citylearn_env.errors import InputError
 from citylearn_env.settings import CORRECTED
 from surrogates import model as lstm
+from surrogates.ilv import validate_ilv
 from surrogates.model import LSTMModel, Normalization
 from surrogates.train import Segment
 
@@ -152,6 +153,20 @@ def bank_rollout(pth: str | os.PathLike, block: dict, table: pd.DataFrame, segme
             "simulated": rows["indoor_dry_bulb_temperature"].to_numpy()[lookback:],
             "predicted": predicted[lookback:]}))
     return pd.concat(frames, ignore_index=True)
+
+
+def replay_test_rmse(pth: str | os.PathLike, block: dict, table: pd.DataFrame,
+                     test: Sequence[Mapping[str, int]]) -> tuple[float, int]:
+    """Closed-loop RMSE [degC] and hours of an exported model on the held-out test segments its metrics record
+    (``training.splits.test``: reference, start, stop rows of the validated table), run by the environment's
+    runtime (:func:`bank_rollout`): the model's behaviour recomputed, not its recorded metrics copied."""
+    segments = [Segment(int(s["reference"]), int(s["start"]), int(s["stop"])) for s in test]
+    if not segments or any(not 0 <= s.start < s.stop <= len(table) for s in segments):
+        raise InputError("the model's recorded test segments do not fit the house's ILV table",
+                         column="training.splits.test")
+    hours = bank_rollout(pth, block, validate_ilv(table, source="the house's ILV table"), segments)
+    error = (hours["predicted"] - hours["simulated"]).to_numpy(dtype=float)
+    return (_rmse(error) if np.isfinite(error).all() else float("inf")), int(len(error))
 
 
 def monthly_rmse(hours: pd.DataFrame, prediction: str = "predicted") -> pd.DataFrame:

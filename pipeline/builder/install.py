@@ -10,6 +10,7 @@ import datetime as dt
 import json
 import os
 import shutil
+import sys
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -20,7 +21,8 @@ import pandas as pd
 from pipeline.builder.manifest import (
     MANIFEST,
     TIMINGS,
-    check_outputs,
+    check_district,
+    district_files,
     make_world_readable,
     output_hashes,
     read_manifest,
@@ -42,8 +44,10 @@ from pipeline.builder.staging import (
 )
 from pipeline.builder.validate import validate_district
 from pipeline.errors import InputError
+from surrogates.evaluate import replay_test_rmse
 from surrogates.export import load_surrogate
 from surrogates.ilv import read_ilv, table_digest
+from surrogates.sources.csv import read_ilv_table
 
 
 @dataclass(frozen=True)
@@ -204,8 +208,7 @@ def install_surrogate(district: str | os.PathLike, building: str, model: str | o
     check_not_inside(folder)
     clean_leftovers(folder.parent, folder.name)  # a killed earlier install or build: old or new, never neither
     manifest = read_manifest(folder)
-    if not force:
-        check_untampered(folder, manifest)
+    overridden = check_verified(folder, force)
     try:
         schema = json.loads((folder / "schema.json").read_text())
     except (OSError, ValueError) as error:
@@ -220,24 +223,31 @@ def install_surrogate(district: str | os.PathLike, building: str, model: str | o
     check_model_fits(block, schema["buildings"][building].get("dynamics"), building=building, model=files.pth)
     if not force:
         check_training_table(files, folder / "surrogates" / f"{building}.metrics.json", building)
+    replayed = check_model_behaviour(files, block, folder / "surrogates" / f"{building}.ilv.parquet", force=force)
+    for line in overridden:
+        print(f"districtgen: --force overrides: {line}", file=sys.stderr)
     work = folder.with_name(f".{folder.name}.install-{os.getpid()}")
     shutil.rmtree(work, ignore_errors=True)
     with exit_on_signals():  # SIGTERM / SIGHUP: the working copy is removed as on Ctrl-C
         at_step("copy")
         copy_district(folder, work)
-        return install_into(folder, work, building, files, schema, block, manifest)
+        return install_into(folder, work, building, files, schema, block, manifest, replayed)
 
 
 def install_into(folder: Path, work: Path, building: str, files: ModelFiles, schema: dict, block: dict,
-                 manifest: dict) -> Path:
+                 manifest: dict, replayed: Mapping[str, Any] | None = None) -> Path:
     """Place the model into the working copy ``work`` of ``folder``, revalidate, rewrite the records and swap
-    it in; ``work`` is removed whatever happens."""
+    it in; ``work`` is removed whatever happens. The manifest lists what it listed (minus what the install
+    removed) and what the install wrote, never a file nobody recorded (an unknown file stays unknown)."""
+    unknown = set(district_files(folder)) - set(manifest.get("outputs") or {})
     try:
         at_step("place model")
         seconds = place_model(work, building, files, schema, block)
+        if replayed is not None:
+            record_replay(work / "surrogates" / f"{building}.metrics.json", replayed)
         at_step("revalidate")
         revalidate(work, manifest.get("district") or folder.name, schema, manifest)
-        manifest["outputs"] = output_hashes(work)
+        manifest["outputs"] = {name: entry for name, entry in output_hashes(work).items() if name not in unknown}
         manifest.setdefault("surrogate_cache", {})[building] = {"key": None, "installed": files.pth.name,
                                                               "sha256": sha256_file(files.pth)}
         at_step("records")
@@ -264,10 +274,47 @@ def write_install_timings(folder: Path, building: str, pth: Path, seconds: Mappi
     return write_json_file(folder / TIMINGS, record)
 
 
-def check_untampered(folder: Path, manifest: Mapping[str, Any]) -> None:
-    """Refuse (one line) a district whose artifacts do not match its manifest (what ``verify`` reports)."""
-    problems = check_outputs(folder, manifest.get("outputs") or {}).problems
-    if problems:
-        raise InputError(f"the district does not match its manifest ({problems[0]}; {len(problems)} problem(s) in "
-                         "all, see 'districtgen verify'): not installing into it (--force to install anyway)",
-                         file=folder)
+def check_verified(folder: Path, force: bool) -> list[str]:
+    """Refuse (one line) a district that fails ``verify``'s record checks: its artifacts, inputs, records
+    (``manifest.json``, ``timings.json`` against ``manifest.sha256``) and the manifest's own fields
+    (:func:`pipeline.builder.manifest.check_district`). With ``force``: the problems it overrides."""
+    problems = check_district(folder).problems
+    if problems and not force:
+        raise InputError(f"the district fails verify ({problems[0]}; {len(problems)} problem(s) in all, see "
+                         "'districtgen verify'): not installing into it (--force to install anyway)", file=folder)
+    return problems
+
+
+#: a model is refused when its replayed held-out closed-loop RMSE exceeds this many times the RMSE its metrics
+#: claim, plus :data:`REPLAY_MARGIN_C`: far above what it recorded (the environment's float64 runtime and the
+#: trainer's torch float32 agree to about 1e-4 degC; the margin covers a model trained in bfloat16)
+REPLAY_FACTOR, REPLAY_MARGIN_C = 1.5, 0.1
+
+
+def check_model_behaviour(files: ModelFiles, block: dict, table_path: Path, *, force: bool) -> dict | None:
+    """Replay the model closed loop on the held-out test runs its metrics record, on the house's own ILV table
+    (:func:`surrogates.evaluate.replay_test_rmse`); refuse (one line) a model whose error is far above the
+    RMSE it claims (:data:`REPLAY_FACTOR`, :data:`REPLAY_MARGIN_C`) unless ``force``. Returns the replay's
+    record (None: nothing to replay, a model without metrics or a district without the table, installed only
+    with ``force``)."""
+    try:
+        metrics = json.loads(files.metrics.read_text()) if files.metrics is not None else None
+        claimed = float(metrics["test"]["closed_loop_rmse_c"])
+        test = metrics["training"]["splits"]["test"]
+    except (OSError, ValueError, KeyError, TypeError):
+        return None  # check_training_table has already refused it unless forced
+    if not table_path.is_file():
+        return None
+    rmse, hours = replay_test_rmse(files.pth, block, read_ilv_table(table_path), test)
+    if rmse > REPLAY_FACTOR * claimed + REPLAY_MARGIN_C and not force:
+        raise InputError(f"the model replayed on the house's held-out runs is off by {rmse:.3g} degC (closed-loop "
+                         f"RMSE over {hours} h); its metrics claim {claimed:.3g} degC: not installed (--force to "
+                         "install anyway)", file=files.pth, column="test.closed_loop_rmse_c")
+    return {"closed_loop_rmse_c": round(rmse, 4), "hours": hours, "claimed_closed_loop_rmse_c": claimed}
+
+
+def record_replay(metrics_path: Path, replayed: Mapping[str, Any]) -> None:
+    """Add the install's replay (recomputed, not copied) to an installed model's metrics as ``install_replay``."""
+    metrics = json.loads(metrics_path.read_text())
+    metrics["install_replay"] = dict(replayed)
+    replace_file(metrics_path, (json.dumps(metrics, indent=2) + "\n").encode())

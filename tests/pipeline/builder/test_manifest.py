@@ -139,6 +139,33 @@ def test_changed_ilv_table_is_reported(tmp_path):
     assert len(problems) == 1 and "900002.parquet (input ilv/900002): sha256 differs" in problems[0]
 
 
+@pytest.mark.parametrize("record", ["manifest.json", "timings.json"])
+def test_install_refuses_a_district_whose_records_fail_verify(district, tmp_path, record):
+    """An edited manifest.json (its weather.csv entry rewritten to hide an edited row) or timings.json fails
+    verify: install refuses before anything is touched, one line naming the record; --force says what it
+    overrides."""
+    from pipeline.builder.install import check_verified
+    from pipeline.errors import InputError
+
+    if record == "manifest.json":
+        weather = district / "weather.csv"
+        weather.write_bytes(weather.read_bytes().replace(b"\n", b"\n45.0,", 1))
+        manifest = json.loads((district / record).read_text())
+        manifest["outputs"]["weather.csv"]["sha256"] = hashlib.sha256(weather.read_bytes()).hexdigest()
+        manifest["outputs"]["weather.csv"]["bytes"] = weather.stat().st_size
+        (district / record).write_text(json.dumps(manifest))
+    else:
+        timings = json.loads((district / record).read_text())
+        timings["config_folder"] = str(tmp_path)
+        (district / record).write_text(json.dumps(timings))
+    before = {p: p.read_bytes() for p in district.rglob("*") if p.is_file()}
+    with pytest.raises(InputError, match=rf"fails verify \({record}: sha256 differs from manifest.sha256.*--force"):
+        check_verified(district, force=False)
+    assert any(record in line for line in check_verified(district, force=True))
+    assert main(["surrogate", "install", str(district), "Building_1", str(tmp_path / "m.pth")]) == 2
+    assert {p: p.read_bytes() for p in district.rglob("*") if p.is_file()} == before
+
+
 def test_a_district_moved_away_from_its_inputs_warns(district, tmp_path):
     moved = tmp_path / "moved"
     shutil.copytree(district, moved)
@@ -214,6 +241,38 @@ def test_install_a_retrained_surrogate_then_verify(tmp_path, capsys):
     digest = json.loads((district / "surrogates/Building_1.metrics.json").read_text())["table_sha256"]
     assert f"Building_1.ilv.parquet `{digest[:12]}`" in summary   # which table each model was trained and scored on
 
+    # the replay is recomputed, not copied: the installed metrics hold it beside the claim
+    replay = json.loads((district / "surrogates/Building_1.metrics.json").read_text())["install_replay"]
+    assert replay["hours"] > 0 and replay["closed_loop_rmse_c"] <= 1.5 * replay["claimed_closed_loop_rmse_c"] + 0.1
+    # an unknown file in the district stays unknown: never added to the manifest by an install
+    (district / "notes.txt").write_text("mine\n")
+    assert main(["surrogate", "install", str(district), "Building_1", str(model)]) == 0
+    capsys.readouterr()
+    assert "notes.txt" not in json.loads((district / "manifest.json").read_text())["outputs"]
+    assert check_district(district).warnings == ["notes.txt: not in the manifest (an unknown file)"]
+    # a model whose predictions are biased by tens of degC, its copied metrics still claiming a good fit: its
+    # replay on the house's held-out runs refuses it, and nothing changes
+    biased = biased_model(model, tmp_path / "biased")
+    before = (district / "manifest.json").read_bytes()
+    assert main(["surrogate", "install", str(district), "Building_1", str(biased)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "held-out runs is off by" in err[0] and "its metrics claim" in err[0]
+    assert (district / "manifest.json").read_bytes() == before
+
+
+def biased_model(model: Path, out: Path) -> Path:
+    """A copy of ``model`` (with its records) whose output layer is shifted by +5 (normalised units: tens of
+    degC), its metrics copied unchanged."""
+    import torch
+
+    out.mkdir()
+    for path in model.parent.glob(f"{model.stem}.*"):
+        shutil.copy(path, out / path.name)
+    checkpoint = torch.load(model, weights_only=False)
+    checkpoint["model_state_dict"]["l_linear.bias"] += 5.0
+    torch.save(checkpoint, out / model.name)
+    return out / model.name
+
 
 def test_training_table_check_names_both_tables(tmp_path):
     """The model's record must name the house's table content (table_sha256); else one line, --force hint."""
@@ -254,7 +313,7 @@ def test_install_refuses_a_tampered_district_before_touching_it(district, tmp_pa
     csv = district / "Building_1.csv"
     csv.write_bytes(csv.read_bytes().replace(b"\n", b"\n0", 1))   # one changed cell
     before = {p: p.read_bytes() for p in district.rglob("*") if p.is_file()}
-    with pytest.raises(InputError, match=r"does not match its manifest \(.*Building_1.csv.*--force"):
+    with pytest.raises(InputError, match=r"fails verify \(.*Building_1.csv.*--force"):
         install_surrogate(district, "Building_1", tmp_path / "model.pth")
     assert {p: p.read_bytes() for p in district.rglob("*") if p.is_file()} == before
     # --force passes the check; this district has no surrogates, so the model check refuses next
