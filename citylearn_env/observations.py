@@ -213,14 +213,10 @@ class ObservationLayout:
         index = self.central_index if central else range(len(self.pairs))
         return [self.pairs[i][0] for i in index]
 
-    def episode_matrix(self) -> np.ndarray:
-        """(T, n_pairs) matrix of the static observations over the current episode (dynamic columns 0)."""
-        d = self.district
-        matrix = np.zeros((d.length, len(self.pairs)))
-        for name, (pos, bidx) in self.groups.items():
-            if name not in DYNAMIC:
-                matrix[:, pos] = d.static_series(name)[bidx].T
-        return matrix
+    def episode_matrix(self) -> EpisodeRows:
+        """The static observations over the current episode, row t = (n_pairs,) (dynamic columns 0), made on
+        demand a chunk of steps at a time (:class:`EpisodeRows`)."""
+        return EpisodeRows(self)
 
     def vector(self, static_row: np.ndarray, t: int) -> np.ndarray:
         """The flat vector of all active observations at ``t`` (static row plus dynamic values)."""
@@ -245,6 +241,40 @@ class ObservationLayout:
         flat = hi <= lo
         lo[flat], hi[flat] = lo[flat] - 0.5, hi[flat] + 0.5
         return lo, hi
+
+
+class EpisodeRows:
+    """Rows of the (T, n_pairs) matrix of static observations of the current episode, computed :attr:`CHUNK`
+    time steps at a time when first asked for: memory of CHUNK x n_pairs values instead of T x n_pairs (1,000
+    buildings x 28 observations x 8,760 steps would be 2 GB), and each chunk written while it is in cache."""
+
+    #: time steps per computed chunk
+    CHUNK = 128
+
+    def __init__(self, layout: ObservationLayout):
+        d = layout.district
+        self._series = [(pos, bidx, d.static_series(name)) for name, (pos, bidx) in layout.groups.items()
+                        if name not in DYNAMIC]
+        self._width, self._length = len(layout.pairs), d.length
+        self._first, self._rows = -1, np.zeros((0, self._width))
+
+    def __len__(self) -> int:
+        return self._length
+
+    def __getitem__(self, t: int) -> np.ndarray:
+        """Row ``t`` (read-only, float64)."""
+        t = int(t)
+        if not 0 <= t < self._length:
+            raise IndexError(f"time step {t} outside the episode (0 .. {self._length - 1})")
+        first = t - t % self.CHUNK
+        if first != self._first:
+            stop = min(first + self.CHUNK, self._length)
+            rows = np.zeros((self._width, stop - first))
+            for pos, bidx, series in self._series:
+                rows[pos] = series[bidx, first:stop]
+            self._rows, self._first = np.ascontiguousarray(rows.T), first
+            self._rows.flags.writeable = False
+        return self._rows[t - first]
 
 
 def _bound(d: District, name: str, b: int) -> tuple[float, float]:

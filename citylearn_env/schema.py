@@ -324,7 +324,30 @@ def _refuse_used_empty_columns(series: Mapping[str, np.ndarray], observed: list[
 
 
 def _read(path: Path, kind: str, n_rows: int, cache: dict, missing_hvac_mode_is_off: bool) -> dict[str, np.ndarray]:
+    """The table at ``path``, read once per schema load (buildings naming one file share its arrays); every
+    column equal to one read before (a calendar, an all-zero or empty column) is that earlier array."""
     key = (str(path), kind)
     if key not in cache:
-        cache[key] = dataset.read_table(path, kind, n_rows, missing_hvac_mode_is_off=missing_hvac_mode_is_off)
+        table = dataset.read_table(path, kind, n_rows, missing_hvac_mode_is_off=missing_hvac_mode_is_off)
+        cache[key] = {name: intern_column(values, cache.setdefault(_COLUMNS, {})) for name, values in table.items()}
     return cache[key]
+
+
+#: the key of the read cache under which :func:`intern_column` keeps the distinct columns
+_COLUMNS = ("", "columns")
+
+
+def intern_column(values: np.ndarray, store: dict[tuple, list[np.ndarray]]) -> np.ndarray:
+    """``values`` (1-D), or the array in ``store`` holding the same bytes (the same values, NaN included).
+
+    ``store`` maps a cheap fingerprint (length, every 61st value, the sum) to the distinct arrays having it;
+    a candidate is confirmed by comparing all bytes. Buildings whose files repeat a column (the calendar,
+    an unused all-zero or empty column, a copied file) then hold it once, and the district broadcasts it
+    (:func:`citylearn_env.district.shared_rows`) instead of storing B copies."""
+    key = (values.dtype.str, values.shape, values[::61].tobytes(), float(np.nansum(values)))
+    bucket = store.setdefault(key, [])
+    for known in bucket:
+        if np.array_equal(known.view(np.uint8), values.view(np.uint8)):
+            return known
+    bucket.append(values)
+    return values
