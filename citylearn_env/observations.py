@@ -244,37 +244,38 @@ class ObservationLayout:
 
 
 class EpisodeRows:
-    """Rows of the (T, n_pairs) matrix of static observations of the current episode, computed :attr:`CHUNK`
-    time steps at a time when first asked for: memory of CHUNK x n_pairs values instead of T x n_pairs (1,000
-    buildings x 28 observations x 8,760 steps would be 2 GB), and each chunk written while it is in cache."""
-
-    #: time steps per computed chunk
-    CHUNK = 128
+    """Rows of the (T, n_pairs) matrix of static observations of the current episode, each gathered from the
+    (B, T) series when asked for (about 30 gathers of B values per step) instead of held as one matrix (1,000
+    buildings x 28 observations x 8,760 steps would be 2 GB and take 20 s to fill)."""
 
     def __init__(self, layout: ObservationLayout):
         d = layout.district
-        self._series = [(pos, bidx, d.static_series(name)) for name, (pos, bidx) in layout.groups.items()
-                        if name not in DYNAMIC]
+        everyone = np.arange(d.n)
+        static = [(pos, bidx, d.static_series(name)) for name, (pos, bidx) in layout.groups.items()
+                  if name not in DYNAMIC]
+        shared = [(pos, series) for pos, _, series in static if series.strides[0] == 0]  # one row, broadcast
+        #: series every building shares: one value each per step, spread to their positions in one assignment
+        self._shared = [series[0] for _, series in shared]
+        self._shared_pos = np.concatenate([pos for pos, _ in shared]) if shared else np.zeros(0, dtype=np.intp)
+        self._shared_index = np.repeat(np.arange(len(shared)), [len(pos) for pos, _ in shared])
+        self._series = [(pos, slice(None) if np.array_equal(bidx, everyone) else bidx, series)
+                        for pos, bidx, series in static if series.strides[0] != 0]
         self._width, self._length = len(layout.pairs), d.length
-        self._first, self._rows = -1, np.zeros((0, self._width))
 
     def __len__(self) -> int:
         return self._length
 
     def __getitem__(self, t: int) -> np.ndarray:
-        """Row ``t`` (read-only, float64)."""
+        """Row ``t`` (a new float64 array; dynamic positions 0)."""
         t = int(t)
         if not 0 <= t < self._length:
             raise IndexError(f"time step {t} outside the episode (0 .. {self._length - 1})")
-        first = t - t % self.CHUNK
-        if first != self._first:
-            stop = min(first + self.CHUNK, self._length)
-            rows = np.zeros((self._width, stop - first))
-            for pos, bidx, series in self._series:
-                rows[pos] = series[bidx, first:stop]
-            self._rows, self._first = np.ascontiguousarray(rows.T), first
-            self._rows.flags.writeable = False
-        return self._rows[t - first]
+        row = np.zeros(self._width)
+        if self._shared:
+            row[self._shared_pos] = np.array([series[t] for series in self._shared])[self._shared_index]
+        for pos, buildings, series in self._series:
+            row[pos] = series[buildings, t]
+        return row
 
 
 def _bound(d: District, name: str, b: int) -> tuple[float, float]:
