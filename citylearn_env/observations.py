@@ -234,8 +234,9 @@ class ObservationLayout:
         """Lower and upper bounds of every (name, building) pair, estimated over the simulation range."""
         lo, hi = np.zeros(len(self.pairs)), np.zeros(len(self.pairs))
         device = dict(zip((pos for pos, *_ in self.device_pairs), self.device_bounds, strict=True))
+        ranges: dict[tuple, tuple[float, float]] = {}  # one range per distinct row (a broadcast one: once)
         for i, (name, b) in enumerate(self.pairs):
-            lo[i], hi[i] = device[i] if i in device else _bound(self.district, name, b)
+            lo[i], hi[i] = device[i] if i in device else _bound(self.district, name, b, ranges)
         # an observation that never varies over the range (e.g. month in a one-month run) gets a unit-wide
         # box centred on its value, so spaces are never degenerate and normalise it to 0.5
         flat = hi <= lo
@@ -278,14 +279,15 @@ class EpisodeRows:
         return row
 
 
-def _bound(d: District, name: str, b: int) -> tuple[float, float]:
-    """(low, high) of observation ``name`` of building ``b`` over the simulation range, in its own units."""
+def _bound(d: District, name: str, b: int, ranges: dict | None = None) -> tuple[float, float]:
+    """(low, high) of observation ``name`` of building ``b`` over the simulation range, in its own units
+    (``ranges``: the ranges of data rows found so far, :func:`_finite_range`)."""
     if name == "net_electricity_consumption":
         return _net_bound(d, b)
     if name.endswith("_soc") or name == "power_outage":
         return 0.0, 1.0
     if name == "indoor_dry_bulb_temperature":
-        low, high = _finite_range(d.signals["indoor_dry_bulb_temperature"][b])
+        low, high = _finite_range(d.signals["indoor_dry_bulb_temperature"][b], ranges)
         return low - 10.0, high + 10.0
     if name == "indoor_dry_bulb_temperature_delta":
         return 0.0, 10.0
@@ -298,7 +300,7 @@ def _bound(d: District, name: str, b: int) -> tuple[float, float]:
     bound = _energy_bound(d, name, b)
     if bound is not None:
         return bound
-    return _finite_range(d.static_series(name, full_range=True)[b])
+    return _finite_range(d.static_series(name, full_range=True)[b], ranges)
 
 
 def _net_bound(d: District, b: int) -> tuple[float, float]:
@@ -347,10 +349,17 @@ def _machine_peak(d: District, b: int) -> float:
     return float(len(peaks) * max(peaks, default=0.0))
 
 
-def _finite_range(values: np.ndarray) -> tuple[float, float]:
-    """(min, max) of the finite values; (0, 0) when there is none (an empty optional column held as NaN)."""
+def _finite_range(values: np.ndarray, ranges: dict | None = None) -> tuple[float, float]:
+    """(min, max) of the finite values; (0, 0) when there is none (an empty optional column held as NaN).
+    ``ranges`` remembers each row's by its memory, so a row all buildings share is reduced once."""
+    key = (values.__array_interface__["data"][0], values.shape, values.strides, values.dtype.str)
+    if ranges is not None and key in ranges:
+        return ranges[key]
     finite = values[np.isfinite(values)]
-    return (float(finite.min()), float(finite.max())) if finite.size else (0.0, 0.0)
+    found = (float(finite.min()), float(finite.max())) if finite.size else (0.0, 0.0)
+    if ranges is not None:
+        ranges[key] = found
+    return found
 
 
 #: end use -> its electricity-consumption observation names

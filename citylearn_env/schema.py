@@ -201,22 +201,29 @@ def _building_series(spec: Mapping[str, Any], root: paths.DatasetFolder, where: 
                      cache: dict, hvac_off: bool) -> dict[str, np.ndarray]:
     """The building's data columns (building file, weather, prices, carbon intensity) over the simulation range
     ``span`` (start, end) [time steps]."""
-    start, end = span
     for key in ("energy_simulation", "weather"):
         if not spec.get(key):
             raise SchemaError("missing data file name", column=f"{where}.{key}")
-    n = end + 1
     series: dict[str, np.ndarray] = {}
-    series.update(_read(root.file(spec["energy_simulation"], where=f"{where}.energy_simulation"), "building", n,
-                        cache, hvac_off))
-    series.update(_read(root.file(spec["weather"], where=f"{where}.weather"), "weather", n, cache, hvac_off))
+    series.update(_read(_file(root, spec, "energy_simulation", where, cache), "building", span, cache, hvac_off))
+    series.update(_read(_file(root, spec, "weather", where, cache), "weather", span, cache, hvac_off))
     for key, kind, cols in (("pricing", "pricing", dataset.PRICING_COLUMNS),
                             ("carbon_intensity", "carbon", dataset.CARBON_COLUMNS)):
         if spec.get(key):
-            series.update(_read(root.file(spec[key], where=f"{where}.{key}"), kind, n, cache, hvac_off))
+            series.update(_read(_file(root, spec, key, where, cache), kind, span, cache, hvac_off))
         else:
-            series.update({c: np.zeros(n) for c in cols})
-    return {k: v[start : end + 1] for k, v in series.items()}
+            zeros = intern_column(np.zeros(span[1] - span[0] + 1), cache.setdefault(_COLUMNS, {}))
+            series.update({c: zeros for c in cols})
+    return series
+
+
+def _file(root: paths.DatasetFolder, spec: Mapping[str, Any], key: str, where: str, cache: dict) -> Path:
+    """The checked path of the data file ``spec[key]`` names, resolved once per name and schema load."""
+    name = spec[key]
+    found = cache.get(("file", str(name)))
+    if found is None:
+        found = cache[("file", str(name))] = root.file(name, where=f"{where}.{key}")
+    return found
 
 
 def _building(name: str, spec: Mapping[str, Any], root: paths.DatasetFolder, span: tuple[int, int], cache: dict,
@@ -323,13 +330,17 @@ def _refuse_used_empty_columns(series: Mapping[str, np.ndarray], observed: list[
                               row=f"{i} (file line {i + 2})")
 
 
-def _read(path: Path, kind: str, n_rows: int, cache: dict, missing_hvac_mode_is_off: bool) -> dict[str, np.ndarray]:
-    """The table at ``path``, read once per schema load (buildings naming one file share its arrays); every
-    column equal to one read before (a calendar, an all-zero or empty column) is that earlier array."""
+def _read(path: Path, kind: str, span: tuple[int, int], cache: dict,
+          missing_hvac_mode_is_off: bool) -> dict[str, np.ndarray]:
+    """The table at ``path`` over the simulation range ``span`` (start, end) [time steps], read once per schema
+    load (buildings naming one file share its arrays); every column equal to one read before (a calendar, an
+    all-zero or empty column, a copied file's) is that earlier array."""
     key = (str(path), kind)
     if key not in cache:
-        table = dataset.read_table(path, kind, n_rows, missing_hvac_mode_is_off=missing_hvac_mode_is_off)
-        cache[key] = {name: intern_column(values, cache.setdefault(_COLUMNS, {})) for name, values in table.items()}
+        start, end = span
+        table = dataset.read_table(path, kind, end + 1, missing_hvac_mode_is_off=missing_hvac_mode_is_off)
+        store = cache.setdefault(_COLUMNS, {})
+        cache[key] = {name: intern_column(values[start:], store) for name, values in table.items()}
     return cache[key]
 
 
