@@ -245,38 +245,50 @@ class ObservationLayout:
 
 
 class EpisodeRows:
-    """Rows of the (T, n_pairs) matrix of static observations of the current episode, each gathered from the
-    (B, T) series when asked for (about 30 gathers of B values per step) instead of held as one matrix (1,000
-    buildings x 28 observations x 8,760 steps would be 2 GB and take 20 s to fill)."""
+    """Rows of the (T, n_pairs) matrix of static observations of the current episode, filled a chunk of steps
+    at a time when first asked for. A chunk holds about :data:`CHUNK_VALUES` values (2 MB, so it is written in
+    cache): a small district's whole episode at once, as one matrix; 1,000 buildings x 28 observations about 9
+    steps (the whole (T, n_pairs) matrix would be 2 GB and take 20 s to fill)."""
+
+    #: values per chunk (chunk steps = this // n_pairs, at least 1)
+    CHUNK_VALUES = 1 << 18
 
     def __init__(self, layout: ObservationLayout):
         d = layout.district
         everyone = np.arange(d.n)
-        static = [(pos, bidx, d.static_series(name)) for name, (pos, bidx) in layout.groups.items()
-                  if name not in DYNAMIC]
-        shared = [(pos, series) for pos, _, series in static if series.strides[0] == 0]  # one row, broadcast
-        #: series every building shares: one value each per step, spread to their positions in one assignment
-        self._shared = [series[0] for _, series in shared]
-        self._shared_pos = np.concatenate([pos for pos, _ in shared]) if shared else np.zeros(0, dtype=np.intp)
-        self._shared_index = np.repeat(np.arange(len(shared)), [len(pos) for pos, _ in shared])
-        self._series = [(pos, slice(None) if np.array_equal(bidx, everyone) else bidx, series)
-                        for pos, bidx, series in static if series.strides[0] != 0]
+        self._series = []
+        for name, (pos, bidx) in layout.groups.items():
+            if name in DYNAMIC:
+                continue
+            series = d.static_series(name)
+            if series.strides[0] == 0:    # one row every building shares (broadcast): read it once
+                self._series.append((pos, None, series[0]))
+            else:
+                self._series.append((pos, slice(None) if np.array_equal(bidx, everyone) else bidx, series))
         self._width, self._length = len(layout.pairs), d.length
+        self._steps = max(1, min(self._length, self.CHUNK_VALUES // max(self._width, 1)))
+        self._first, self._rows = -1, np.zeros((0, self._width))
 
     def __len__(self) -> int:
         return self._length
 
     def __getitem__(self, t: int) -> np.ndarray:
-        """Row ``t`` (a new float64 array; dynamic positions 0)."""
+        """Row ``t`` (read-only, float64; dynamic positions 0)."""
         t = int(t)
         if not 0 <= t < self._length:
             raise IndexError(f"time step {t} outside the episode (0 .. {self._length - 1})")
-        row = np.zeros(self._width)
-        if self._shared:
-            row[self._shared_pos] = np.array([series[t] for series in self._shared])[self._shared_index]
-        for pos, buildings, series in self._series:
-            row[pos] = series[buildings, t]
-        return row
+        first = t - t % self._steps
+        if first != self._first:
+            stop = min(first + self._steps, self._length)
+            rows = np.zeros((stop - first, self._width))
+            for pos, buildings, series in self._series:
+                if buildings is None:
+                    rows[:, pos] = series[first:stop, None]
+                else:
+                    rows[:, pos] = series[buildings, first:stop].T
+            rows.flags.writeable = False
+            self._rows, self._first = rows, first
+        return self._rows[t - first]
 
 
 def _bound(d: District, name: str, b: int, ranges: dict | None = None) -> tuple[float, float]:

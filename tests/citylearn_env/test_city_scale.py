@@ -117,7 +117,8 @@ def test_static_rows_are_the_episode_series_at_each_step(tmp_path):
     t (the definition of the former (T, pairs) matrix), for shared and per-building series alike."""
     env = CityLearnEnv(_city(tmp_path, 20), compat=True)
     env.reset(seed=0)
-    rows, layout, d = env._static, env.layout, env.district
+    layout, d = env.layout, env.district
+    rows = layout.episode_matrix()
     assert len(rows) == 8760
     for t in (0, 1, 127, 128, 4000, 8759):
         row = rows[t]
