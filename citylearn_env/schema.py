@@ -2,7 +2,9 @@
 
 Validation happens here, once: every problem is a :class:`SchemaError` naming the file or schema key, the
 column and the first bad row. The caller's dict is never modified (it is deep-copied before anything else).
-Data values are rounded to float32 and held as float64, as CityLearn 2.1 holds its data series.
+Data values are rounded to float32 and held as float64, as CityLearn 2.1 holds its data series. A file several
+buildings name is read once, and a column equal to one already read (calendars, all-zero or empty columns, a copied
+file's) is that same array (:func:`intern_column`), so a city of many buildings holds each distinct column once.
 """
 
 from __future__ import annotations

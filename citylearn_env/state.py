@@ -176,6 +176,9 @@ class Signals:
     ``columns`` holds every data-set column by its v2.2 name (calendar, weather, prices, carbon intensity, loads,
     set points ...); ``pv_generation`` [kWh per step] is derived from ``solar_generation`` and the PV size;
     ``outage`` [0/1] is the outage signal of the episode (the data set's column, or drawn at reset).
+    Every column is read-only float64; one that all buildings share (one weather file, equal calendars, an unused
+    all-zero column) is a single row broadcast to (B, N) (``strides[0] == 0``, N values in memory), the others
+    are (B, N) copies (:func:`citylearn_env.district.shared_rows`).
     """
 
     columns: Mapping[str, np.ndarray]
