@@ -59,6 +59,24 @@ def _stack(values) -> np.ndarray:
     return np.asarray(list(values), dtype=np.float64)
 
 
+def _same_memory(a: np.ndarray, b: np.ndarray) -> bool:
+    """``a`` and ``b`` are the same values in the same memory (one array, or equal views of one buffer)."""
+    return a is b or (a.__array_interface__["data"][0] == b.__array_interface__["data"][0]
+                      and a.shape == b.shape and a.strides == b.strides and a.dtype == b.dtype)
+
+
+def shared_rows(rows: Sequence[np.ndarray]) -> np.ndarray:
+    """The buildings' series ``rows`` (each (N,)) as one read-only (B, N) array. Where every building's row is
+    the same memory (a file all buildings name, or a column the schema loader found identical and stored
+    once) the result is that row broadcast (stride 0: N values held, not B x N); otherwise a stacked copy."""
+    first = rows[0]
+    if all(_same_memory(r, first) for r in rows[1:]):
+        return np.broadcast_to(first, (len(rows), *first.shape))
+    out = np.stack(rows)
+    out.flags.writeable = False
+    return out
+
+
 def _previous(t: int) -> int:
     """The column holding the state before step ``t``: t - 1, or the reset's column 0 when t = 0 is acted on
     (``settings.act_then_advance``)."""
@@ -77,9 +95,7 @@ class District:
         b = config.buildings
         self.n = len(b)
         self.names = config.building_names
-        columns = {k: np.stack([x.series[k] for x in b]) for k in b[0].series}
-        for value in columns.values():
-            value.flags.writeable = False
+        columns = {k: shared_rows([x.series[k] for x in b]) for k in b[0].series}
         self.pv_nominal_power = _stack(x.pv_nominal_power for x in b)
         pv = devices.pv_generation(self.pv_nominal_power[:, None], columns["solar_generation"])
         self.signals = Signals(MappingProxyType(columns), pv, columns["power_outage"])
@@ -124,12 +140,22 @@ class District:
             has_storage=bool((tank.capacity > 0).any()))
 
     def _conversion(self, devs, end_use: str) -> np.ndarray:
-        """COP (heat pump) or efficiency (heater) of each building's device for ``end_use``, (B, N)."""
+        """COP (heat pump) or efficiency (heater) of each building's device for ``end_use``, (B, N), read-only.
+
+        Computed once per distinct (device kind, efficiency, target temperature, outdoor temperature row):
+        one distinct row (the same device everywhere under one weather file) is held once and broadcast."""
         cooling = end_use == "cooling"
-        cop = devices.conversion_table(
-            [d.kind for d in devs], [d.efficiency for d in devs],
-            [d.target_cooling_temperature if cooling else d.target_heating_temperature for d in devs],
-            self.signals["outdoor_dry_bulb_temperature"], cooling=cooling)
+        outdoor = self.signals["outdoor_dry_bulb_temperature"]
+        shared_weather = outdoor.strides[0] == 0
+        keys = [(d.kind, d.efficiency, d.target_cooling_temperature if cooling else d.target_heating_temperature,
+                 0 if shared_weather else b) for b, d in enumerate(devs)]
+        first: dict[tuple, int] = {}
+        inverse = np.array([first.setdefault(k, len(first)) for k in keys], dtype=np.intp)
+        distinct = list(first)
+        table = devices.conversion_table([k[0] for k in distinct], [k[1] for k in distinct],
+                                         [k[2] for k in distinct], outdoor[[k[3] for k in distinct]],
+                                         cooling=cooling)
+        cop = np.broadcast_to(table[0], (self.n, table.shape[1])) if len(distinct) == 1 else table[inverse]
         cop.flags.writeable = False
         return cop
 

@@ -213,14 +213,10 @@ class ObservationLayout:
         index = self.central_index if central else range(len(self.pairs))
         return [self.pairs[i][0] for i in index]
 
-    def episode_matrix(self) -> np.ndarray:
-        """(T, n_pairs) matrix of the static observations over the current episode (dynamic columns 0)."""
-        d = self.district
-        matrix = np.zeros((d.length, len(self.pairs)))
-        for name, (pos, bidx) in self.groups.items():
-            if name not in DYNAMIC:
-                matrix[:, pos] = d.static_series(name)[bidx].T
-        return matrix
+    def episode_matrix(self) -> EpisodeRows:
+        """The static observations over the current episode, row t = (n_pairs,) (dynamic columns 0), made on
+        demand a chunk of steps at a time (:class:`EpisodeRows`)."""
+        return EpisodeRows(self)
 
     def vector(self, static_row: np.ndarray, t: int) -> np.ndarray:
         """The flat vector of all active observations at ``t`` (static row plus dynamic values)."""
@@ -238,8 +234,9 @@ class ObservationLayout:
         """Lower and upper bounds of every (name, building) pair, estimated over the simulation range."""
         lo, hi = np.zeros(len(self.pairs)), np.zeros(len(self.pairs))
         device = dict(zip((pos for pos, *_ in self.device_pairs), self.device_bounds, strict=True))
+        ranges: dict[tuple, tuple[float, float]] = {}  # one range per distinct row (a broadcast one: once)
         for i, (name, b) in enumerate(self.pairs):
-            lo[i], hi[i] = device[i] if i in device else _bound(self.district, name, b)
+            lo[i], hi[i] = device[i] if i in device else _bound(self.district, name, b, ranges)
         # an observation that never varies over the range (e.g. month in a one-month run) gets a unit-wide
         # box centred on its value, so spaces are never degenerate and normalise it to 0.5
         flat = hi <= lo
@@ -247,14 +244,62 @@ class ObservationLayout:
         return lo, hi
 
 
-def _bound(d: District, name: str, b: int) -> tuple[float, float]:
-    """(low, high) of observation ``name`` of building ``b`` over the simulation range, in its own units."""
+class EpisodeRows:
+    """Rows of the (T, n_pairs) matrix of static observations of the current episode, filled a chunk of steps
+    at a time when first asked for. A chunk holds about :data:`CHUNK_VALUES` values (2 MB, so it is written in
+    cache): a small district's whole episode at once, as one matrix; 1,000 buildings x 28 observations about 9
+    steps (the whole (T, n_pairs) matrix would be 2 GB and take 20 s to fill)."""
+
+    #: values per chunk (chunk steps = this // n_pairs, at least 1)
+    CHUNK_VALUES = 1 << 18
+
+    def __init__(self, layout: ObservationLayout):
+        d = layout.district
+        everyone = np.arange(d.n)
+        self._series = []
+        for name, (pos, bidx) in layout.groups.items():
+            if name in DYNAMIC:
+                continue
+            series = d.static_series(name)
+            if series.strides[0] == 0:    # one row every building shares (broadcast): read it once
+                self._series.append((pos, None, series[0]))
+            else:
+                self._series.append((pos, slice(None) if np.array_equal(bidx, everyone) else bidx, series))
+        self._width, self._length = len(layout.pairs), d.length
+        self._steps = max(1, min(self._length, self.CHUNK_VALUES // max(self._width, 1)))
+        self._first, self._rows = -1, np.zeros((0, self._width))
+
+    def __len__(self) -> int:
+        return self._length
+
+    def __getitem__(self, t: int) -> np.ndarray:
+        """Row ``t`` (read-only, float64; dynamic positions 0)."""
+        t = int(t)
+        if not 0 <= t < self._length:
+            raise IndexError(f"time step {t} outside the episode (0 .. {self._length - 1})")
+        first = t - t % self._steps
+        if first != self._first:
+            stop = min(first + self._steps, self._length)
+            rows = np.zeros((stop - first, self._width))
+            for pos, buildings, series in self._series:
+                if buildings is None:
+                    rows[:, pos] = series[first:stop, None]
+                else:
+                    rows[:, pos] = series[buildings, first:stop].T
+            rows.flags.writeable = False
+            self._rows, self._first = rows, first
+        return self._rows[t - first]
+
+
+def _bound(d: District, name: str, b: int, ranges: dict | None = None) -> tuple[float, float]:
+    """(low, high) of observation ``name`` of building ``b`` over the simulation range, in its own units
+    (``ranges``: the ranges of data rows found so far, :func:`_finite_range`)."""
     if name == "net_electricity_consumption":
         return _net_bound(d, b)
     if name.endswith("_soc") or name == "power_outage":
         return 0.0, 1.0
     if name == "indoor_dry_bulb_temperature":
-        low, high = _finite_range(d.signals["indoor_dry_bulb_temperature"][b])
+        low, high = _finite_range(d.signals["indoor_dry_bulb_temperature"][b], ranges)
         return low - 10.0, high + 10.0
     if name == "indoor_dry_bulb_temperature_delta":
         return 0.0, 10.0
@@ -267,7 +312,7 @@ def _bound(d: District, name: str, b: int) -> tuple[float, float]:
     bound = _energy_bound(d, name, b)
     if bound is not None:
         return bound
-    return _finite_range(d.static_series(name, full_range=True)[b])
+    return _finite_range(d.static_series(name, full_range=True)[b], ranges)
 
 
 def _net_bound(d: District, b: int) -> tuple[float, float]:
@@ -316,10 +361,17 @@ def _machine_peak(d: District, b: int) -> float:
     return float(len(peaks) * max(peaks, default=0.0))
 
 
-def _finite_range(values: np.ndarray) -> tuple[float, float]:
-    """(min, max) of the finite values; (0, 0) when there is none (an empty optional column held as NaN)."""
+def _finite_range(values: np.ndarray, ranges: dict | None = None) -> tuple[float, float]:
+    """(min, max) of the finite values; (0, 0) when there is none (an empty optional column held as NaN).
+    ``ranges`` remembers each row's by its memory, so a row all buildings share is reduced once."""
+    key = (values.__array_interface__["data"][0], values.shape, values.strides, values.dtype.str)
+    if ranges is not None and key in ranges:
+        return ranges[key]
     finite = values[np.isfinite(values)]
-    return (float(finite.min()), float(finite.max())) if finite.size else (0.0, 0.0)
+    found = (float(finite.min()), float(finite.max())) if finite.size else (0.0, 0.0)
+    if ranges is not None:
+        ranges[key] = found
+    return found
 
 
 #: end use -> its electricity-consumption observation names

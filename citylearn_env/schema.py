@@ -2,7 +2,9 @@
 
 Validation happens here, once: every problem is a :class:`SchemaError` naming the file or schema key, the
 column and the first bad row. The caller's dict is never modified (it is deep-copied before anything else).
-Data values are rounded to float32 and held as float64, as CityLearn 2.1 holds its data series.
+Data values are rounded to float32 and held as float64, as CityLearn 2.1 holds its data series. A file several
+buildings name is read once, and a column equal to one already read (calendars, all-zero or empty columns, a copied
+file's) is that same array (:func:`intern_column`), so a city of many buildings holds each distinct column once.
 """
 
 from __future__ import annotations
@@ -201,22 +203,29 @@ def _building_series(spec: Mapping[str, Any], root: paths.DatasetFolder, where: 
                      cache: dict, hvac_off: bool) -> dict[str, np.ndarray]:
     """The building's data columns (building file, weather, prices, carbon intensity) over the simulation range
     ``span`` (start, end) [time steps]."""
-    start, end = span
     for key in ("energy_simulation", "weather"):
         if not spec.get(key):
             raise SchemaError("missing data file name", column=f"{where}.{key}")
-    n = end + 1
     series: dict[str, np.ndarray] = {}
-    series.update(_read(root.file(spec["energy_simulation"], where=f"{where}.energy_simulation"), "building", n,
-                        cache, hvac_off))
-    series.update(_read(root.file(spec["weather"], where=f"{where}.weather"), "weather", n, cache, hvac_off))
+    series.update(_read(_file(root, spec, "energy_simulation", where, cache), "building", span, cache, hvac_off))
+    series.update(_read(_file(root, spec, "weather", where, cache), "weather", span, cache, hvac_off))
     for key, kind, cols in (("pricing", "pricing", dataset.PRICING_COLUMNS),
                             ("carbon_intensity", "carbon", dataset.CARBON_COLUMNS)):
         if spec.get(key):
-            series.update(_read(root.file(spec[key], where=f"{where}.{key}"), kind, n, cache, hvac_off))
+            series.update(_read(_file(root, spec, key, where, cache), kind, span, cache, hvac_off))
         else:
-            series.update({c: np.zeros(n) for c in cols})
-    return {k: v[start : end + 1] for k, v in series.items()}
+            zeros = intern_column(np.zeros(span[1] - span[0] + 1), cache.setdefault(_COLUMNS, {}))
+            series.update({c: zeros for c in cols})
+    return series
+
+
+def _file(root: paths.DatasetFolder, spec: Mapping[str, Any], key: str, where: str, cache: dict) -> Path:
+    """The checked path of the data file ``spec[key]`` names, resolved once per name and schema load."""
+    name = spec[key]
+    found = cache.get(("file", str(name)))
+    if found is None:
+        found = cache[("file", str(name))] = root.file(name, where=f"{where}.{key}")
+    return found
 
 
 def _building(name: str, spec: Mapping[str, Any], root: paths.DatasetFolder, span: tuple[int, int], cache: dict,
@@ -323,8 +332,35 @@ def _refuse_used_empty_columns(series: Mapping[str, np.ndarray], observed: list[
                               row=f"{i} (file line {i + 2})")
 
 
-def _read(path: Path, kind: str, n_rows: int, cache: dict, missing_hvac_mode_is_off: bool) -> dict[str, np.ndarray]:
+def _read(path: Path, kind: str, span: tuple[int, int], cache: dict,
+          missing_hvac_mode_is_off: bool) -> dict[str, np.ndarray]:
+    """The table at ``path`` over the simulation range ``span`` (start, end) [time steps], read once per schema
+    load (buildings naming one file share its arrays); every column equal to one read before (a calendar, an
+    all-zero or empty column, a copied file's) is that earlier array."""
     key = (str(path), kind)
     if key not in cache:
-        cache[key] = dataset.read_table(path, kind, n_rows, missing_hvac_mode_is_off=missing_hvac_mode_is_off)
+        start, end = span
+        table = dataset.read_table(path, kind, end + 1, missing_hvac_mode_is_off=missing_hvac_mode_is_off)
+        store = cache.setdefault(_COLUMNS, {})
+        cache[key] = {name: intern_column(values[start:], store) for name, values in table.items()}
     return cache[key]
+
+
+#: the key of the read cache under which :func:`intern_column` keeps the distinct columns
+_COLUMNS = ("", "columns")
+
+
+def intern_column(values: np.ndarray, store: dict[tuple, list[np.ndarray]]) -> np.ndarray:
+    """``values`` (1-D), or the array in ``store`` holding the same bytes (the same values, NaN included).
+
+    ``store`` maps a cheap fingerprint (length, every 61st value, the sum) to the distinct arrays having it;
+    a candidate is confirmed by comparing all bytes. Buildings whose files repeat a column (the calendar,
+    an unused all-zero or empty column, a copied file) then hold it once, and the district broadcasts it
+    (:func:`citylearn_env.district.shared_rows`) instead of storing B copies."""
+    key = (values.dtype.str, values.shape, values[::61].tobytes(), float(np.nansum(values)))
+    bucket = store.setdefault(key, [])
+    for known in bucket:
+        if np.array_equal(known.view(np.uint8), values.view(np.uint8)):
+            return known
+    bucket.append(values)
+    return values

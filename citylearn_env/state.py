@@ -10,6 +10,7 @@ powers kW, temperatures degC, states of charge and efficiencies as fractions.
 
 from __future__ import annotations
 
+import mmap
 from collections.abc import Mapping
 from dataclasses import dataclass, fields
 from types import MappingProxyType
@@ -38,13 +39,35 @@ END_USE_SLOTS: Mapping[str, EndUseSlots] = MappingProxyType({
     for k in END_USES})
 
 
+#: records at least this large [bytes] are held in anonymous memory maps (:func:`lazy_zeros`)
+LAZY_BYTES = 1 << 22
+
+
+def lazy_zeros(count: int, n: int, length: int) -> np.ndarray:
+    """``count`` float64 arrays of (n, length) zeros, as one (count, n, length) block.
+
+    A large block is an anonymous memory map advised against transparent huge pages: the OS gives a page of
+    memory only when it is first written, 4 KiB at a time. numpy's own large allocations ask for 2 MiB huge
+    pages, so writing one column of a (B, T) record (the step's values, one per building) would make the whole
+    record resident at once; a field the run never writes (the end uses a district does not have) would cost
+    B x T x 8 bytes all the same."""
+    nbytes = count * n * length * 8
+    if nbytes < LAZY_BYTES:
+        return np.zeros((count, n, length))
+    block = mmap.mmap(-1, nbytes)
+    if hasattr(mmap, "MADV_NOHUGEPAGE"):
+        block.madvise(mmap.MADV_NOHUGEPAGE)
+    return np.frombuffer(block, dtype=np.float64).reshape(count, n, length)
+
+
 class Record:
     """Base of the episode records: every field a (B, T) float array."""
 
     @classmethod
     def zeros(cls, n: int, length: int) -> Self:
-        """A record of ``n`` buildings and ``length`` time steps, all zeros."""
-        return cls(*(np.zeros((n, length)) for _ in fields(cls)))
+        """A record of ``n`` buildings and ``length`` time steps, all zeros (memory taken when written,
+        :func:`lazy_zeros`)."""
+        return cls(*lazy_zeros(len(fields(cls)), n, length))
 
 
 @dataclass(frozen=True, eq=False)
@@ -165,6 +188,9 @@ class Signals:
     ``columns`` holds every data-set column by its v2.2 name (calendar, weather, prices, carbon intensity, loads,
     set points ...); ``pv_generation`` [kWh per step] is derived from ``solar_generation`` and the PV size;
     ``outage`` [0/1] is the outage signal of the episode (the data set's column, or drawn at reset).
+    Every column is read-only float64; one that all buildings share (one weather file, equal calendars, an unused
+    all-zero column) is a single row broadcast to (B, N) (``strides[0] == 0``, N values in memory), the others
+    are (B, N) copies (:func:`citylearn_env.district.shared_rows`).
     """
 
     columns: Mapping[str, np.ndarray]

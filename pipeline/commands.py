@@ -6,7 +6,6 @@ Prefect, pydantic, torch or matplotlib), so it runs on a plain install.
 from __future__ import annotations
 
 import argparse
-import json
 import tempfile
 from pathlib import Path
 
@@ -14,6 +13,7 @@ import numpy as np
 import pandas as pd
 
 from citylearn_env.example import write_example_district
+from citylearn_env.footprint import memory_refusal
 from pipeline.controllers import run_policy
 from pipeline.errors import InputError
 
@@ -53,36 +53,10 @@ def run_command(args: argparse.Namespace) -> int:
     return 0
 
 
-#: memory an episode holds per building and time step [bytes]: measured peak RSS over the imports of
-#: `run` on the 9-building 4-year (1.4 KB) and 17-building 1-year (1.6 KB) upstream datasets, rounded up
-BYTES_PER_BUILDING_STEP = 2048
-
-
 def check_memory(schema: Path, available: int | None = None) -> None:
-    """Refuse (one line naming the schema and both sizes) a schema whose episode needs more memory than is
-    available [bytes; default: the OS's MemAvailable], before anything is allocated. Estimate: buildings x
-    time steps x :data:`BYTES_PER_BUILDING_STEP`; steps from the schema's simulation period. A schema that
-    cannot be read this way is left to the loader's own errors."""
-    try:
-        data = json.loads(Path(schema).read_text())
-        buildings = len(data["buildings"])
-        steps = int(data["simulation_end_time_step"]) - int(data.get("simulation_start_time_step", 0)) + 1
-    except (OSError, ValueError, KeyError, TypeError):
-        return
-    available = available_memory() if available is None else available
-    needed = buildings * steps * BYTES_PER_BUILDING_STEP
-    if available is not None and needed > available:
-        raise InputError(f"{buildings} buildings x {steps} time steps need about {needed / 2**30:.1f} GiB of memory "
-                         f"and {available / 2**30:.1f} GiB are available: run fewer buildings or a shorter period",
-                         file=schema, column="buildings")
-
-
-def available_memory() -> int | None:
-    """The memory the OS can still give [bytes] (Linux ``MemAvailable``); None where unknown."""
-    try:
-        for line in Path("/proc/meminfo").read_text().splitlines():
-            if line.startswith("MemAvailable:"):
-                return int(line.split()[1]) * 1024
-    except (OSError, ValueError, IndexError):
-        return None
-    return None
+    """Refuse, in one line naming the estimate, the memory available [bytes; default: what the OS can give] and
+    what to do, a schema whose whole-episode run would not fit, before anything is loaded
+    (:func:`citylearn_env.footprint.memory_refusal`; a schema that cannot be sized is left to the loader)."""
+    refusal = memory_refusal(schema, available)
+    if refusal is not None:
+        raise InputError(refusal, file=schema, column="buildings")
