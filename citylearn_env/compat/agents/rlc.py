@@ -76,7 +76,7 @@ class RLC(Agent):
     @random_seed.setter
     def random_seed(self, seed: int) -> None:
         self._random_seed = seed
-        np.random.seed(seed)
+        np.random.seed(seed)  # noqa: NPY002 - upstream seeds the global generator
         require_torch().manual_seed(seed)
 
     @property

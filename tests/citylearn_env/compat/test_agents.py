@@ -1,0 +1,250 @@
+"""Upstream's agents behind upstream's import paths (issue 49 item 2): the SAC family, tabular Q-learning and its
+wrapper, ``env.load_agent()``, the RLlib wrappers' one-line refusal without ray. Expected numbers are worked by hand
+from upstream's documented formulas; runs are one building for a few days, torch on one thread."""
+
+from __future__ import annotations
+
+import itertools
+import math
+import sys
+
+import numpy as np
+import pytest
+
+from citylearn_env.compat.agents.encoders import (
+    Normalize,
+    OnehotEncoding,
+    PeriodicNormalization,
+    RemoveFeature,
+    encode,
+)
+from citylearn_env.compat.agents.loading import agent_class
+from citylearn_env.compat.agents.q_learning import TabularQLearning
+from citylearn_env.compat.agents.rbc import BasicRBC
+from citylearn_env.compat.citylearn import CityLearnEnv
+from citylearn_env.compat.wrappers import (
+    ClippedObservationWrapper,
+    RLlibMultiAgentEnv,
+    RLlibSingleAgentWrapper,
+    TabularQLearningWrapper,
+    mixed_radix,
+)
+from citylearn_env.errors import SchemaError
+from tests.citylearn_env.compat.conftest import PHASE_1, run
+
+torch = pytest.importorskip("torch", reason="torch (the rl extra) is not installed")
+
+WEEK = 167  # one week: 168 time steps
+
+
+@pytest.fixture(autouse=True)
+def one_thread():
+    """Torch on one thread (the machine is shared; many threads slow these tiny networks 10x)."""
+    threads = torch.get_num_threads()
+    torch.set_num_threads(1)
+    yield
+    torch.set_num_threads(threads)
+
+
+def small_env(end: int = WEEK, **kwargs) -> CityLearnEnv:
+    kwargs.setdefault("random_seed", 0)
+    return CityLearnEnv(PHASE_1, central_agent=True, buildings=["Building_1"], simulation_end_time_step=end, **kwargs)
+
+
+SMALL_SAC = dict(hidden_dimension=[32, 32], batch_size=32, start_training_time_step=40, end_exploration_time_step=60)
+
+
+# ---------------------------------------------------------------------------- encoders
+def test_encoders_follow_upstreams_formulas():
+    assert np.allclose(PeriodicNormalization(24) * 6, [1.0, 0.5])  # sin(pi/2) = 1 -> 1; cos = 0 -> 0.5
+    assert np.allclose(12 * PeriodicNormalization(24), [0.5, 0.0])  # sin(pi) = 0 -> 0.5; cos = -1 -> 0
+    assert list(OnehotEncoding([1, 2, 3, 4, 5, 6, 7, 8]) * 3) == [0, 0, 1, 0, 0, 0, 0, 0]
+    assert Normalize(0.0, 10.0) * 2.5 == 0.25
+    assert Normalize(4.0, 4.0) * 9.0 == 0
+    assert RemoveFeature() * 1.0 is None
+    out = encode([PeriodicNormalization(24), RemoveFeature(), Normalize(0.0, 2.0)], [6, 123.0, 1.0])
+    assert out.tolist() == [1.0, 0.5, 0.5]
+
+
+def test_sac_encodes_as_upstream(cache):
+    from citylearn_env.compat.agents.sac import SAC
+
+    env = small_env()
+    agent = SAC(env, **SMALL_SAC)
+    names = env.observation_names[0]
+    # hour and month: 2 values each; day_type: 8; daylight_savings_status: 2; net_electricity_consumption: dropped
+    width = {"hour": 2, "month": 2, "day_type": 8, "daylight_savings_status": 2, "net_electricity_consumption": 0}
+    assert agent.observation_dimension == [sum(width.get(n, 1) for n in names)]
+    assert agent.policy_net[0].linear1.in_features == agent.observation_dimension[0]
+    # defaults kept where not given
+    assert (agent.discount, agent.tau, agent.alpha, agent.lr, agent.reward_scaling, agent.update_per_time_step) == \
+        (0.99, 5e-3, 0.2, 3e-4, 5.0, 2)
+    assert agent.action_scaling_coefficient == 0.5 and agent.replay_buffer_capacity == 1e5
+
+
+# ---------------------------------------------------------------------------- SAC
+def sac_run(seed: int, episodes: int = 2) -> tuple:
+    from citylearn_env.compat.agents.sac import SAC
+
+    env = small_env(end=95, random_seed=seed)
+    agent = SAC(env, **SMALL_SAC)
+    agent.learn(episodes=episodes, deterministic_finish=True)
+    weights = [p.detach().clone() for p in agent.policy_net[0].parameters()]
+    return agent, weights, env.episode_rewards
+
+
+def test_sac_is_deterministic_under_a_seed(cache):
+    a, weights_a, rewards_a = sac_run(0)
+    b, weights_b, rewards_b = sac_run(0)
+    c, weights_c, _ = sac_run(1)
+    assert all(torch.equal(x, y) for x, y in zip(weights_a, weights_b, strict=True))
+    assert rewards_a == rewards_b
+    assert not all(torch.equal(x, y) for x, y in zip(weights_a, weights_c, strict=True))
+    # the policy was trained: its weights left their seeded initial values
+    assert a.normalized == [True] and len(a.replay_buffer[0]) == 95  # the deterministic last episode pushes none
+    initial = sac_run(0, episodes=0)[1]
+    assert not all(torch.equal(x, y) for x, y in zip(weights_a, initial, strict=True))
+
+
+def test_sac_explores_then_uses_its_policy(cache):
+    from citylearn_env.compat.agents.sac import SAC
+
+    env = small_env(end=95)
+    agent = SAC(env, **SMALL_SAC)
+    agent.learn(episodes=1)
+    actions = np.array([a for a in agent.actions[0][:95]], dtype=float)
+    # exploration: uniform samples of [-1, 1] times 0.5; afterwards the policy's tanh-squashed actions, also in
+    # [-0.5, 0.5] (scale 0.5, bias 0)
+    assert np.all(np.abs(actions) <= 0.5 + 1e-6)
+    assert len({tuple(a) for a in actions[:61]}) == 61
+
+
+def test_an_upstream_sac_program_runs_unchanged(cache):
+    program = """
+from citylearn.agents.sac import SAC as Agent
+from citylearn.citylearn import CityLearnEnv
+
+env = CityLearnEnv(dataset_name, central_agent=True, buildings=['Building_1'], simulation_end_time_step=71)
+model = Agent(env, hidden_dimension=[32, 32], batch_size=32, start_training_time_step=30,
+              end_exploration_time_step=40)
+model.learn(episodes=2, deterministic_finish=True)
+kpis = env.evaluate()
+"""
+    namespace = run(program, dataset_name=PHASE_1)
+    assert type(namespace["model"]).__module__ == "citylearn_env.compat.agents.sac"
+    assert len(namespace["env"].episode_rewards) == 2
+    assert np.isfinite(namespace["kpis"]["value"].dropna()).all()
+
+
+def test_torch_missing_is_one_line(monkeypatch):
+    from citylearn_env.compat.agents.rlc import require_torch
+
+    monkeypatch.setitem(sys.modules, "torch", None)
+    with pytest.raises(ModuleNotFoundError, match=r"pip install torch==2\.13\.0 .*districtgen\[rl\]"):
+        require_torch()
+
+
+# ---------------------------------------------------------------------------- tabular Q-learning
+def test_tabular_wrapper_enumerates_as_itertools_product():
+    radices = [3, 4, 2]
+    for position, digits in enumerate(itertools.product(*(range(r) for r in radices))):
+        assert mixed_radix(digits, radices) == position
+
+
+def q_env(cache_unused=None) -> TabularQLearningWrapper:
+    env = small_env(end=71, active_observations=["hour"])
+    return TabularQLearningWrapper(env, observation_bin_sizes=[{"hour": 24}],
+                                   action_bin_sizes=[{"electrical_storage": 5}])
+
+
+def test_tabular_wrapper_spaces_and_values(cache):
+    env = q_env()
+    assert env.observation_space[0].n == 25 - 1  # upstream: combinations of 0..24, minus one
+    assert env.action_space[0].n == 5
+    observations = env.reset()  # the test is a CityLearn 2.1 program (the cache fixture)
+    assert observations == [[23]]  # the data set starts at hour 24: the last of 24 bins over [1, 24]
+    observations, *_ = env.step([[2]])
+    assert observations == [[0]]  # hour 1: the first bin
+    # action index i is linspace(low, high, 5)[i]: 4 is the space's upper bound, 2 its midpoint
+    box = env.unwrapped.action_space[0]
+    discrete = env.env.env  # TabularQLearningActionWrapper -> DiscreteActionWrapper
+    assert discrete.action([[4]]) == [[pytest.approx(float(box.high[0]))]]
+    assert discrete.action([[2]]) == [[pytest.approx((float(box.low[0]) + float(box.high[0])) / 2)]]
+    assert env.env.action([[3]]) == [[3]]  # one action per agent: the combination is the index itself
+
+
+def test_tabular_q_update_keeps_upstreams_bootstrap(cache):
+    agent = TabularQLearning(q_env(), learning_rate=0.5, discount_factor=0.9)
+    assert agent.corrected_bootstrap is False  # the CityLearn 2.1 preset: upstream's behaviour
+    agent.q[0][:] = np.nan
+    agent.q[0][3, :] = [7.0, 2.0, np.nan, 1.0, 0.5]  # best next action: index 0, value 7
+    agent.update([[2]], [[1]], [1.0], [[3]], terminated=False, truncated=False)
+    assert agent.q[0][2, 1] == pytest.approx(0.0 + 0.5 * (1.0 + 0.9 * 0 - 0.0))  # the index, 0, bootstraps
+    agent.corrected_bootstrap = True
+    agent.update([[2]], [[1]], [1.0], [[3]], terminated=False, truncated=False)
+    assert agent.q[0][2, 1] == pytest.approx(0.5 + 0.5 * (1.0 + 0.9 * 7.0 - 0.5))
+    # a next state never visited (all NaN) bootstraps 0
+    agent.update([[5]], [[0]], [2.0], [[9]], terminated=False, truncated=False)
+    assert agent.q[0][5, 0] == pytest.approx(1.0)
+
+
+def test_tabular_q_epsilon_decays_per_episode_and_runs_are_seeded(cache):
+    runs = []
+    for _ in range(2):
+        agent = TabularQLearning(q_env(), epsilon_decay=0.5)
+        agent.learn(episodes=3)
+        runs.append(agent)
+    a, b = runs
+    # after three episodes of 72 steps: epsilon = max(0.01, 1.0 * exp(-0.5 * episode of the last step = 2))
+    assert a.epsilon == pytest.approx(math.exp(-0.5 * 2))
+    assert np.array_equal(a.q[0], b.q[0], equal_nan=True)
+    assert a.q_exploration[0].sum() + a.q_exploitation[0].sum() == 3 * 71  # 71 steps per episode
+    assert np.isfinite(a.q[0]).sum() > 10  # cells were learned
+
+
+# ---------------------------------------------------------------------------- load_agent
+class ProgramAgent(BasicRBC):
+    """An agent class the running program defines."""
+
+
+def test_load_agent_builds_the_schemas_agent(cache):
+    env = small_env()
+    agent = env.load_agent()
+    assert type(agent) is BasicRBC  # phase 1's schema names citylearn.agents.rbc.BasicRBC
+    sac = env.load_agent("citylearn.agents.sac.SAC", hidden_dimension=[16, 16], batch_size=8)
+    assert sac.hidden_dimension == [16, 16] and sac.batch_size == 8 and sac.discount == 0.99
+    own = env.load_agent(f"{__name__}.ProgramAgent")
+    assert type(own) is ProgramAgent
+    assert type(env.load_agent(ProgramAgent)) is ProgramAgent
+
+
+def test_load_agent_refuses_unknown_names_in_one_line():
+    with pytest.raises(SchemaError, match="not a class the running program has imported"):
+        agent_class("my_package_never_imported.Agent")
+    with pytest.raises(SchemaError, match="upstream's agent modules"):
+        agent_class("citylearn.agents.ppo.PPO")
+    assert agent_class("citylearn.agents.q_learning.TabularQLearning") is TabularQLearning
+
+
+# ---------------------------------------------------------------------------- RLlib
+def test_rllib_wrappers_name_the_install_without_ray(cache):
+    if _has_ray():
+        pytest.skip("ray is installed")
+    for cls in (RLlibSingleAgentWrapper, RLlibMultiAgentEnv):
+        with pytest.raises(ModuleNotFoundError, match=r"pip install 'ray\[rllib\]'"):
+            cls({})
+
+
+def _has_ray() -> bool:
+    import importlib.util
+
+    return importlib.util.find_spec("ray") is not None
+
+
+def test_clipped_observation_wrapper_keeps_values_in_the_space(cache):
+    env = ClippedObservationWrapper(small_env(end=23))
+    observations = env.reset()  # a CityLearn 2.1 program (the cache fixture)
+    space = env.observation_space[0]
+    for _ in range(23):
+        assert np.all(np.array(observations[0]) >= space.low) and np.all(np.array(observations[0]) <= space.high)
+        observations, *_ = env.step([[0.5]])
