@@ -248,3 +248,30 @@ def test_clipped_observation_wrapper_keeps_values_in_the_space(cache):
     for _ in range(23):
         assert np.all(np.array(observations[0]) >= space.low) and np.all(np.array(observations[0]) <= space.high)
         observations, *_ = env.step([[0.5]])
+
+
+# ---------------------------------------------------------------------------- MARLISA
+def test_marlisa_compresses_with_pca_and_is_seeded(cache):
+    pytest.importorskip("sklearn", reason="scikit-learn (the pipeline extra) is not installed")
+    from citylearn_env.compat.agents.marlisa import MARLISA
+
+    runs = []
+    for _ in range(2):
+        env = CityLearnEnv(PHASE_1, buildings=["Building_1", "Building_2"], simulation_end_time_step=119,
+                           random_seed=0)
+        agent = MARLISA(env, hidden_dimension=[16, 16], batch_size=40, start_training_time_step=30,
+                        end_exploration_time_step=90)
+        assert agent.start_regression_time_step == 29 and agent.regression_frequency == 2500
+        agent.learn(episodes=1)
+        runs.append(agent)
+    a, b = runs
+    assert a.pca_flag == [True, True] and a.regression_flag == [2, 2]
+    # transitions are pushed from the second regression update on: time steps 31..119 of 120
+    assert len(a.replay_buffer[0]) == 119 - 30
+    components = a.pca[0].n_components_
+    assert components == a.observation_dimension[0]  # pca_compression 1.0 keeps every component
+    assert all(len(t[0]) == components for t in a.replay_buffer[0].buffer)
+    assert all(torch.equal(x, y) for x, y in zip(a.policy_net[1].parameters(), b.policy_net[1].parameters(),
+                                                  strict=True))
+    with pytest.raises(SchemaError, match="information_sharing=True is not mirrored"):
+        MARLISA(CityLearnEnv(PHASE_1, buildings=["Building_1"], simulation_end_time_step=23), information_sharing=True)
