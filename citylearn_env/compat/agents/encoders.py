@@ -34,14 +34,17 @@ class NoNormalization(Encoder):
 
 
 class PeriodicNormalization(Encoder):
-    """A cyclic value x (hour, month) of period ``x_max`` as ``[(sin θ + 1)/2, (cos θ + 1)/2]``,
-    θ = 2πx/x_max [rad] (sine first, as upstream)."""
+    """A cyclic value x (hour, month) of period ``x_max`` as ``[(sin θ + 1)/2, (cos θ + 1)/2]`` (CityLearn 2.2+;
+    ``scaled=False``: ``[sin θ, cos θ]``, CityLearn 2.1.2), θ = 2πx/x_max [rad] (sine first, as upstream)."""
 
-    def __init__(self, x_max: float) -> None:
+    def __init__(self, x_max: float, scaled: bool = True) -> None:
         self.x_max = x_max
+        self.scaled = scaled
 
     def encode(self, x: Any) -> np.ndarray:
         theta = 2 * np.pi * x / self.x_max
+        if not self.scaled:
+            return np.array([np.sin(theta), np.cos(theta)])
         return np.array([(np.sin(theta) + 1) / 2.0, (np.cos(theta) + 1) / 2.0])
 
 
@@ -88,14 +91,14 @@ def encode(encoders: Sequence[Encoder], values: Sequence[float]) -> np.ndarray:
     return np.array(parts, dtype=float)
 
 
-def default_encoders(names: Sequence[str], space: Any) -> list[Encoder]:
+def default_encoders(names: Sequence[str], space: Any, scaled_periodic: bool = True) -> list[Encoder]:
     """Upstream's default encoders of one agent's observations: hour and month periodic with the space's upper
-    bound as period, day_type one-hot over 1..8, daylight_savings_status one-hot over 0/1, the rest min-max
-    scaled with the space's bounds."""
+    bound as period (``scaled_periodic``: see :class:`PeriodicNormalization`), day_type one-hot over 1..8,
+    daylight_savings_status one-hot over 0/1, the rest min-max scaled with the space's bounds."""
     encoders: list[Encoder] = []
     for i, name in enumerate(names):
         if name in ("month", "hour"):
-            encoders.append(PeriodicNormalization(space.high[i]))
+            encoders.append(PeriodicNormalization(space.high[i], scaled_periodic))
         elif name == "day_type":
             encoders.append(OnehotEncoding([1, 2, 3, 4, 5, 6, 7, 8]))
         elif name == "daylight_savings_status":

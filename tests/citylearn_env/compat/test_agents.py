@@ -5,8 +5,12 @@ from upstream's documented formulas; runs are one building for a few days, torch
 from __future__ import annotations
 
 import itertools
+import json
 import math
+import os
+import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -51,13 +55,15 @@ def small_env(end: int = WEEK, **kwargs) -> CityLearnEnv:
     return CityLearnEnv(PHASE_1, central_agent=True, buildings=["Building_1"], simulation_end_time_step=end, **kwargs)
 
 
-SMALL_SAC = dict(hidden_dimension=[32, 32], batch_size=32, start_training_time_step=40, end_exploration_time_step=60)
+# CityLearn 2.1.2 keywords: the cache fixture makes these tests CityLearn 2.1 programs
+SMALL_SAC = dict(hidden_dimension=[32, 32], batch_size=32, standardize_start_time_step=40, end_exploration_time_step=60)
 
 
 # ---------------------------------------------------------------------------- encoders
 def test_encoders_follow_upstreams_formulas():
     assert np.allclose(PeriodicNormalization(24) * 6, [1.0, 0.5])  # sin(pi/2) = 1 -> 1; cos = 0 -> 0.5
     assert np.allclose(12 * PeriodicNormalization(24), [0.5, 0.0])  # sin(pi) = 0 -> 0.5; cos = -1 -> 0
+    assert np.allclose(PeriodicNormalization(24, scaled=False) * 6, [1.0, 0.0])  # CityLearn 2.1.2: sin, cos
     assert list(OnehotEncoding([1, 2, 3, 4, 5, 6, 7, 8]) * 3) == [0, 0, 1, 0, 0, 0, 0, 0]
     assert Normalize(0.0, 10.0) * 2.5 == 0.25
     assert Normalize(4.0, 4.0) * 9.0 == 0
@@ -76,6 +82,15 @@ def test_sac_encodes_as_upstream(cache):
     width = {"hour": 2, "month": 2, "day_type": 8, "daylight_savings_status": 2, "net_electricity_consumption": 0}
     assert agent.observation_dimension == [sum(width.get(n, 1) for n in names)]
     assert agent.policy_net[0].linear1.in_features == agent.observation_dimension[0]
+    # CityLearn 2.1.2's schedule defaults: standardise at the episode length - 1, explore for one episode
+    default = SAC(env, hidden_dimension=[8, 8])
+    assert (default.standardize_start_time_step, default.end_exploration_time_step) == (WEEK, WEEK + 1)
+    assert default.start_training_time_step == WEEK  # one attribute, both names
+    # hour and month unscaled (sin, cos) as CityLearn 2.1.2: hour 24 of period 24 -> (0, 1)
+    hour = names.index("hour")
+    encoded = default.get_encoded_observations(0, [24.0 if n == "hour" else 1.0 for n in names])
+    offset = sum(width.get(n, 1) for n in names[:hour])
+    assert encoded[offset:offset + 2] == pytest.approx([0.0, 1.0], abs=1e-6)
     # defaults kept where not given
     assert (agent.discount, agent.tau, agent.alpha, agent.lr, agent.reward_scaling, agent.update_per_time_step) == \
         (0.99, 5e-3, 0.2, 3e-4, 5.0, 2)
@@ -125,7 +140,7 @@ from citylearn.agents.sac import SAC as Agent
 from citylearn.citylearn import CityLearnEnv
 
 env = CityLearnEnv(dataset_name, central_agent=True, buildings=['Building_1'], simulation_end_time_step=71)
-model = Agent(env, hidden_dimension=[32, 32], batch_size=32, start_training_time_step=30,
+model = Agent(env, hidden_dimension=[32, 32], batch_size=32, standardize_start_time_step=30,
               end_exploration_time_step=40)
 model.learn(episodes=2, deterministic_finish=True)
 kpis = env.evaluate()
@@ -259,7 +274,7 @@ def test_marlisa_compresses_with_pca_and_is_seeded(cache):
     for _ in range(2):
         env = CityLearnEnv(PHASE_1, buildings=["Building_1", "Building_2"], simulation_end_time_step=119,
                            random_seed=0)
-        agent = MARLISA(env, hidden_dimension=[16, 16], batch_size=40, start_training_time_step=30,
+        agent = MARLISA(env, hidden_dimension=[16, 16], batch_size=40, standardize_start_time_step=30,
                         end_exploration_time_step=90)
         assert agent.start_regression_time_step == 29 and agent.regression_frequency == 2500
         agent.learn(episodes=1)
@@ -275,3 +290,24 @@ def test_marlisa_compresses_with_pca_and_is_seeded(cache):
                                                   strict=True))
     with pytest.raises(SchemaError, match="information_sharing=True is not mirrored"):
         MARLISA(CityLearnEnv(PHASE_1, buildings=["Building_1"], simulation_end_time_step=23), information_sharing=True)
+
+
+# ---------------------------------------------------------------------------- against upstream itself
+UPSTREAM_PYTHON = Path(os.environ.get("DISTRICTGEN_UPSTREAM_PYTHON", "/work/upstream-venv/bin/python"))
+
+
+def test_sac_and_q_learning_equal_upstream_2_1_2_bit_for_bit(cache):
+    """Upstream CityLearn 2.1.2's SAC and TabularQLearning against these, on the same environment with the same
+    seeds (upstream's unseeded generators seeded alike): every action, the trained weights, the Q table and the
+    KPIs equal exactly. Needs a separate venv holding citylearn==2.1.2 (docs/compat.md says how it was made)."""
+    if not UPSTREAM_PYTHON.exists():
+        pytest.skip(f"no upstream CityLearn venv at {UPSTREAM_PYTHON} (set $DISTRICTGEN_UPSTREAM_PYTHON)")
+    script = Path(__file__).with_name("upstream_agents_check.py")
+    done = subprocess.run([str(UPSTREAM_PYTHON), str(script), "95"], capture_output=True, text=True, timeout=900,
+                          env={**os.environ, "PYTHONPATH": str(Path(__file__).parents[3])}, check=False)
+    assert done.returncode == 0, done.stderr[-2000:]
+    sac, q = (json.loads(line) for line in done.stdout.splitlines() if line.startswith("{"))
+    assert sac["sac_initial_weights_equal"] and sac["encoded_obs_equal"]
+    assert sac["max_abs_action_diff"] == 0.0 and sac["max_abs_final_policy_weight_diff"] == 0.0
+    assert sac["kpi_max_abs_diff"] == 0.0
+    assert q["q_tables_equal"] and q["explore_counts_equal"] and q["epsilon"][0] == q["epsilon"][1]
