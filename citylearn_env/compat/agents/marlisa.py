@@ -1,7 +1,9 @@
 """Upstream's MARLISA (mirrors ``citylearn.agents.marlisa.MARLISA``): SAC per agent whose observations are
 standardised then compressed by PCA, with upstream's defaults (``hidden_dimension`` [400, 300], ``batch_size``
-100, ``regression_buffer_capacity`` 3e4, ``start_regression_time_step`` = ``start_training_time_step`` - 1,
-``regression_frequency`` 2500, ``pca_compression`` 1.0, ``iterations`` 2, ``information_sharing`` False).
+100, ``regression_buffer_capacity`` 3e4, ``regression_frequency`` 2500, ``pca_compression`` 1.0, ``iterations`` 2;
+CityLearn 2.5: ``start_regression_time_step`` = ``start_training_time_step`` - 1, ``information_sharing`` False;
+CityLearn 2.1.2: ``start_regression_time_step`` 2, ``information_sharing`` True, so a 2.1 program gets the one
+line below unless it passes ``information_sharing=False``).
 
 As upstream without information sharing: transitions reach the replay buffer only once the regression phase has
 started twice (``start_regression_time_step`` passed on two updates); at ``start_training_time_step`` with
@@ -34,7 +36,9 @@ class MARLISA(SAC):
                  start_regression_time_step: int | None = None, regression_frequency: int | None = None,
                  information_sharing: bool | None = None, pca_compression: float | None = None,
                  iterations: int | None = None, **kwargs: Any) -> None:
-        if information_sharing:
+        mirror = getattr(env.unwrapped, "mirror", None)
+        old = mirror is not None and mirror.version == "2.1"
+        if information_sharing or (information_sharing is None and old):
             raise SchemaError("MARLISA with information_sharing=True is not mirrored (docs/compat.md)",
                               column="information_sharing")
         try:
@@ -47,7 +51,8 @@ class MARLISA(SAC):
         self.information_sharing = False
         super().__init__(env, **kwargs)
         self.regression_buffer_capacity = 3e4 if regression_buffer_capacity is None else regression_buffer_capacity
-        start = self.start_training_time_step - 1 if start_regression_time_step is None else start_regression_time_step
+        default = 2 if old else self.start_training_time_step - 1
+        start = default if start_regression_time_step is None else start_regression_time_step
         if start >= self.start_training_time_step:
             raise SchemaError(f"must be < start_training_time_step ({self.start_training_time_step}), got {start}",
                               column="start_regression_time_step")

@@ -275,8 +275,8 @@ def test_marlisa_compresses_with_pca_and_is_seeded(cache):
         env = CityLearnEnv(PHASE_1, buildings=["Building_1", "Building_2"], simulation_end_time_step=119,
                            random_seed=0)
         agent = MARLISA(env, hidden_dimension=[16, 16], batch_size=40, standardize_start_time_step=30,
-                        end_exploration_time_step=90)
-        assert agent.start_regression_time_step == 29 and agent.regression_frequency == 2500
+                        end_exploration_time_step=90, information_sharing=False, start_regression_time_step=29)
+        assert agent.regression_frequency == 2500
         agent.learn(episodes=1)
         runs.append(agent)
     a, b = runs
@@ -288,8 +288,12 @@ def test_marlisa_compresses_with_pca_and_is_seeded(cache):
     assert all(len(t[0]) == components for t in a.replay_buffer[0].buffer)
     assert all(torch.equal(x, y) for x, y in zip(a.policy_net[1].parameters(), b.policy_net[1].parameters(),
                                                   strict=True))
+    # CityLearn 2.1.2's default shares information: not mirrored, one line
     with pytest.raises(SchemaError, match="information_sharing=True is not mirrored"):
-        MARLISA(CityLearnEnv(PHASE_1, buildings=["Building_1"], simulation_end_time_step=23), information_sharing=True)
+        MARLISA(CityLearnEnv(PHASE_1, buildings=["Building_1"], simulation_end_time_step=23))
+    default = MARLISA(CityLearnEnv(PHASE_1, buildings=["Building_1"], simulation_end_time_step=23),
+                      information_sharing=False)
+    assert (default.start_regression_time_step, default.hidden_dimension, default.batch_size) == (2, [400, 300], 100)
 
 
 # ---------------------------------------------------------------------------- against upstream itself
