@@ -65,8 +65,8 @@ def run_q(kind: str, end: int):
 
 def main(end: int) -> None:
     torch.set_num_threads(1)
-    os.environ["DISTRICTGEN_CITYLEARN_DATA"] = DATA
-    os.environ["DISTRICTGEN_CITYLEARN_VERSION"] = "2.1"
+    os.environ.setdefault("DISTRICTGEN_CITYLEARN_DATA", DATA)
+    os.environ.setdefault("DISTRICTGEN_CITYLEARN_VERSION", "2.1")
     up, ours = run_sac("upstream", end), run_sac("ours", end)
     print(json.dumps({
         "sac_initial_weights_equal": all(torch.equal(x, y) for x, y in zip(up[0], ours[0], strict=True)),
