@@ -399,6 +399,14 @@ class CityLearnEnv(Results, gym.Env):
             self._ignored = frozenset(ignored)
             self._rebuild()
 
+    def load_agent(self, agent: Any = None, **kwargs: Any) -> Any:
+        """The agent of the schema's ``agent`` block (or ``agent``, a class or type string), built as
+        ``Class(env=self, **attributes)``, ``kwargs`` overriding the schema's attributes
+        (:mod:`citylearn_env.compat.agents.loading`)."""
+        from citylearn_env.compat.agents.loading import load_agent
+
+        return load_agent(self, agent, **kwargs)
+
     def deactivate_actions(self) -> None:
         """No active action in any building (what upstream's ``BaselineAgent`` does to its environment)."""
         if not self._no_actions:

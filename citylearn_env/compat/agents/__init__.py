@@ -1,4 +1,6 @@
-"""Agents with upstream's import paths: :mod:`citylearn_env.compat.agents.base` (``Agent``, ``BaselineAgent``)
-and :mod:`citylearn_env.compat.agents.rbc` (``RBC``, ``HourRBC``, ``BasicRBC``, ``OptimizedRBC``,
-``BasicBatteryRBC``). Upstream's learning agents (``citylearn.agents.sac`` ...) are not provided: use
-Stable-Baselines3 through :class:`citylearn_env.compat.wrappers.StableBaselines3Wrapper`."""
+"""Agents with upstream's import paths: :mod:`~.base` (``Agent``, ``BaselineAgent``), :mod:`~.rbc` (``RBC``,
+``HourRBC``, ``BasicRBC``, ``OptimizedRBC``, ``BasicBatteryRBC``), :mod:`~.sac` (``SAC`` and its RBC-guided
+variants), :mod:`~.marlisa` (``MARLISA``, without information sharing), :mod:`~.q_learning`
+(``TabularQLearning``, with :class:`citylearn_env.compat.wrappers.TabularQLearningWrapper`) and :mod:`~.rlc`
+(``RLC``); :mod:`~.loading` is what ``env.load_agent()`` runs. Torch is imported when a learning agent is built.
+"""
