@@ -30,7 +30,7 @@ from pipeline.builder.report_figures import (
     temperature_figure,
 )
 from pipeline.controllers import MISFIT_REASON, RULE_OBJECTIVES
-from pipeline.select import format_validity
+from pipeline.select import describe_selection, format_validity
 
 #: episode series the report needs (env.series() names), (B, T)
 SERIES = ("net_electricity_consumption", "solar_generation", "electricity_pricing", "carbon_intensity",
@@ -364,7 +364,7 @@ def append_building_report(summary: Path, buildings: Mapping[str, dict], selecti
     if selection is not None:
 
         k = int(selection.chosen["k"].iloc[0])
-        lines += ["", f"## Selection (k = {k}, one building per k-means cluster)", "", "```",
+        lines += ["", f"## Selection ({describe_selection(selection.chosen)})", "", "```",
                   format_validity(selection.validity, k), "```"]
     with open(summary, "a") as handle:
         handle.write("\n".join(lines) + "\n")
