@@ -24,7 +24,7 @@ its pitfalls designed out):
    reported, as upstream, but not voted: it always falls with k);
 5. one building per cluster: the medoid (the member with the least summed Euclidean distance to the other
    members in feature space; ties -> smaller id) or a seeded uniform draw within each cluster;
-6. more houses than filtered rows: every row once (k = the row count, each row its own cluster), then repeats:
+6. as many houses as filtered rows or more: every row once (k = the row count, each its own cluster), then repeats:
    whole rounds of every row, and the remainder drawn without replacement with the selection seed. Column
    ``repeat`` numbers a row's copies (0: the row itself); the build gives copy ``r`` the occupant-schedule seed
    ``[simulation] schedule_seed + r`` (:func:`pipeline.builder.houses.schedule_repeats`), so no two houses
@@ -272,7 +272,7 @@ def medoid(points: np.ndarray) -> int:
 @dataclass(frozen=True)
 class Selection:
     """The chosen buildings (``bldg_id``, ``cluster``, ``k``, ``repeat`` per row, in district order), the
-    validity table and the features."""
+    validity table and the features (none when every row is taken and repeated)."""
 
     chosen: pd.DataFrame
     validity: pd.DataFrame
@@ -282,7 +282,7 @@ class Selection:
 def select_buildings(frame: pd.DataFrame, *, houses: int | str = "auto", seed: int = 0, method: str = "medoid",
                      max_clusters: int | None = None, file: object = "<metadata>") -> Selection:
     """``houses`` buildings of the (already filtered) stock ``frame`` (module docstring): one per k-means
-    cluster when ``houses`` is at most the row count, else every row and seeded repeats.
+    cluster when ``houses`` is below the row count, else every row (in id order) and seeded repeats.
 
     ``houses``: a number (>= 1), or ``"auto"`` (k chosen over 2..``max_clusters``, default ceil(N/2) capped
     at 20). ``method``: ``"medoid"`` or ``"draw"`` (seeded uniform draw per cluster).
@@ -293,6 +293,9 @@ def select_buildings(frame: pd.DataFrame, *, houses: int | str = "auto", seed: i
     n = len(frame)
     if n == 0:
         raise InputError("no building left after the filters", file=file)
+    if houses != "auto" and house_count(houses, file=file) >= n:  # every row (then repeats): no clustering
+        return Selection(repeat_rows(frame.index, int(houses), seed), _undefined_validity(n),
+                         pd.DataFrame(index=frame.index))
     features = selection_features(frame, file=file)
     if houses == "auto":
         top = min(max_clusters or min(math.ceil(n / 2), 20), n - 1)
@@ -301,9 +304,7 @@ def select_buildings(frame: pd.DataFrame, *, houses: int | str = "auto", seed: i
         validity = validity_table(features, range(2, top + 1), seed)
         k = choose_k(validity)
     else:
-        k = house_count(houses, file=file)
-        if k > n:
-            return Selection(repeat_rows(frame.index, k, seed), _undefined_validity(n), features)
+        k = int(houses)
         validity = validity_table(features, [k], seed)
     labels = _kmeans(features.to_numpy(dtype=float), k, seed).labels_
     rng = np.random.default_rng(seed)
@@ -328,7 +329,7 @@ def house_count(value: object, *, file: object = "<metadata>") -> int:
 
 
 def repeat_rows(ids: Sequence[int], houses: int, seed: int) -> pd.DataFrame:
-    """``houses`` (> the row count) buildings from the sorted ``ids``: every id once (its own cluster), then
+    """``houses`` (>= the row count) buildings from the sorted ``ids``: every id once (its own cluster), then
     whole rounds of every id, then the remainder drawn without replacement with ``seed`` (in id order).
     Columns ``bldg_id, cluster, k, repeat``; ``repeat`` r >= 1 marks a row's r-th repeat."""
     ids = [int(i) for i in sorted(ids)]

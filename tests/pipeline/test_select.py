@@ -162,8 +162,8 @@ def test_houses_up_to_the_rows_is_one_medoid_per_cluster(stock):
     chosen = select.select_buildings(rows, houses=6, seed=3).chosen
     assert len(chosen) == 6 and chosen["bldg_id"].is_unique and (chosen["repeat"] == 0).all()
     assert select.describe_selection(chosen) == "k = 6, one building per k-means cluster"
-    every = select.select_buildings(rows, houses=17, seed=3).chosen   # k = the row count: every row once
-    assert sorted(every["bldg_id"]) == sorted(rows.index)
+    every = select.select_buildings(rows, houses=17, seed=3).chosen   # k = the row count: every row, in id order
+    assert list(every["bldg_id"]) == sorted(rows.index) and (every["repeat"] == 0).all()
 
 
 @pytest.mark.parametrize("bad", [0, -2, 2.5, True, "many"])
@@ -217,3 +217,42 @@ def test_a_repeat_gets_its_own_schedule_seed_and_eulp_rows_cannot_repeat():
                               file="cfg.toml")
     with pytest.raises(InputError, match=r"cfg.toml.*'inputs.buildings'.*bldg_id 7 repeats \(position 2\)"):
         check_repeats(eulp)
+
+
+def _repeat_district(cache: Path) -> object:
+    """raw/district.toml for three June days with the one hot-humid single-family row of the 1990s (bldg_id 59)
+    asked for twice: the row and one repeat; one EnergyPlus step per hour, one partial-load run, no surrogate."""
+    import tomllib
+
+    from pipeline.config import parse_build_config
+
+    data = tomllib.loads((ROOT / "raw" / "district.toml").read_text())
+    data.update(name="repeat2", period={"start": "2018-06-01", "end": "2018-06-03"}, cache_dir=str(cache))
+    data["selection"] = {"filters": {**HOT_HUMID, "vintage": "1990s"}, "houses": 2, "seed": 3}
+    data["simulation"] = {**data["simulation"], "partial_runs": 1, "month_runs": 0, "timesteps_per_hour": 1}
+    data["surrogate"] = {"source": "none"}
+    return parse_build_config(data, file=ROOT / "raw" / "district.toml", base=ROOT / "raw")
+
+
+@pytest.mark.slow  # 4 EnergyPlus passes of June (2 houses, built twice from empty caches)
+def test_two_copies_of_one_row_have_their_own_loads_and_rebuild_byte_identical(tmp_path):
+    from pipeline.builder.driver import build_district_local
+    from pipeline.builder.manifest import district_digest
+    from surrogates.energyplus.runner import find_energyplus
+
+    try:
+        find_energyplus()
+    except Exception as error:  # noqa: BLE001 - any reason the engine is missing
+        pytest.skip(f"EnergyPlus is not installed ({error}): the houses cannot be simulated")
+    first = build_district_local(_repeat_district(tmp_path / "cache_a"), tmp_path / "a")
+    chosen = pd.read_csv(first / "selection.csv")
+    assert list(chosen["bldg_id"]) == [59, 59] and list(chosen["repeat"]) == [0, 1]
+    assert "2 houses from 1 filtered rows: every row once and 1 repeats" in (first / "report" / "summary.md").read_text()
+    one, two = pd.read_csv(first / "Building_1.csv"), pd.read_csv(first / "Building_2.csv")
+    for column in ("non_shiftable_load", "dhw_demand", "occupant_count"):
+        assert not np.allclose(one[column], two[column]), column      # other households, other loads
+    assert one["non_shiftable_load"].sum() > 0 and two["non_shiftable_load"].sum() > 0
+    again = build_district_local(_repeat_district(tmp_path / "cache_b"), tmp_path / "b")   # simulated afresh
+    assert district_digest(again) == district_digest(first)
+    for name in ("Building_1.csv", "Building_2.csv", "schema.json", "selection.csv"):
+        assert (again / name).read_bytes() == (first / name).read_bytes(), name
