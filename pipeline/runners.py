@@ -96,14 +96,29 @@ class PrefectRunner:
         labels = {id(future): label for label, future in futures.items()}
         for future in as_completed(list(futures.values())):
             future.result()  # the first failure ends the build (its own error, one line in the CLI)
+            release_dask(future)
             progress.advance(step, labels[id(future)])
         return {label: future.result() for label, future in futures.items()}
 
 
+def release_dask(future: Any) -> None:
+    """Let Dask forget the result of a Prefect future run on Dask (prefect-dask keeps the task's final state
+    once read): a worker lost afterwards is then not asked to run that task again. Other futures: nothing."""
+    wrapped = getattr(future, "wrapped_future", None)
+    if callable(getattr(wrapped, "release", None)):
+        wrapped.release()
+
+
 class DaskRunner:
-    """Dask: the scheduler at ``address``, else a local cluster of ``workers`` single-threaded worker processes
-    (started and stopped by each ``map``). Files a task writes are written by the workers, so a remote cluster
-    needs the output folder on a shared file system."""
+    """Dask: the scheduler at ``address`` (workers started apart, on this or other machines), else a local
+    cluster of ``workers`` single-threaded worker processes (started and stopped by each ``map``).
+
+    Each result is fetched into this process as soon as its task ends (:func:`gather_as_done`), so a worker
+    lost later costs only the task it was running: the scheduler runs that again on another worker (up to
+    distributed's ``allowed-failures``, 3 by default). Tasks are submitted impure (a rerun is a new key) and
+    the build's per-building work is idempotent (a cache entry is renamed into place whole; nothing is written
+    into the district by a worker), so running one twice is harmless. A remote worker reads the inputs and
+    the cache at the paths the configuration names: shared storage (docs/build.md, the multi-node recipe)."""
 
     def __init__(self, address: str | None = None, workers: int = 2):
         self.address, self.workers = address, workers
@@ -116,5 +131,20 @@ class DaskRunner:
             target = self.address or stack.enter_context(LocalCluster(
                 n_workers=self.workers, threads_per_worker=1, processes=True, dashboard_address=None))
             client = stack.enter_context(Client(target))
-            return gather(lambda label, f, *args: client.submit(f, *args, key=f"{step}-{label}", pure=False),
-                          fn, calls)
+            futures = {label: client.submit(fn, *args, key=f"{step}-{label}", pure=False)
+                       for label, args in calls.items()}
+            return gather_as_done(step, futures)
+
+
+def gather_as_done(step: str, futures: Mapping[str, Any]) -> dict[str, Any]:
+    """``{label: result}`` of Dask ``futures`` in the order given, each fetched as soon as it is done (the
+    first failure ends it, its own error); reports each building to :mod:`pipeline.progress`."""
+    from dask.distributed import as_completed  # optional extra: dask
+
+    labels = {future.key: label for label, future in futures.items()}
+    results = {}
+    for future in as_completed(list(futures.values())):
+        results[labels[future.key]] = future.result()
+        future.release()  # the result lives here now, not in a worker's memory
+        progress.advance(step, labels[future.key])
+    return {label: results[label] for label in futures}

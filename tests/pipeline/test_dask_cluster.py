@@ -1,0 +1,199 @@
+"""A real distributed deployment: a Dask scheduler and worker processes started apart from the build (as on a
+cluster of machines), one worker killed with SIGKILL mid-build and replaced; the district equals the
+in-process build's (real processes on 127.0.0.1, no mocks)."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+from contextlib import contextmanager
+from pathlib import Path
+
+import pytest
+
+from pipeline.runners import DaskRunner
+
+ROOT = Path(__file__).resolve().parents[2]
+DASK = Path(sys.executable).parent / "dask"
+#: seconds a scheduler or worker may take to come up on a busy machine
+START_S = 180.0
+
+
+class Cluster:
+    """``dask scheduler`` and ``dask worker`` processes (single-threaded, no nanny: SIGKILL ends the worker
+    for good) on 127.0.0.1, their logs in ``folder``; the worker's environment makes this checkout importable."""
+
+    def __init__(self, folder: Path):
+        self.folder = folder
+        self.env = {**os.environ, "PYTHONPATH": str(ROOT), "DASK_DISTRIBUTED__LOGGING__DISTRIBUTED": "warning"}
+        self.processes: list[subprocess.Popen] = []
+        self.workers: dict[str, subprocess.Popen] = {}
+        scheduler_file = folder / "scheduler.json"
+        self._spawn("scheduler", [str(DASK), "scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
+                                  "--scheduler-file", str(scheduler_file)])
+        deadline = time.monotonic() + START_S
+        while not scheduler_file.is_file() or not scheduler_file.read_text().strip():
+            assert time.monotonic() < deadline, "the scheduler did not start"
+            assert self.processes[0].poll() is None, (folder / "scheduler.log").read_text()
+            time.sleep(0.1)
+        self.address = json.loads(scheduler_file.read_text())["address"]
+
+    def _spawn(self, name: str, command: list[str]) -> subprocess.Popen:
+        log = open(self.folder / f"{name}.log", "w")  # noqa: SIM115 - closed with the process
+        process = subprocess.Popen(command, cwd=ROOT, env=self.env, stdout=log, stderr=subprocess.STDOUT)
+        log.close()
+        self.processes.append(process)
+        return process
+
+    def start_worker(self, name: str) -> None:
+        self.workers[name] = self._spawn(name, [str(DASK), "worker", self.address, "--nthreads", "1",
+                                                "--no-nanny", "--name", name, "--no-dashboard"])
+
+    def wait_for_workers(self, client, n: int) -> None:
+        client.wait_for_workers(n, timeout=START_S)
+
+    def kill(self, name: str) -> None:
+        self.workers[name].send_signal(signal.SIGKILL)
+        self.workers[name].wait()
+
+    def stop(self) -> None:
+        for process in reversed(self.processes):  # only the processes this object started
+            if process.poll() is None:
+                process.kill()
+                process.wait()
+
+
+@contextmanager
+def cluster(folder: Path, workers: int = 2):
+    """A scheduler and ``workers`` workers ``w1``, ``w2``, ..., connected; stopped on exit."""
+    from distributed import Client
+
+    folder.mkdir(parents=True, exist_ok=True)
+    running = Cluster(folder)
+    try:
+        for i in range(1, workers + 1):
+            running.start_worker(f"w{i}")
+        with Client(running.address) as client:
+            running.wait_for_workers(client, workers)
+            yield running, client
+    finally:
+        running.stop()
+
+
+def kill_mid_task(running: Cluster, client, prefix: str, done: threading.Event) -> dict:
+    """Watch the scheduler until a worker runs a task whose key starts with ``prefix``; SIGKILL that worker
+    (after 1 s: the task is well under way) and start a replacement. Returns what it did."""
+    record: dict = {}
+    deadline = time.monotonic() + 1800
+    while not done.is_set() and time.monotonic() < deadline:
+        busy = {address: keys for address, keys in client.processing().items()
+                if any(str(k).startswith(prefix) for k in keys)}
+        if busy:
+            address, keys = next(iter(busy.items()))
+            name = client.scheduler_info()["workers"][address]["name"]
+            time.sleep(1.0)
+            running.kill(name)
+            running.start_worker(f"{name}-replacement")
+            record.update(killed=name, keys=[str(k) for k in keys])
+            return record
+        time.sleep(0.05)
+    return record
+
+
+def run_and_note(folder: str, label: str, seconds: float) -> tuple[str, int]:
+    """A task: append this worker's pid to ``folder/<label>.runs`` (one line per run), sleep ``seconds``,
+    then note ``done``; returns (label, pid)."""
+    runs = Path(folder) / f"{label}.runs"
+    with open(runs, "a") as handle:
+        handle.write(f"{os.getpid()}\n")
+    time.sleep(seconds)
+    (Path(folder) / f"{label}.done").write_text(str(os.getpid()))
+    return label, os.getpid()
+
+
+def _wait(condition, what: str, seconds: float = START_S) -> None:
+    deadline = time.monotonic() + seconds
+    while not condition():
+        assert time.monotonic() < deadline, what
+        time.sleep(0.05)
+
+
+def test_results_come_home_when_done_and_a_killed_task_runs_again_on_a_replacement(tmp_path):
+    """Two workers: ``slow`` (12 s) on one, ``fast`` on the other. Once ``fast`` is done its worker is killed:
+    its result is already in this process (fetched when done), so ``fast`` runs once. Then the worker running
+    ``slow`` is killed mid-task and a replacement started: ``slow`` runs again there, and the map returns
+    both results in the order of the calls."""
+    notes = tmp_path / "notes"
+    notes.mkdir()
+    with cluster(tmp_path / "cluster") as (running, client):
+        pids = {name: process.pid for name, process in running.workers.items()}
+        calls = {"slow": (str(notes), "slow", 12.0), "fast": (str(notes), "fast", 0.0)}
+        result: dict = {}
+        mapper = threading.Thread(target=lambda: result.update(DaskRunner(running.address).map(
+            "t", run_and_note, calls)), daemon=True)
+        mapper.start()
+        _wait(lambda: (notes / "fast.done").is_file() and (notes / "slow.runs").is_file(), "the tasks did not start")
+        by_pid = {pid: name for name, pid in pids.items()}
+        fast_worker = by_pid[int((notes / "fast.done").read_text())]
+        slow_worker = by_pid[int((notes / "slow.runs").read_text().split()[0])]
+        if fast_worker == slow_worker:
+            pytest.skip("the scheduler put both tasks on one worker")
+        time.sleep(1.0)                                    # the result of fast reaches the map meanwhile
+        running.kill(fast_worker)
+        running.kill(slow_worker)                          # slow is mid-task (12 s)
+        assert not (notes / "slow.done").exists()
+        running.start_worker("replacement")
+        mapper.join(timeout=600)
+        assert not mapper.is_alive(), "the map did not finish after the replacement joined"
+        replacement = running.workers["replacement"].pid
+    assert list(result) == ["slow", "fast"]
+    assert result["slow"] == ("slow", replacement) and result["fast"][0] == "fast"
+    assert (notes / "fast.runs").read_text().split() == [str(pids[fast_worker])]           # ran once
+    assert (notes / "slow.runs").read_text().split() == [str(pids[slow_worker]), str(replacement)]
+
+
+def _config(tmp_path: Path, cache: str):
+    """The synthetic fixture district (2 buildings x 3 days) with tiny csv-table surrogates (a few seconds of
+    training each: a task long enough to be killed in), its own surrogate cache."""
+    from pipeline.config import read_build_config
+    from tests.pipeline.builder.test_build import _short_config
+
+    path = _short_config(tmp_path, source="csv", epochs=1)
+    try:
+        config = read_build_config(path)
+    finally:
+        path.unlink(missing_ok=True)
+    surrogate = config.surrogate.model_copy(update={"pretrain_steps": 300, "long_chunk_epochs": 0})
+    return config.model_copy(update={"surrogate": surrogate, "cache_dir": tmp_path / cache})
+
+
+@pytest.mark.slow  # 3 min on the shared 2 cores (load 11): two builds with training, a cluster starting
+def test_a_worker_killed_mid_build_is_replaced_and_the_district_equals_the_in_process_one(tmp_path):
+    from pipeline.builder.driver import build_district_local, run_build
+    from pipeline.builder.manifest import district_digest
+
+    with cluster(tmp_path / "cluster") as (running, client):
+        done = threading.Event()
+        record: dict = {}
+        watcher = threading.Thread(target=lambda: record.update(kill_mid_task(running, client, "surrogate-",
+                                                                                done)), daemon=True)
+        watcher.start()
+        try:
+            folder = run_build(_config(tmp_path, "cache_dask"), tmp_path / "dask", DaskRunner(running.address))
+        finally:
+            done.set()
+            watcher.join()
+        assert record.get("killed") in ("w1", "w2"), "no worker was killed mid-task"
+        assert running.workers[record["killed"]].returncode == -signal.SIGKILL
+        running.wait_for_workers(client, 2)
+        names = {w["name"] for w in client.scheduler_info()["workers"].values()}
+        assert f"{record['killed']}-replacement" in names and record["killed"] not in names
+    local = build_district_local(_config(tmp_path, "cache_local"), tmp_path / "local")   # its own training
+    assert district_digest(folder) == district_digest(local)
+    for name in ("schema.json", "Building_1.pth", "Building_2.pth", "Building_1.csv"):
+        assert (folder / name).read_bytes() == (local / name).read_bytes(), name
