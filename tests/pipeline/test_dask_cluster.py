@@ -37,11 +37,15 @@ class Cluster:
         self._spawn("scheduler", [str(DASK), "scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
                                   "--scheduler-file", str(scheduler_file)])
         deadline = time.monotonic() + START_S
-        while not scheduler_file.is_file() or not scheduler_file.read_text().strip():
+        self.address = None
+        while self.address is None:
             assert time.monotonic() < deadline, "the scheduler did not start"
             assert self.processes[0].poll() is None, (folder / "scheduler.log").read_text()
             time.sleep(0.1)
-        self.address = json.loads(scheduler_file.read_text())["address"]
+            try:
+                self.address = json.loads(scheduler_file.read_text())["address"]
+            except (OSError, ValueError, KeyError):  # not written yet, or half written
+                continue
 
     def _spawn(self, name: str, command: list[str]) -> subprocess.Popen:
         log = open(self.folder / f"{name}.log", "w")  # noqa: SIM115 - closed with the process
@@ -79,7 +83,8 @@ def cluster(folder: Path, workers: int = 2):
         for i in range(1, workers + 1):
             running.start_worker(f"w{i}")
         with Client(running.address) as client:
-            running.wait_for_workers(client, workers)
+            if workers:
+                running.wait_for_workers(client, workers)
             yield running, client
     finally:
         running.stop()
@@ -197,3 +202,62 @@ def test_a_worker_killed_mid_build_is_replaced_and_the_district_equals_the_in_pr
     assert district_digest(folder) == district_digest(local)
     for name in ("schema.json", "Building_1.pth", "Building_2.pth", "Building_1.csv"):
         assert (folder / name).read_bytes() == (local / name).read_bytes(), name
+
+
+def _cli_config(tmp_path: Path) -> Path:
+    """:func:`_config` as a TOML file (the fixture district's folder, so its relative paths resolve)."""
+    from tests.pipeline.builder.test_build import _short_config
+
+    path = _short_config(tmp_path, source="csv", epochs=1)
+    path.write_text(path.read_text().replace("epochs = 1", "epochs = 1\npretrain_steps = 300\nlong_chunk_epochs = 0"))
+    return path
+
+
+@pytest.mark.slow  # 5-10 min on the shared 2 cores: Prefect's API server, a cluster, two builds with training
+def test_districtgen_build_dask_address_survives_a_killed_worker(tmp_path):
+    """``districtgen build CONFIG --dask tcp://127.0.0.1:PORT`` (the Prefect flow on prefect-dask) against a
+    scheduler and two workers started apart; one worker SIGKILLed while it trains, a replacement started: the
+    build succeeds and its district digest equals the in-process build's."""
+    from pipeline.builder.driver import build_district_local
+    from pipeline.builder.manifest import district_digest
+    from pipeline.config import read_build_config
+
+    toml = _cli_config(tmp_path)
+    try:
+        with cluster(tmp_path / "cluster") as (running, client):
+            env = {**os.environ, "PYTHONPATH": str(ROOT), "PREFECT_HOME": str(tmp_path / "prefect")}
+            env.pop("PREFECT_API_URL", None)
+            build = subprocess.Popen([sys.executable, "-m", "pipeline.cli", "build", str(toml), "-o",
+                                      str(tmp_path / "dask"), "--cache-dir", str(tmp_path / "cache_dask"), "--dask",
+                                      running.address, "--quiet"], cwd=ROOT, env=env, stdout=subprocess.PIPE,
+                                     stderr=subprocess.PIPE, text=True)
+            done = threading.Event()
+            record: dict = {}
+            watcher = threading.Thread(target=lambda: record.update(kill_mid_task(running, client, "surrogate_files-",
+                                                                                    done)), daemon=True)
+            watcher.start()
+            try:
+                stdout, stderr = build.communicate(timeout=3000)
+            finally:
+                done.set()
+                watcher.join()
+                if build.poll() is None:
+                    build.kill()
+            assert build.returncode == 0, stderr[-3000:]
+            assert record.get("killed") in ("w1", "w2"), "no worker was killed mid-task"
+        config = read_build_config(toml)
+        local = build_district_local(config.model_copy(update={"cache_dir": tmp_path / "cache_local"}),
+                                     tmp_path / "local")
+    finally:
+        toml.unlink(missing_ok=True)
+    assert district_digest(tmp_path / "dask" / config.name) == district_digest(local)
+
+
+def test_a_scheduler_without_workers_is_one_line_not_a_wait_for_ever(tmp_path):
+    from pipeline.flows import wait_for_a_worker
+    from pipeline.prefect_server import OrchestrationError
+
+    with cluster(tmp_path / "cluster", workers=0) as (running, client):
+        with pytest.raises(OrchestrationError, match=r"no Dask worker joined the scheduler at tcp://127\.0\.0\.1:\d+ "
+                                                     r"within 2 s: start `dask worker ADDRESS`"):
+            wait_for_a_worker(client, running.address, seconds=2)
