@@ -207,12 +207,25 @@ def test_a_repeat_gets_its_own_schedule_seed_and_eulp_rows_cannot_repeat():
 
     assert schedule_repeats([7, 9, 7, 7, 9, 4]) == [0, 0, 1, 2, 1, 0]
     data = {"name": "x", "period": {"start": "2018-06-01", "end": "2018-06-02"},
-            "inputs": {"characteristics": "c.parquet", "buildings": [7, 7], "weather": "w", "tariff": "t",
-                       "fuel_mix": "f"}, "simulation": {"schedule_seed": 2**32 - 1}}
+            "inputs": {"characteristics": "c.parquet", "buildings": [7, 7], "tariff": "t", "fuel_mix": "f",
+                       "weather": str(ROOT / "raw" / "weather" / "USA_TX_Travis.County_AMY2018.epw")},
+            "simulation": {"schedule_seed": 2**32 - 1}}
     config = parse_build_config(data)
     check_repeats(config)                                          # simulated houses may repeat
     assert house_config(config, 0) is config
     assert house_config(config, 2).simulation.schedule_seed == 1   # (2**32 - 1 + 2) mod 2**32
+    from pipeline.builder.cache import cache_key
+    from pipeline.builder.houses import simulation_cache_parts
+    from pipeline.builder.surrogates import ilv_config, judge_training_config
+
+    repeat = house_config(config.model_copy(update={"simulation": config.simulation.model_copy(
+        update={"schedule_seed": 0})}), 1)
+    # the repeat's seed reaches the EnergyPlus pass, the judge's training config and the simulation cache key
+    assert ilv_config(repeat).schedule_seed == judge_training_config(repeat).schedule_seed == 1
+    row = {"bldg_id": 7, "in.sqft": 1900}
+    assert cache_key(simulation_cache_parts(repeat, row)) != cache_key(simulation_cache_parts(
+        house_config(repeat, 0).model_copy(update={"simulation": config.simulation.model_copy(
+            update={"schedule_seed": 0})}), row))
     eulp = parse_build_config({**data, "inputs": {**data["inputs"], "characteristics": None, "eulp": "e"}},
                               file="cfg.toml")
     with pytest.raises(InputError, match=r"cfg.toml.*'inputs.buildings'.*bldg_id 7 repeats \(position 2\)"):
