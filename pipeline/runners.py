@@ -94,11 +94,13 @@ class PrefectRunner:
         futures = {label: work.with_options(task_run_name=f"{step}-{label}").submit(*args)
                    for label, args in calls.items()}
         labels = {id(future): label for label, future in futures.items()}
+        results = {}
         for future in as_completed(list(futures.values())):
-            future.result()  # the first failure ends the build (its own error, one line in the CLI)
+            # the first failure ends the build (its own error, one line in the CLI)
+            results[labels[id(future)]] = future.result()
             release_dask(future)
             progress.advance(step, labels[id(future)])
-        return {label: future.result() for label, future in futures.items()}
+        return {label: results[label] for label in futures}
 
 
 def release_dask(future: Any) -> None:
