@@ -22,7 +22,9 @@ Output (``--json``)::
 their worker, the Prefect API server to the driver), from ``os.wait4``. ``driver_peak_rss_mb``: the build
 process's own ``ru_maxrss`` as its ``timings.json`` records it. ``artifacts_sha256``:
 :func:`pipeline.builder.manifest.district_digest`; every worker count must give the same digest (the output and
-cache folders have the same paths in every run, emptied in between). Parallel efficiency needs a quiet
+cache folders have the same paths in every run, emptied in between; the surrogates train in float32: ``auto``
+measures bfloat16 against float32 in each build, and under load two builds may choose differently and give
+other weights). Parallel efficiency needs a quiet
 machine: two single-threaded workers on a 2-core machine shared with other work measure the load, not the
 build.
 """
@@ -58,6 +60,7 @@ def district(houses: int, start: date, end: date) -> dict:
     config["inputs"] = {k: str((RAW.parent / v).resolve()) for k, v in config["inputs"].items()}
     config["selection"] = {**config["selection"], "houses": houses}
     config["selection"].pop("clusters", None)
+    config["surrogate"] = {**config["surrogate"], "precision": "float32"}  # not measured per build (see above)
     return config
 
 

@@ -164,7 +164,8 @@ def test_results_come_home_when_done_and_a_killed_task_runs_again_on_a_replaceme
 
 def _config(tmp_path: Path, cache: str):
     """The synthetic fixture district (2 buildings x 3 days) with tiny csv-table surrogates (a few seconds of
-    training each: a task long enough to be killed in), its own surrogate cache."""
+    training each: a task long enough to be killed in), its own surrogate cache. Precision float32: ``auto``
+    measures bfloat16 against float32 in each build, and on a loaded CPU two builds may choose differently."""
     from pipeline.config import read_build_config
     from tests.pipeline.builder.test_build import _short_config
 
@@ -173,7 +174,8 @@ def _config(tmp_path: Path, cache: str):
         config = read_build_config(path)
     finally:
         path.unlink(missing_ok=True)
-    surrogate = config.surrogate.model_copy(update={"pretrain_steps": 300, "long_chunk_epochs": 0})
+    surrogate = config.surrogate.model_copy(update={"pretrain_steps": 300, "long_chunk_epochs": 0,
+                                                    "precision": "float32"})
     return config.model_copy(update={"surrogate": surrogate, "cache_dir": tmp_path / cache})
 
 
@@ -209,7 +211,8 @@ def _cli_config(tmp_path: Path) -> Path:
     from tests.pipeline.builder.test_build import _short_config
 
     path = _short_config(tmp_path, source="csv", epochs=1)
-    path.write_text(path.read_text().replace("epochs = 1", "epochs = 1\npretrain_steps = 300\nlong_chunk_epochs = 0"))
+    extra = 'epochs = 1\npretrain_steps = 300\nlong_chunk_epochs = 0\nprecision = "float32"'
+    path.write_text(path.read_text().replace("epochs = 1", extra))
     return path
 
 
