@@ -16,6 +16,7 @@ import multiprocessing
 import os
 import threading
 import time
+import uuid
 from collections.abc import Callable, Mapping
 from concurrent.futures import ProcessPoolExecutor
 from contextlib import ExitStack
@@ -134,7 +135,8 @@ class DaskRunner:
             target = self.address or stack.enter_context(LocalCluster(
                 n_workers=self.workers, threads_per_worker=1, processes=True, dashboard_address=None))
             client = stack.enter_context(Client(target))
-            futures = {label: client.submit(fn, *args, key=f"{step}-{label}", pure=False)
+            run = uuid.uuid4().hex[:12]  # keys of its own: a shared scheduler may serve other builds' Building_1
+            futures = {label: client.submit(fn, *args, key=f"{step}-{label}-{run}", pure=False)
                        for label, args in calls.items()}
             return gather_as_done(step, futures)
 
