@@ -18,6 +18,7 @@ import pytest
 
 from pipeline.runners import DaskRunner
 
+pytest.importorskip("distributed", reason="the dask extra is not installed")
 ROOT = Path(__file__).resolve().parents[2]
 DASK = Path(sys.executable).parent / "dask"
 #: seconds a scheduler or worker may take to come up on a busy machine
