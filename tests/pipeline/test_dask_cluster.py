@@ -180,7 +180,7 @@ def _config(tmp_path: Path, cache: str):
     return config.model_copy(update={"surrogate": surrogate, "cache_dir": tmp_path / cache})
 
 
-@pytest.mark.slow  # 3-6 min on the shared 2 cores (load 11-13): two builds with training, a cluster starting
+@pytest.mark.slow  # 46 s at load 2, 3-6 min at load 11-13 (shared 2 cores): two builds, a cluster
 def test_a_worker_killed_mid_build_is_replaced_and_the_district_equals_the_in_process_one(tmp_path):
     from pipeline.builder.driver import build_district_local, run_build
     from pipeline.builder.manifest import district_digest
@@ -217,7 +217,7 @@ def _cli_config(tmp_path: Path) -> Path:
     return path
 
 
-@pytest.mark.slow  # 9 min on the shared 2 cores (load 12): Prefect's API server, a cluster, two builds with training
+@pytest.mark.slow  # 63 s at load 2, 9 min at load 12: Prefect's API server, a cluster, two builds
 def test_districtgen_build_dask_address_survives_a_killed_worker(tmp_path):
     """``districtgen build CONFIG --dask tcp://127.0.0.1:PORT`` (the Prefect flow on prefect-dask) against a
     scheduler and two workers started apart; one worker SIGKILLed while it trains, a replacement started: the
