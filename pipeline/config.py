@@ -46,21 +46,42 @@ class Inputs(_Frozen):
 
 
 class Selection(_Frozen):
-    """Stock selection (pipeline.select): filters, then one building per k-means cluster."""
+    """Stock selection (pipeline.select): filters, then ``houses`` buildings: one per k-means cluster up to the
+    filtered rows, beyond them every row and seeded repeats (each with its own occupant schedules)."""
 
     metadata: Path | None = Field(None, description="stock metadata file (default: inputs.characteristics)")
     filters: dict[str, str | list[str]] = Field(default_factory=dict,
                                                 description="characteristic (no prefix) -> allowed value(s)")
-    clusters: int | Literal["auto"] = "auto"
+    houses: int | Literal["auto"] = Field("auto", description="number of houses, or auto (k by the cluster-"
+                                                              "validity indices); more than the filtered rows: "
+                                                              "every row and seeded repeats")
+    clusters: int | Literal["auto"] = Field("auto", description="the former name of houses (same meaning)")
     max_clusters: int | None = Field(None, ge=2)
     method: Literal["medoid", "draw"] = "medoid"
     seed: int = Field(0, ge=0, lt=SEED_LIMIT)
 
-    @field_validator("clusters")
+    @model_validator(mode="before")
     @classmethod
-    def _positive(cls, value):
-        if value != "auto" and value < 1:
-            raise ValueError("clusters must be >= 1 or 'auto'")
+    def _one_count(cls, data):
+        """``houses`` and ``clusters`` are one setting: either fills the other; both must agree."""
+        if not isinstance(data, dict):
+            return data
+        given = {k: data[k] for k in ("houses", "clusters") if k in data}
+        if len(given) == 2 and given["houses"] != given["clusters"]:
+            raise ValueError(f"houses = {given['houses']!r} and clusters = {given['clusters']!r}: clusters is "
+                             "the former name of houses, give one")
+        if given:
+            value = next(iter(given.values()))
+            data = {**data, "houses": value, "clusters": value}
+        return data
+
+    @field_validator("houses", "clusters", mode="before")
+    @classmethod
+    def _whole_positive(cls, value):
+        if value == "auto":
+            return value
+        if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+            raise ValueError("houses must be a whole number >= 1 or 'auto'")
         return value
 
 
@@ -79,6 +100,9 @@ class Simulation(_Frozen):
                                                 "recipe does not train on it (one more EnergyPlus run per house)")
     seed: int = Field(2018, ge=0, lt=SEED_LIMIT,
                       description="seed of the partial-load multipliers (combined with the bldg_id)")
+    schedule_seed: int = Field(0, ge=0, lt=SEED_LIMIT,
+                               description="seed of the occupant schedules (combined with the bldg_id); the "
+                                           "r-th repeat of a stock row in the district draws with this + r")
     timesteps_per_hour: int = Field(6, ge=1, le=60, description="EnergyPlus zone timesteps per hour (tables "
                                     "stay hourly); 6: at 1 the hourly zone solution is 0.3-0.5 degC off the "
                                     "physics, at 4 still 0.1-0.14 degC (RMSE against 20)")

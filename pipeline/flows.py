@@ -34,7 +34,7 @@ from prefect.task_runners import ThreadPoolTaskRunner
 from pipeline import progress
 from pipeline.config import BuildConfig, read_build_config
 from pipeline.errors import InputError
-from pipeline.prefect_server import PORTS, api_loss_in_one_line, start_server
+from pipeline.prefect_server import PORTS, OrchestrationError, api_loss_in_one_line, start_server
 from pipeline.progress import forward_dask_events
 from pipeline.runners import PrefectRunner
 
@@ -69,12 +69,29 @@ def build_district_on_dask(config: BuildConfig | str | Path, output_root: str = 
                 if cluster is not None:
                     address = cluster.result().scheduler_address
                 with Client(address) as client:
+                    wait_for_a_worker(client, address)
                     forward_dask_events(client)
                     runner = DaskTaskRunner(address=address)
                     return build_district.with_options(task_runner=runner)(config, output_root)
         finally:
             if cluster is not None:
                 cluster.result().close()
+
+
+#: seconds a build waits for the first worker of a scheduler given by address
+WORKER_WAIT_S = 600.0
+
+
+def wait_for_a_worker(client, address: str, seconds: float = WORKER_WAIT_S) -> None:
+    """Wait until the scheduler at ``address`` has a worker; none within ``seconds``: one
+    :class:`OrchestrationError` line (a build would otherwise wait for ever)."""
+    from distributed import TimeoutError as DaskTimeout  # optional extra: dask
+
+    try:
+        client.wait_for_workers(1, timeout=seconds)
+    except (DaskTimeout, TimeoutError):
+        raise OrchestrationError(f"no Dask worker joined the scheduler at {address} within {seconds:.0f} s: start "
+                                 "`dask worker ADDRESS` processes (docs/build.md, multi-node builds)") from None
 
 
 def local_cluster(workers: int):

@@ -16,6 +16,7 @@ import multiprocessing
 import os
 import threading
 import time
+import uuid
 from collections.abc import Callable, Mapping
 from concurrent.futures import ProcessPoolExecutor
 from contextlib import ExitStack
@@ -94,16 +95,34 @@ class PrefectRunner:
         futures = {label: work.with_options(task_run_name=f"{step}-{label}").submit(*args)
                    for label, args in calls.items()}
         labels = {id(future): label for label, future in futures.items()}
+        results = {}
         for future in as_completed(list(futures.values())):
-            future.result()  # the first failure ends the build (its own error, one line in the CLI)
+            # the first failure ends the build (its own error, one line in the CLI)
+            results[labels[id(future)]] = future.result()
+            release_dask(future)
             progress.advance(step, labels[id(future)])
-        return {label: future.result() for label, future in futures.items()}
+        return {label: results[label] for label in futures}
+
+
+def release_dask(future: Any) -> None:
+    """Let Dask forget the result of a Prefect future run on Dask (prefect-dask keeps the task's final state
+    once read): a worker lost afterwards is then not asked to run that task again. Other futures: nothing."""
+    wrapped = getattr(future, "wrapped_future", None)
+    if callable(getattr(wrapped, "release", None)):
+        wrapped.release()
 
 
 class DaskRunner:
-    """Dask: the scheduler at ``address``, else a local cluster of ``workers`` single-threaded worker processes
-    (started and stopped by each ``map``). Files a task writes are written by the workers, so a remote cluster
-    needs the output folder on a shared file system."""
+    """Dask: the scheduler at ``address`` (workers started apart, on this or other machines), else a local
+    cluster of ``workers`` single-threaded worker processes (started and stopped by each ``map``).
+
+    Each result is fetched into this process as soon as its task ends (:func:`gather_as_done`), so a worker
+    lost later costs only the task it was running: the scheduler runs that again on another worker (up to
+    distributed's ``allowed-failures``, 3 by default). Tasks are submitted impure and must be idempotent: the
+    build's per-building work renames a cache entry into place whole and writes nothing into the district;
+    a paper task writes its result file atomically. A remote worker reads the inputs and the cache at the paths
+    the configuration names, and writes a paper's result files under its output folder: shared storage
+    (docs/build.md, the multi-node recipe)."""
 
     def __init__(self, address: str | None = None, workers: int = 2):
         self.address, self.workers = address, workers
@@ -116,5 +135,21 @@ class DaskRunner:
             target = self.address or stack.enter_context(LocalCluster(
                 n_workers=self.workers, threads_per_worker=1, processes=True, dashboard_address=None))
             client = stack.enter_context(Client(target))
-            return gather(lambda label, f, *args: client.submit(f, *args, key=f"{step}-{label}", pure=False),
-                          fn, calls)
+            run = uuid.uuid4().hex[:12]  # keys of its own: a shared scheduler may serve other builds' Building_1
+            futures = {label: client.submit(fn, *args, key=f"{step}-{label}-{run}", pure=False)
+                       for label, args in calls.items()}
+            return gather_as_done(step, futures)
+
+
+def gather_as_done(step: str, futures: Mapping[str, Any]) -> dict[str, Any]:
+    """``{label: result}`` of Dask ``futures`` in the order given, each fetched as soon as it is done (the
+    first failure ends it, its own error); reports each building to :mod:`pipeline.progress`."""
+    from dask.distributed import as_completed  # optional extra: dask
+
+    labels = {future.key: label for label, future in futures.items()}
+    results = {}
+    for future in as_completed(list(futures.values())):
+        results[labels[future.key]] = future.result()
+        future.release()  # the result lives here now, not in a worker's memory
+        progress.advance(step, labels[future.key])
+    return {label: results[label] for label in futures}

@@ -23,7 +23,12 @@ its pitfalls designed out):
 4. ``clusters="auto"``: k = floor(mean(argmax CH, argmax silhouette, argmin DB)) over k = 2..max (the SSE is
    reported, as upstream, but not voted: it always falls with k);
 5. one building per cluster: the medoid (the member with the least summed Euclidean distance to the other
-   members in feature space; ties -> smaller id) or a seeded uniform draw within each cluster.
+   members in feature space; ties -> smaller id) or a seeded uniform draw within each cluster;
+6. as many houses as filtered rows or more: every row once (k = the row count, each its own cluster), then repeats:
+   whole rounds of every row, and the remainder drawn without replacement with the selection seed. Column
+   ``repeat`` numbers a row's copies (0: the row itself); the build gives copy ``r`` the occupant-schedule seed
+   ``[simulation] schedule_seed + r`` (:func:`pipeline.builder.houses.schedule_repeats`), so no two houses
+   share their loads.
 
 Orientation is encoded as sin/cos of 2*pi*i/8 for the 8 compass points (upstream divides by 7), and every
 cluster contributes exactly one building (upstream weights draws by cluster size squared).
@@ -266,20 +271,21 @@ def medoid(points: np.ndarray) -> int:
 
 @dataclass(frozen=True)
 class Selection:
-    """The chosen buildings (``bldg_id``, ``cluster``, ``k`` per row), the validity table and the features."""
+    """The chosen buildings (``bldg_id``, ``cluster``, ``k``, ``repeat`` per row, in district order), the
+    validity table and the features (none when every row is taken and repeated)."""
 
     chosen: pd.DataFrame
     validity: pd.DataFrame
     features: pd.DataFrame
 
 
-def select_buildings(frame: pd.DataFrame, *, clusters: int | str = "auto", seed: int = 0,
-                     method: str = "medoid", max_clusters: int | None = None,
-                     file: object = "<metadata>") -> Selection:
-    """One building per k-means cluster of the (already filtered) stock ``frame`` (module docstring).
+def select_buildings(frame: pd.DataFrame, *, houses: int | str = "auto", seed: int = 0, method: str = "medoid",
+                     max_clusters: int | None = None, file: object = "<metadata>") -> Selection:
+    """``houses`` buildings of the (already filtered) stock ``frame`` (module docstring): one per k-means
+    cluster when ``houses`` is below the row count, else every row (in id order) and seeded repeats.
 
-    ``clusters``: a number of clusters, or ``"auto"`` (k chosen over 2..``max_clusters``, default
-    ceil(N/2) capped at 20). ``method``: ``"medoid"`` or ``"draw"`` (seeded uniform draw per cluster).
+    ``houses``: a number (>= 1), or ``"auto"`` (k chosen over 2..``max_clusters``, default ceil(N/2) capped
+    at 20). ``method``: ``"medoid"`` or ``"draw"`` (seeded uniform draw per cluster).
     """
     if method not in METHODS:
         raise InputError(f"selection method must be one of {METHODS}, got {method!r}", file=file, column="method")
@@ -287,18 +293,18 @@ def select_buildings(frame: pd.DataFrame, *, clusters: int | str = "auto", seed:
     n = len(frame)
     if n == 0:
         raise InputError("no building left after the filters", file=file)
+    if houses != "auto" and house_count(houses, file=file) >= n:  # every row (then repeats): no clustering
+        return Selection(repeat_rows(frame.index, int(houses), seed), _undefined_validity(n),
+                         pd.DataFrame(index=frame.index))
     features = selection_features(frame, file=file)
-    if clusters == "auto":
+    if houses == "auto":
         top = min(max_clusters or min(math.ceil(n / 2), 20), n - 1)
         if top < 2:
             raise InputError(f"auto needs at least 3 buildings, {n} left after the filters", file=file)
         validity = validity_table(features, range(2, top + 1), seed)
         k = choose_k(validity)
     else:
-        k = int(clusters)
-        if not 1 <= k <= n:
-            raise InputError(f"clusters must be 1..{n} (buildings left after the filters), got {k}", file=file,
-                             column="clusters")
+        k = int(houses)
         validity = validity_table(features, [k], seed)
     labels = _kmeans(features.to_numpy(dtype=float), k, seed).labels_
     rng = np.random.default_rng(seed)
@@ -309,17 +315,55 @@ def select_buildings(frame: pd.DataFrame, *, clusters: int | str = "auto", seed:
             pick = members[medoid(features.to_numpy(dtype=float)[members])]
         else:
             pick = members[int(rng.integers(len(members)))]
-        rows.append({"bldg_id": int(frame.index[pick]), "cluster": cluster, "k": k})
+        rows.append({"bldg_id": int(frame.index[pick]), "cluster": cluster, "k": k, "repeat": 0})
     chosen = pd.DataFrame(rows).sort_values("cluster", ignore_index=True)
     return Selection(chosen, validity, features)
 
 
-def select_from_file(path: str | Path, filters: Mapping[str, str | Sequence[str]], *, clusters: int | str = "auto",
+def house_count(value: object, *, file: object = "<metadata>") -> int:
+    """A number of houses: a whole number >= 1 (not a bool, not a fraction), else one error naming ``houses``."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
+        raise InputError(f"houses must be a whole number >= 1 or 'auto', got {value!r}", file=file,
+                         column="houses")
+    return int(value)
+
+
+def repeat_rows(ids: Sequence[int], houses: int, seed: int) -> pd.DataFrame:
+    """``houses`` (>= the row count) buildings from the sorted ``ids``: every id once (its own cluster), then
+    whole rounds of every id, then the remainder drawn without replacement with ``seed`` (in id order).
+    Columns ``bldg_id, cluster, k, repeat``; ``repeat`` r >= 1 marks a row's r-th repeat."""
+    ids = [int(i) for i in sorted(ids)]
+    n = len(ids)
+    rounds, rest = divmod(houses, n)
+    drawn = sorted(np.random.default_rng(seed).choice(n, size=rest, replace=False).tolist()) if rest else []
+    picks = [(position, r) for r in range(rounds) for position in range(n)] + [(p, rounds) for p in drawn]
+    return pd.DataFrame([{"bldg_id": ids[p], "cluster": p, "k": n, "repeat": r} for p, r in picks])
+
+
+def _undefined_validity(k: int) -> pd.DataFrame:
+    """The validity row of k = the row count (every row its own cluster: SSE 0, the indices undefined)."""
+    return pd.DataFrame([{"k": k, "sse": 0.0, "calinski_harabasz": np.nan, "silhouette": np.nan,
+                          "davies_bouldin": np.nan}])
+
+
+def select_from_file(path: str | Path, filters: Mapping[str, str | Sequence[str]], *, houses: int | str = "auto",
                      seed: int = 0, method: str = "medoid", max_clusters: int | None = None) -> Selection:
     """Read ``path``, apply ``filters`` and :func:`select_buildings`."""
     stock = read_stock_metadata(path)
-    return select_buildings(apply_filters(stock, filters, file=path), clusters=clusters, seed=seed, method=method,
+    return select_buildings(apply_filters(stock, filters, file=path), houses=houses, seed=seed, method=method,
                             max_clusters=max_clusters, file=path)
+
+
+def describe_selection(chosen: pd.DataFrame) -> str:
+    """One line on how ``chosen`` was picked, naming the repeated rows (``bldg_id`` x copies)."""
+    k = int(chosen["k"].iloc[0])
+    repeats = chosen[chosen["repeat"] > 0] if "repeat" in chosen.columns else chosen.iloc[:0]
+    if repeats.empty:
+        return f"k = {k}, one building per k-means cluster"
+    copies = chosen.groupby("bldg_id", sort=True).size()
+    named = ", ".join(f"{i} x{c}" for i, c in copies[copies > 1].items())
+    return (f"{len(chosen)} houses from {k} filtered rows: every row once and {len(repeats)} repeats, each with "
+            f"its own occupant schedules ({named})")
 
 
 def format_validity(table: pd.DataFrame, chosen_k: int) -> str:
@@ -334,32 +378,34 @@ def format_validity(table: pd.DataFrame, chosen_k: int) -> str:
 
 # ----------------------------------------------------------------------------------------------- command
 def register(subparsers) -> None:
-    """``districtgen select METADATA --filter KEY=VALUE ... --clusters K|auto --seed S -o IDS.csv``."""
+    """``districtgen select METADATA --filter KEY=VALUE ... --houses N|auto --seed S -o IDS.csv``."""
     parser = subparsers.add_parser("select", help="pick representative buildings from a stock metadata file")
     parser.add_argument("metadata", type=Path, help="EULP metadata (bldg_id, in.*) or buildstockbatch results "
                                                     "(building_id, build_existing_model.*), parquet or CSV")
     parser.add_argument("--filter", action="append", default=[], metavar="KEY=VALUE",
                         help="keep rows whose characteristic KEY (no prefix) equals VALUE; repeat a key for "
                              "alternatives")
-    parser.add_argument("--clusters", default="auto", help="number of clusters, or auto (validity indices)")
+    parser.add_argument("--houses", "--clusters", dest="houses", default="auto",
+                        help="number of houses (one per k-means cluster up to the filtered rows; beyond them every "
+                             "row and seeded repeats), or auto (k by the validity indices); --clusters: the old name")
     parser.add_argument("--max-clusters", type=int, default=None, help="largest k tried by auto")
     parser.add_argument("--method", choices=METHODS, default="medoid", help="one building per cluster: medoid "
                                                                             "or a seeded draw")
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("-o", "--output", type=Path, required=True, help="CSV: bldg_id, cluster, k")
+    parser.add_argument("-o", "--output", type=Path, required=True, help="CSV: bldg_id, cluster, k, repeat")
     parser.set_defaults(func=select_command)
 
 
 def select_command(args) -> int:
-    clusters = args.clusters if args.clusters == "auto" else _int(args.clusters)
-    selection = select_from_file(args.metadata, parse_filters(args.filter), clusters=clusters, seed=args.seed,
+    houses = args.houses if args.houses == "auto" else _int(args.houses)
+    selection = select_from_file(args.metadata, parse_filters(args.filter), houses=houses, seed=args.seed,
                                  method=args.method, max_clusters=args.max_clusters)
     k = int(selection.chosen["k"].iloc[0])
     print(format_validity(selection.validity, k))
     args.output.parent.mkdir(parents=True, exist_ok=True)
     selection.chosen.to_csv(args.output, index=False)
-    print(f"{len(selection.chosen)} buildings (k = {k}, {args.method}, seed {args.seed}) -> {args.output}: "
-          f"{', '.join(str(i) for i in selection.chosen['bldg_id'])}")
+    print(f"{len(selection.chosen)} buildings ({describe_selection(selection.chosen)}; {args.method}, seed "
+          f"{args.seed}) -> {args.output}: {', '.join(str(i) for i in selection.chosen['bldg_id'])}")
     return 0
 
 
@@ -367,4 +413,4 @@ def _int(text: str) -> int:
     try:
         return int(text)
     except ValueError:
-        raise InputError(f"--clusters must be a number or 'auto', got {text!r}", column="clusters") from None
+        raise InputError(f"--houses must be a number or 'auto', got {text!r}", column="houses") from None

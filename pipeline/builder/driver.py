@@ -35,10 +35,13 @@ from pipeline import progress
 from pipeline.builder.houses import (
     HouseSimulation,
     building_notes,
+    check_repeats,
     eulp_heating_system,
     heating_devices,
+    house_config,
     house_table,
     house_work,
+    schedule_repeats,
 )
 from pipeline.builder.manifest import (
     make_world_readable,
@@ -91,13 +94,17 @@ def run_build(config: BuildConfig, output_root: str | Path = "artifacts", runner
     timings: dict[str, float] = {}
     started = time.perf_counter()
     config, selection = resolve_selection(config)
+    check_repeats(config)
     timings["selection"] = time.perf_counter() - started
     config, precision = resolve_precision(config)  # once, here: every worker trains in the same mode
     names = building_names(config)
     ids = dict(zip(names, config.inputs.buildings, strict=True))
+    # a repeated stock row: its own occupant-schedule seed (simulation, training data and judge)
+    repeats = schedule_repeats(config.inputs.buildings)
+    configs = {n: house_config(config, r) for n, r in zip(names, repeats, strict=True)}
     with staging(config, output_root) as out:
         started = time.perf_counter()
-        signals, houses, early = signals_and_houses(config, ids, runner, timings)
+        signals, houses, early = signals_and_houses(configs, ids, runner, timings)
         outdoor = signals.outdoor
         if config.inputs.characteristics is not None:
             frames = {n: house_table(config, houses[n], signals.solar) for n in names}
@@ -123,7 +130,7 @@ def run_build(config: BuildConfig, output_root: str | Path = "artifacts", runner
                 tables = {n: houses[n].ilv for n in names}
             elif config.surrogate.source == "fmu":
                 tables = {n: fmu_ilv(config, frames[n], signals.weather) for n in names}
-            todo = {n: (config, i, n, tables[n], outdoor) for n, i in ids.items() if n not in early}
+            todo = {n: (configs[n], i, n, tables[n], outdoor) for n, i in ids.items() if n not in early}
             if todo:
                 progress.stage("surrogate", len(todo))
             trained = early | runner.map("surrogate", surrogate_files, todo)
@@ -143,7 +150,10 @@ def run_build(config: BuildConfig, output_root: str | Path = "artifacts", runner
                                    sizes)
         (out / "buildings.json").write_text(json.dumps(buildings, indent=2))
         if selection is not None:
-            selection.chosen.assign(building=names).to_csv(out / "selection.csv", index=False)
+            chosen = selection.chosen.assign(building=names)
+            if "repeat" in chosen.columns and not (chosen["repeat"] > 0).any():  # no repeats: the former table
+                chosen = chosen.drop(columns="repeat")
+            chosen.to_csv(out / "selection.csv", index=False)
         started = time.perf_counter()
         progress.stage("validate")
         validation = validate_district(schema_path)
@@ -159,10 +169,12 @@ def run_build(config: BuildConfig, output_root: str | Path = "artifacts", runner
     return Path(output_root) / config.name
 
 
-def signals_and_houses(config: BuildConfig, ids: Mapping[str, int], runner: Runner, timings: dict[str, float],
+def signals_and_houses(configs: Mapping[str, BuildConfig], ids: Mapping[str, int], runner: Runner,
+                       timings: dict[str, float],
                        ) -> tuple[Signals, dict[str, HouseSimulation], dict[str, SurrogateFiles]]:
     """The site's signals (read in a thread) while the runner does the per-house work (:func:`house_work`:
-    simulation and, for ``energyplus`` surrogates, training) of buildings from real characteristics.
+    simulation and, for ``energyplus`` surrogates, training) of buildings from real characteristics;
+    ``configs``: each building's configuration (:func:`pipeline.builder.houses.house_config`).
 
     Returns the signals, the simulations and the surrogates already trained, by building name; records the
     wall seconds of both in ``timings`` (``site_signals``, ``houses``)."""
@@ -177,11 +189,12 @@ def signals_and_houses(config: BuildConfig, ids: Mapping[str, int], runner: Runn
 
     progress.stage("site signals")
     with ThreadPoolExecutor(max_workers=1, thread_name_prefix="site_signals") as pool:
+        config = next(iter(configs.values()))  # the first copy of a row: the district's own configuration
         pending = pool.submit(site_signals, config)  # read while the houses simulate: serial time hidden
         pending.add_done_callback(done)
         if config.inputs.characteristics is not None:
             progress.stage("house", len(ids))
-            work = runner.map("house", house_work, {n: (config, i, n) for n, i in ids.items()})
+            work = runner.map("house", house_work, {n: (configs[n], i, n) for n, i in ids.items()})
             houses = {n: work[n].simulation for n in ids}
             early = {n: work[n].surrogate for n in ids if work[n].surrogate is not None}
             timings["houses"] = time.perf_counter() - started

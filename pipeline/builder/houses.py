@@ -7,7 +7,7 @@ from __future__ import annotations
 import calendar
 import io
 import json
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -26,7 +26,8 @@ from pipeline.builder.surrogates import (
     simulated_months,
     surrogate_files,
 )
-from pipeline.config import BuildConfig
+from pipeline.config import SEED_LIMIT, BuildConfig
+from pipeline.errors import InputError
 from pipeline.ingest.eulp import citylearn_building
 from pipeline.ingest.stock import read_characteristics_row
 from pipeline.ingest.timeindex import period_index
@@ -37,6 +38,39 @@ from surrogates.sources.energyplus import simulate_house
 
 #: heating system of the stock -> heating device of the schema (``fuel`` and ``none``: simulation.fuel_heating)
 HEATING_DEVICE_OF = {"heat_pump": "heat_pump", "electric_resistance": "electric_heater"}
+
+
+def schedule_repeats(buildings: Sequence[int]) -> list[int]:
+    """Per position of the district's ``buildings`` (bldg_ids): how many times that bldg_id came before it
+    (0: the row itself, r: its r-th repeat). A repeat draws its occupant schedules with ``[simulation]
+    schedule_seed + r`` (:func:`house_config`)."""
+    seen: dict[int, int] = {}
+    out = []
+    for bldg_id in buildings:
+        out.append(seen.get(int(bldg_id), 0))
+        seen[int(bldg_id)] = out[-1] + 1
+    return out
+
+
+def house_config(config: BuildConfig, repeat: int) -> BuildConfig:
+    """The configuration one house is simulated, trained and judged with: ``config`` itself for a row's first
+    copy, else its occupant-schedule seed moved on by ``repeat`` (mod 2**32)."""
+    if repeat == 0:
+        return config
+    seed = (config.simulation.schedule_seed + repeat) % SEED_LIMIT
+    return config.model_copy(update={"simulation": config.simulation.model_copy(update={"schedule_seed": seed})})
+
+
+def check_repeats(config: BuildConfig) -> None:
+    """Refuse a district that lists a bldg_id twice when its loads come from EULP timeseries (the copies would
+    be the same building); simulated houses (``inputs.characteristics``) repeat with their own schedules."""
+    repeats = schedule_repeats(config.inputs.buildings or [])
+    if config.inputs.eulp is not None and any(repeats):
+        position = next(i for i, r in enumerate(repeats) if r)
+        raise InputError(f"bldg_id {config.inputs.buildings[position]} repeats (position {position + 1}), but EULP "
+                         "buildings have fixed loads: a house repeats only when simulated (inputs.characteristics, "
+                         "each copy with its own occupant schedules); ask for at most as many houses as rows",
+                         file=config.source, column="selection.houses" if config.selection else "inputs.buildings")
 
 
 @dataclass(frozen=True)
@@ -54,7 +88,7 @@ class HouseSimulation:
 def simulation_cache_parts(config: BuildConfig, row: Mapping[str, object]) -> dict:
     """What a house's simulation is a function of (the cache key parts): the stock row, the weather file's
     sha256, the calendar year of the period and the months simulated in it (:func:`simulated_months`), the
-    simulation settings (not ``fuel_heating``: it acts after the simulation), the time zone (the households'
+    simulation settings (with the occupant-schedule seed; not ``fuel_heating``: it acts after the simulation), the time zone (the households'
     clock) and the generator's sources. Not the period's days."""
 
     package = Path(surrogates.__file__).parent

@@ -44,6 +44,7 @@ from pipeline.builder.staging import (
 )
 from pipeline.builder.validate import validate_district
 from pipeline.errors import InputError
+from pipeline.select import describe_selection
 from surrogates.evaluate import replay_test_rmse
 from surrogates.export import load_surrogate
 from surrogates.ilv import read_ilv, table_digest
@@ -185,7 +186,8 @@ def recorded_selection(folder: Path, manifest: Mapping[str, Any]) -> SelectionSu
     if not table.is_file():
         return None
     try:
-        return SelectionSummary(int(pd.read_csv(table)["k"].iloc[0]))
+        chosen = pd.read_csv(table)
+        return SelectionSummary(int(chosen["k"].iloc[0]), heading=describe_selection(chosen))
     except (OSError, ValueError, KeyError, IndexError) as error:
         raise InputError(f"cannot read the selection's k: {error}", file=table, column="k") from None
 

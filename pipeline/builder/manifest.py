@@ -33,6 +33,7 @@ import json
 import os
 import platform
 import re
+import resource
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from importlib import metadata as importlib_metadata
@@ -219,13 +220,15 @@ def write_timings(out: Path, config: BuildConfig, seconds: Mapping[str, float],
     stage [s, wall clock], the precision the build resolved for its surrogates' updates, what was asked and why
     (``precision``: :func:`pipeline.builder.surrogates.resolve_precision`), per building the surrogate's training
     seconds, the precision its updates ran in and whether the cache had it, the configuration file's and the
-    cache's locations and the UTC time it was written. Not reproducible, so the manifest does not hash it; the
-    sidecar does."""
+    cache's locations, the build process's peak resident memory [MB] (``ru_maxrss``: with Dask, the driver's
+    alone) and the UTC time it was written. Not reproducible, so the manifest does not hash it; the sidecar
+    does."""
 
     record = {"finished_utc": dt.datetime.now(dt.UTC).isoformat(timespec="seconds"), "cpu": capability().describe(),
               "config_file": str(Path(config.source).resolve()) if Path(config.source).name != "<dict>" else None,
               "config_folder": str(config_folder(config)), "cache_root": str(cache_root(config.cache_dir)),
               "stages_s": {k: round(float(v), 3) for k, v in seconds.items()},
+              "build_process_peak_rss_mb": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0, 1),
               "precision": None if precision is None else precision.record(),
               "surrogates": {k: dict(v) for k, v in (surrogates or {}).items()}}
     path = write_json_file(out / TIMINGS, record)

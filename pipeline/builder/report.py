@@ -37,7 +37,7 @@ from pipeline.builder.report_figures import (
 )
 from pipeline.builder.validate import ORACLE_BOUNDS, OracleBounds, Validation
 from pipeline.controllers import MISFIT_REASON, RULE_OBJECTIVES
-from pipeline.select import format_validity
+from pipeline.select import describe_selection, format_validity
 
 #: objective -> (unit, decimals) of :func:`citylearn_env.kpis.objectives`
 OBJECTIVES = {"cost": ("$", 2), "emissions": ("kg CO2", 1), "discomfort": ("degC h", 1),
@@ -57,20 +57,23 @@ class SelectionSummary:
 
     k: int
     validity: tuple[Mapping[str, float], ...] = ()
+    #: how the houses were picked, naming repeated rows (:func:`pipeline.select.describe_selection`)
+    heading: str = ""
 
     @classmethod
     def of(cls, selection: Any) -> SelectionSummary:
         """From a :class:`pipeline.select.Selection`."""
         rows = selection.validity[list(VALIDITY)].to_dict("records")
         return cls(int(selection.chosen["k"].iloc[0]),
-                   tuple({key: int(row["k"]) if key == "k" else float(row[key]) for key in VALIDITY} for row in rows))
+                   tuple({key: int(row["k"]) if key == "k" else float(row[key]) for key in VALIDITY} for row in rows),
+                   describe_selection(selection.chosen))
 
     def to_json(self) -> dict[str, Any]:
-        return {"k": self.k, "validity": [dict(row) for row in self.validity]}
+        return {"k": self.k, "validity": [dict(row) for row in self.validity], "heading": self.heading}
 
     @classmethod
     def from_json(cls, data: Mapping[str, Any]) -> SelectionSummary:
-        return cls(int(data["k"]), tuple(dict(row) for row in data.get("validity") or ()))
+        return cls(int(data["k"]), tuple(dict(row) for row in data.get("validity") or ()), str(data.get("heading", "")))
 
 
 @dataclass(frozen=True)
@@ -393,7 +396,7 @@ def building_section(buildings: Mapping[str, Mapping[str, Any]]) -> list[str]:
 def selection_section(selection: SelectionSummary) -> list[str]:
     """The selection's k and its validity-index table (:func:`pipeline.select.format_validity`), after a blank
     line."""
-    lines = ["", f"## Selection (k = {selection.k}, one building per k-means cluster)", ""]
+    lines = ["", f"## Selection ({selection.heading or f'k = {selection.k}, one building per k-means cluster'})", ""]
     if not selection.validity:
         return [*lines, "Validity indices: not recorded by the build."]
     table = pd.DataFrame(list(selection.validity), columns=list(VALIDITY))

@@ -48,7 +48,7 @@ def resolve_selection(config: BuildConfig) -> tuple[BuildConfig, Any]:
         return config, None
 
     sel = config.selection
-    selection = select_from_file(sel.metadata or config.inputs.characteristics, sel.filters, clusters=sel.clusters,
+    selection = select_from_file(sel.metadata or config.inputs.characteristics, sel.filters, houses=sel.houses,
                                  seed=sel.seed, method=sel.method, max_clusters=sel.max_clusters)
     ids = [int(i) for i in selection.chosen["bldg_id"]]
     return config.model_copy(update={"inputs": config.inputs.model_copy(update={"buildings": ids})}), selection

@@ -131,7 +131,8 @@ def ilv_config(config: BuildConfig) -> ILVConfig:
     period = simulated_months(config)
     return ILVConfig(partial_runs=partial_runs_for(period, sim.partial_runs, sim.month_runs), seed=sim.seed,
                      timesteps_per_hour=sim.timesteps_per_hour, year=config.period.start.year,
-                     free_float=sim.free_float, timezone=config.timezone, run_period=period)
+                     free_float=sim.free_float, timezone=config.timezone, run_period=period,
+                     schedule_seed=sim.schedule_seed)
 
 
 def judge_config(config: BuildConfig) -> JudgeConfig:

@@ -95,6 +95,8 @@ class ILVConfig:
     #: IANA time zone of the households' clocks (occupant schedules and set-point offsets follow it; the runs
     #: stay in standard time); None: the EPW's site zone (:func:`surrogates.energyplus.epw.read_epw_timezone`)
     timezone: str | None = None
+    #: seed of the occupant schedules (with the building id): another seed, other households in the same house
+    schedule_seed: int = 0
 
 
 @dataclass
@@ -288,7 +290,7 @@ def generate_ilv(house: HouseParameters, epw: Path, *, config: ILVConfig = ILVCo
     tph = config.timesteps_per_hour
     common = dict(ground_temperatures_c=ground, run_period=config.run_period, year=config.year,
                   timesteps_per_hour=tph, dhw=dhw, latitude_deg=read_epw_latitude(epw),
-                  mains_mean_c=read_epw_mains_mean(epw),
+                  mains_mean_c=read_epw_mains_mean(epw), schedule_seed=config.schedule_seed,
                   clock_zone=config.timezone if config.timezone is not None else read_epw_timezone(epw))
     timings: dict[str, float] = {}
     with tempfile.TemporaryDirectory(prefix="ilv_", dir=workdir) as tmp:
