@@ -44,6 +44,7 @@ from typing import Any
 import numpy as np
 
 from pipeline.optimal import objectives as obj
+from pipeline.optimal import relax
 from pipeline.optimal.lp import build
 from pipeline.optimal.plant import Plant, battery_path, path_error, plant_from_env, trust
 from pipeline.optimal.solver import SolveError, solve
@@ -81,7 +82,9 @@ class Oracle:
     ``iterations``: LP solves of the building group that needed most; ``path_error``: how far the planned
     battery paths are from the env's physics at their own powers [fraction of capacity]; ``solve_seconds``:
     HiGHS time summed over the LPs; ``seconds``: the whole oracle (wall); ``size``: (columns, rows, non-zeros)
-    of the largest LP."""
+    of the largest LP; ``bound``: the certified lower bound (the relaxation's optimum, :mod:`pipeline.optimal.relax`:
+    no schedule the env can execute has a lower weighted objective; -inf when not computed); ``exact``: the LP is
+    the env's problem itself (tanks only, no restriction acting), so ``value`` is the minimum."""
 
     weights: Mapping[str, float]
     value: float
@@ -93,6 +96,16 @@ class Oracle:
     solve_seconds: float
     seconds: float
     size: tuple[int, int, int]
+    bound: float = float("-inf")
+    exact: bool = False
+
+    @property
+    def gap(self) -> float:
+        """(value - bound) / |bound| [-]: how much better than the plan any schedule could still be (NaN without
+        a bound or where it is 0)."""
+        if not np.isfinite(self.bound) or self.bound == 0:
+            return float("nan")
+        return (self.value - self.bound) / abs(self.bound)
 
 
 @dataclass(frozen=True, eq=False)
@@ -109,22 +122,29 @@ class Group:
     solve_seconds: float
     size: tuple[int, int, int]
     first_basis: Any = None
+    bound: float = float("-inf")
 
 
 def oracle(env, objective: str | Mapping[str, float] = "cost", *, normalise: bool = False,
-           workers: int = 1) -> Oracle:
+           workers: int = 1, runner: Any = None, bound: bool = True) -> Oracle:
     """The oracle of ``env``'s current episode (call ``env.reset(seed=...)`` first: the outage signal of that
     reset is the one planned for). ``objective``: a name of :data:`objectives.OBJECTIVES` or weights;
     ``normalise``: divide the weights by the no-control values (a sum of ratios); ``workers``: processes
-    solving buildings in parallel (objectives without the peak only)."""
-    return solve_plant(plant_from_env(env), objective, normalise=normalise, workers=workers)
+    solving buildings in parallel (objectives without the peak only); ``runner``: a
+    :class:`pipeline.runners.Runner` mapping the per-building groups instead (e.g. the build's); ``bound``:
+    solve the relaxations for the certified lower bound too."""
+    return solve_plant(plant_from_env(env), objective, normalise=normalise, workers=workers, runner=runner,
+                       bound=bound)
 
 
 def solve_plant(plant: Plant, objective: str | Mapping[str, float] = "cost", *, normalise: bool = False,
-                workers: int = 1, solver: str = "choose", solves: int = MAX_ITERATIONS, joint: bool = False) -> Oracle:
+                workers: int = 1, solver: str = "choose", solves: int = MAX_ITERATIONS, joint: bool = False,
+                bound: bool = True, runner: Any = None) -> Oracle:
     """The oracle of ``plant`` (see :func:`oracle`; ``solver``: HiGHS's solver option; ``solves``: at most
     this many LP solves per building group; ``joint``: one LP for the district even when the buildings do not
-    interact -- fewer, larger solves, for short horizons)."""
+    interact -- fewer, larger solves, for short horizons; ``bound``: also solve the relaxation of every group
+    for the certified lower bound; ``runner``: a :class:`pipeline.runners.Runner` that maps the building groups
+    (default: in this process, or ``workers`` spawned processes))."""
     began = time.perf_counter()
     weights = obj.weights_of(objective)
     baseline = obj.values(plant.base_net, plant.price, plant.carbon)
@@ -135,32 +155,68 @@ def solve_plant(plant: Plant, objective: str | Mapping[str, float] = "cost", *, 
         plants = [plant]  # one LP; buildings without storage count in the district's peak
     else:
         plants = [plant.only([b]) for b in owners]
-    if workers > 1 and len(plants) > 1:
+    if runner is not None:  # one call per group (a building, or the district), labelled by its first building
+        calls = {p.building_names[0]: ([p], weights, solver, solves, bound) for p in plants}
+        solved = [g for chunk in runner.map("oracle", solve_groups, calls).values() for g in chunk]
+    elif workers > 1 and len(plants) > 1:
         from pipeline.runners import ProcessRunner  # only when asked for: spawns worker processes
 
-        chunks = {str(i): (plants[i::workers], weights, solver, solves) for i in range(min(workers, len(plants)))}
+        chunks = {str(i): (plants[i::workers], weights, solver, solves, bound) for i in range(min(workers, len(plants)))}
         done = ProcessRunner(len(chunks)).map("oracle", solve_groups, chunks)
         solved = [g for chunk in done.values() for g in chunk]
     else:
-        solved = solve_groups(plants, weights, solver, solves)
+        solved = solve_groups(plants, weights, solver, solves, bound)
     schedule = _schedule(plant, solved)
     values = obj.values(schedule.net, plant.price, plant.carbon)
+    # the groups' bounds cover their own buildings; a building without storage adds its fixed objective
+    lower = obj.weighted(baseline, weights) + sum(
+        g.bound - obj.weighted(obj.values(g.plant.base_net, g.plant.price, g.plant.carbon), weights) for g in solved)
     return Oracle(weights=weights, value=obj.weighted(values, weights), objectives=values, baseline=baseline,
                   schedule=schedule, iterations=max((g.iterations for g in solved), default=0),
                   path_error=max((g.path_error for g in solved), default=0.0),
                   solve_seconds=sum(g.solve_seconds for g in solved), seconds=time.perf_counter() - began,
-                  size=max((g.size for g in solved), default=(0, 0, 0)))
+                  size=max((g.size for g in solved), default=(0, 0, 0)),
+                  bound=lower if bound else float("-inf"), exact=bound and exact(plant))
+
+
+def exact(plant: Plant) -> bool:
+    """Whether the plan's LP is the environment's problem itself (then its optimum is the minimum and the bound
+    equals it): no battery, and none of the tank restrictions acts (no undersized device where a tank could
+    discharge, no outage at a building with a storage)."""
+    if any(s.battery is not None for s in plant.storages):
+        return False
+    for s in plant.storages:
+        if s.relaxed_discharge is not None and np.any(s.relaxed_discharge != s.discharge_max):
+            return False
+        if plant.outage[s.building, 1:].any():
+            return False
+    return True
 
 
 def solve_groups(plants: Sequence[Plant], weights: Mapping[str, float], solver: str = "choose",
-                 solves: int = MAX_ITERATIONS) -> list[Group]:
+                 solves: int = MAX_ITERATIONS, bound: bool = True) -> list[Group]:
     """Solve the building groups ``plants`` one after the other, each first solve starting from the previous
-    group's first basis (used only when the LP has the same shape). The bases are dropped from the result
-    (HiGHS objects do not cross process boundaries)."""
+    group's first basis (used only when the LP has the same shape), and (``bound``) each group's relaxation.
+    The bases are dropped from the result (HiGHS objects do not cross process boundaries)."""
     out: list[Group] = []
     for plant in plants:
-        out.append(solve_group(plant, weights, solver, start=out[-1].first_basis if out else None, limit=solves))
+        group = solve_group(plant, weights, solver, start=out[-1].first_basis if out else None, limit=solves)
+        if bound:
+            value, seconds = group_bound(plant, weights, solver)
+            group = dataclasses.replace(group, bound=value, solve_seconds=group.solve_seconds + seconds)
+        out.append(group)
     return [dataclasses.replace(g, first_basis=None) for g in out]
+
+
+def group_bound(plant: Plant, weights: Mapping[str, float], solver: str = "choose") -> tuple[float, float]:
+    """(certified lower bound, HiGHS seconds) of ``plant``'s objective: the optimum of its relaxation
+    (:mod:`pipeline.optimal.relax`), which no schedule the environment can execute beats."""
+    lp = build(relax.relaxed_plant(plant), weights, relaxed=True)
+    try:
+        solution = solve(lp, solver=solver)
+    except SolveError:  # the relaxation is degenerate (no penalties); the interior point copes where simplex stalls
+        solution = solve(lp, solver="ipm")
+    return solution.objective, solution.seconds
 
 
 def solve_group(plant: Plant, weights: Mapping[str, float], solver: str = "choose", start: Any = None,
