@@ -207,7 +207,11 @@ def _storage_rows(rows: RowBuilder, s: Storage, i: int, cols: Columns, lower: np
     a, r = s.retention, s.one_way
     start = np.zeros(n)
     start[0] = a * s.initial_energy
-    rows.add(start, start, (en, 1.0), (prev, -a), (ch, -r), (dis, 1.0 / r))
+    if s.tangent is None:
+        rows.add(start, start, (en, 1.0), (prev, -a), (ch, -r), (dis, 1.0 / r))
+    else:
+        gain, loss, offset = s.tangent
+        rows.add(start + offset, start + offset, (en, 1.0), (prev, -a), (ch, -gain), (dis, loss))
     if s.battery is not None:
         _battery_rows(rows, s, cols.slack[i], ch, dis, en, prev, upper)
     if s.low is not None or s.high is not None:

@@ -47,6 +47,7 @@ from pipeline.optimal import objectives as obj
 from pipeline.optimal import relax
 from pipeline.optimal.lp import build
 from pipeline.optimal.plant import Plant, battery_path, path_error, plant_from_env, trust
+from pipeline.optimal.polish import POLISH_SOLVES, polish
 from pipeline.optimal.solver import SolveError, solve
 
 #: stop refreshing the battery efficiencies when the planned path is this close to the env's [fraction of capacity]
@@ -139,12 +140,13 @@ def oracle(env, objective: str | Mapping[str, float] = "cost", *, normalise: boo
 
 def solve_plant(plant: Plant, objective: str | Mapping[str, float] = "cost", *, normalise: bool = False,
                 workers: int = 1, solver: str = "choose", solves: int = MAX_ITERATIONS, joint: bool = False,
-                bound: bool = True, runner: Any = None) -> Oracle:
+                bound: bool = True, runner: Any = None, polishes: int = POLISH_SOLVES) -> Oracle:
     """The oracle of ``plant`` (see :func:`oracle`; ``solver``: HiGHS's solver option; ``solves``: at most
     this many LP solves per building group; ``joint``: one LP for the district even when the buildings do not
     interact -- fewer, larger solves, for short horizons; ``bound``: also solve the relaxation of every group
     for the certified lower bound; ``runner``: a :class:`pipeline.runners.Runner` that maps the building groups
-    (default: in this process, or ``workers`` spawned processes))."""
+    (default: in this process, or ``workers`` spawned processes); ``polishes``: at most this many LP solves of
+    the polish per group (:mod:`pipeline.optimal.polish`; 0: none))."""
     began = time.perf_counter()
     weights = obj.weights_of(objective)
     baseline = obj.values(plant.base_net, plant.price, plant.carbon)
@@ -156,16 +158,17 @@ def solve_plant(plant: Plant, objective: str | Mapping[str, float] = "cost", *, 
     else:
         plants = [plant.only([b]) for b in owners]
     if runner is not None:  # one call per group (a building, or the district), labelled by its first building
-        calls = {p.building_names[0]: ([p], weights, solver, solves, bound) for p in plants}
+        calls = {p.building_names[0]: ([p], weights, solver, solves, bound, polishes) for p in plants}
         solved = [g for chunk in runner.map("oracle", solve_groups, calls).values() for g in chunk]
     elif workers > 1 and len(plants) > 1:
         from pipeline.runners import ProcessRunner  # only when asked for: spawns worker processes
 
-        chunks = {str(i): (plants[i::workers], weights, solver, solves, bound) for i in range(min(workers, len(plants)))}
+        chunks = {str(i): (plants[i::workers], weights, solver, solves, bound, polishes)
+                  for i in range(min(workers, len(plants)))}
         done = ProcessRunner(len(chunks)).map("oracle", solve_groups, chunks)
         solved = [g for chunk in done.values() for g in chunk]
     else:
-        solved = solve_groups(plants, weights, solver, solves, bound)
+        solved = solve_groups(plants, weights, solver, solves, bound, polishes)
     schedule = _schedule(plant, solved)
     values = obj.values(schedule.net, plant.price, plant.carbon)
     # the groups' bounds cover their own buildings; a building without storage adds its fixed objective
@@ -194,13 +197,14 @@ def exact(plant: Plant) -> bool:
 
 
 def solve_groups(plants: Sequence[Plant], weights: Mapping[str, float], solver: str = "choose",
-                 solves: int = MAX_ITERATIONS, bound: bool = True) -> list[Group]:
+                 solves: int = MAX_ITERATIONS, bound: bool = True, polishes: int = POLISH_SOLVES) -> list[Group]:
     """Solve the building groups ``plants`` one after the other, each first solve starting from the previous
     group's first basis (used only when the LP has the same shape), and (``bound``) each group's relaxation.
     The bases are dropped from the result (HiGHS objects do not cross process boundaries)."""
     out: list[Group] = []
     for plant in plants:
-        group = solve_group(plant, weights, solver, start=out[-1].first_basis if out else None, limit=solves)
+        group = solve_group(plant, weights, solver, start=out[-1].first_basis if out else None, limit=solves,
+                            polishes=polishes)
         if bound:
             value, seconds = group_bound(plant, weights, solver)
             group = dataclasses.replace(group, bound=value, solve_seconds=group.solve_seconds + seconds)
@@ -220,12 +224,13 @@ def group_bound(plant: Plant, weights: Mapping[str, float], solver: str = "choos
 
 
 def solve_group(plant: Plant, weights: Mapping[str, float], solver: str = "choose", start: Any = None,
-                limit: int = MAX_ITERATIONS) -> Group:
+                limit: int = MAX_ITERATIONS, polishes: int = POLISH_SOLVES) -> Group:
     """Solve, refresh the battery efficiencies and usable capacity from the schedule, and solve again (warm
     started; in a shrinking trust region around the last plan after :data:`FREE_SOLVES` solves) until the plan
     follows the env's physics within :data:`PATH_TOLERANCE` or ``limit`` solves were made; keep
     the plan closest to the physics. A trust region that leaves no feasible plan (the refreshed efficiencies
-    moved the last plan out of reach) is widened and the solve repeated."""
+    moved the last plan out of reach) is widened and the solve repeated. Then at most ``polishes`` LP solves
+    polish the batteries on their true marginal efficiency (:func:`pipeline.optimal.polish.polish`)."""
     seconds, basis, first, best = 0.0, start, None, None
     center, radius, solves = None, None, 0
     while solves < limit:
@@ -251,6 +256,10 @@ def solve_group(plant: Plant, weights: Mapping[str, float], solver: str = "choos
             radius = TRUST_RADIUS if radius is None else radius * TRUST_SHRINK
     error, plant, energy, held = best
     size = (int(lp.cost.size), int(lp.row_lower.size), int(lp.value.size))
+    if polishes:
+        energy, held, more, spent = polish(plant, weights, energy, held, solver, polishes)
+        solves, seconds = solves + more, seconds + spent
+        plant, error = _refresh(plant, energy, held)
     return Group(plant, energy, held, solves, error, seconds, size, first)
 
 

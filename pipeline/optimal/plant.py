@@ -69,7 +69,9 @@ class Storage:
     the limits that do not depend on the state of charge; ``action_scale`` [kWh per unit of action];
     ``low`` / ``high`` (n,) [kWh]: a window the device-side energy must stay in (None: none; the oracle's
     trust region around its last plan, see :func:`trust`); ``relaxed_discharge`` (n,) [kWh per step]: a tank's
-    discharge limit with the undersized-device restriction lifted (the relaxation's; None: ``discharge_max``)."""
+    discharge limit with the undersized-device restriction lifted (the relaxation's; None: ``discharge_max``);
+    ``tangent``: (gain, cost, offset) (n,) each, the balance linearised around a plan (the oracle's polish,
+    :mod:`pipeline.optimal.polish`): E_i = a E_(i-1) + offset_i + gain_i c_i - cost_i d_i (None: ``one_way``)."""
 
     building: int
     slot: str
@@ -85,6 +87,7 @@ class Storage:
     low: np.ndarray | None = None
     high: np.ndarray | None = None
     relaxed_discharge: np.ndarray | None = None
+    tangent: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
 
     def window(self) -> tuple[np.ndarray, np.ndarray]:
         """(low, high) [kWh] of the device-side energy per step, (n,) each."""
