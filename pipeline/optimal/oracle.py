@@ -43,6 +43,7 @@ from typing import Any
 
 import numpy as np
 
+from pipeline.optimal import lockstep as steps_lockstep
 from pipeline.optimal import objectives as obj
 from pipeline.optimal import relax
 from pipeline.optimal.lp import build
@@ -58,6 +59,9 @@ FREE_SOLVES = 2
 TRUST_RADIUS = 0.1
 TRUST_SHRINK = 0.1
 MAX_ITERATIONS = 12
+#: storages x steps above which the peak's district LP merges batteries in lockstep by default (17 x 720 stays
+#: one joint LP; 100 x 720 and 17 x 8,760 merge)
+LOCKSTEP_SIZE = 20_000
 
 
 @dataclass(frozen=True, eq=False)
@@ -140,13 +144,17 @@ def oracle(env, objective: str | Mapping[str, float] = "cost", *, normalise: boo
 
 def solve_plant(plant: Plant, objective: str | Mapping[str, float] = "cost", *, normalise: bool = False,
                 workers: int = 1, solver: str = "choose", solves: int = MAX_ITERATIONS, joint: bool = False,
-                bound: bool = True, runner: Any = None, polishes: int = POLISH_SOLVES) -> Oracle:
+                bound: bool = True, runner: Any = None, polishes: int = POLISH_SOLVES,
+                lockstep: bool | None = None) -> Oracle:
     """The oracle of ``plant`` (see :func:`oracle`; ``solver``: HiGHS's solver option; ``solves``: at most
     this many LP solves per building group; ``joint``: one LP for the district even when the buildings do not
     interact -- fewer, larger solves, for short horizons; ``bound``: also solve the relaxation of every group
     for the certified lower bound; ``runner``: a :class:`pipeline.runners.Runner` that maps the building groups
     (default: in this process, or ``workers`` spawned processes); ``polishes``: at most this many LP solves of
-    the polish per group (:mod:`pipeline.optimal.polish`; 0: none))."""
+    the polish per group (:mod:`pipeline.optimal.polish`; 0: none; a district LP of several storages is not
+    polished); ``lockstep``: for the peak alone, merge batteries that are scaled copies
+    (:mod:`pipeline.optimal.lockstep`; None: when the district LP would have more than :data:`LOCKSTEP_SIZE`
+    storage-steps))."""
     began = time.perf_counter()
     weights = obj.weights_of(objective)
     baseline = obj.values(plant.base_net, plant.price, plant.carbon)
@@ -157,18 +165,21 @@ def solve_plant(plant: Plant, objective: str | Mapping[str, float] = "cost", *, 
         plants = [plant]  # one LP; buildings without storage count in the district's peak
     else:
         plants = [plant.only([b]) for b in owners]
-    if runner is not None:  # one call per group (a building, or the district), labelled by its first building
-        calls = {p.building_names[0]: ([p], weights, solver, solves, bound, polishes) for p in plants}
-        solved = [g for chunk in runner.map("oracle", solve_groups, calls).values() for g in chunk]
-    elif workers > 1 and len(plants) > 1:
-        from pipeline.runners import ProcessRunner  # only when asked for: spawns worker processes
-
-        chunks = {str(i): (plants[i::workers], weights, solver, solves, bound, polishes)
-                  for i in range(min(workers, len(plants)))}
-        done = ProcessRunner(len(chunks)).map("oracle", solve_groups, chunks)
-        solved = [g for chunk in done.values() for g in chunk]
-    else:
-        solved = solve_groups(plants, weights, solver, solves, bound, polishes)
+    together = len(plants) == 1 and steps_lockstep.applies(plant, weights)
+    merged = groups = None
+    if together:  # the peak alone: the merged batteries' relaxation is the joint one, far smaller
+        aggregated, groups = steps_lockstep.aggregate(plant)
+        if lockstep is not False and (lockstep or len(plant.storages) * plant.steps > LOCKSTEP_SIZE):
+            merged = plants[0] = aggregated
+    if merged is None and (joint or weights[obj.PEAK] > 0) and len(plant.storages) > 1:
+        polishes = 0  # a district LP: each polish solve costs as much as a plan solve (month x 17: ~20 s)
+    solved = _run_groups(plants, (weights, solver, solves, bound and not together, polishes), runner, workers)
+    if together and bound:
+        lower, seconds = group_bound(aggregated, weights, solver)
+        solved[0] = dataclasses.replace(solved[0], bound=lower, solve_seconds=solved[0].solve_seconds + seconds)
+    if merged is not None:  # every battery of a class runs its share of the merged plan
+        energy, held = steps_lockstep.spread(plant, groups, solved[0].energy, solved[0].held)
+        solved = [dataclasses.replace(solved[0], plant=plant, energy=energy, held=held)]
     schedule = _schedule(plant, solved)
     values = obj.values(schedule.net, plant.price, plant.carbon)
     # the groups' bounds cover their own buildings; a building without storage adds its fixed objective
@@ -180,6 +191,22 @@ def solve_plant(plant: Plant, objective: str | Mapping[str, float] = "cost", *, 
                   solve_seconds=sum(g.solve_seconds for g in solved), seconds=time.perf_counter() - began,
                   size=max((g.size for g in solved), default=(0, 0, 0)),
                   bound=lower if bound else float("-inf"), exact=bound and exact(plant))
+
+
+def _run_groups(plants: Sequence[Plant], settings: tuple, runner: Any, workers: int) -> list[Group]:
+    """:func:`solve_groups` of ``plants`` with ``settings`` (weights, solver, solves, bound, polishes): one call
+    per group on ``runner`` (labelled by the group's first building), else chunks on ``workers`` spawned
+    processes, else here."""
+    if runner is not None:
+        calls = {p.building_names[0]: ([p], *settings) for p in plants}
+        return [g for chunk in runner.map("oracle", solve_groups, calls).values() for g in chunk]
+    if workers > 1 and len(plants) > 1:
+        from pipeline.runners import ProcessRunner  # only when asked for: spawns worker processes
+
+        chunks = {str(i): (plants[i::workers], *settings) for i in range(min(workers, len(plants)))}
+        done = ProcessRunner(len(chunks)).map("oracle", solve_groups, chunks)
+        return [g for chunk in done.values() for g in chunk]
+    return solve_groups(plants, *settings)
 
 
 def exact(plant: Plant) -> bool:
@@ -257,7 +284,7 @@ def solve_group(plant: Plant, weights: Mapping[str, float], solver: str = "choos
     error, plant, energy, held = best
     size = (int(lp.cost.size), int(lp.row_lower.size), int(lp.value.size))
     if polishes:
-        energy, held, more, spent = polish(plant, weights, energy, held, solver, polishes)
+        energy, held, more, spent = polish(plant, weights, energy, held, solver, polishes, basis)
         solves, seconds = solves + more, seconds + spent
         plant, error = _refresh(plant, energy, held)
     return Group(plant, energy, held, solves, error, seconds, size, first)

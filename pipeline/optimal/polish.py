@@ -17,6 +17,7 @@ import bisect
 import dataclasses
 import math
 from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 
@@ -109,9 +110,10 @@ def value(plant: Plant, energy: np.ndarray, weights: Mapping[str, float]) -> flo
 
 
 def polish(plant: Plant, weights: Mapping[str, float], energy: np.ndarray, held: np.ndarray,
-           solver: str = "choose", limit: int = POLISH_SOLVES) -> tuple[np.ndarray, np.ndarray, int, float]:
+           solver: str = "choose", limit: int = POLISH_SOLVES, basis: Any = None) -> tuple[np.ndarray, np.ndarray, int, float]:
     """Improve the plan (``energy``, ``held``: (S, n) [kWh]) of ``plant`` by trust-region sequential LP on its
-    batteries; returns (energy, held, LP solves, HiGHS seconds). Tanks are re-planned exactly in every LP."""
+    batteries; returns (energy, held, LP solves, HiGHS seconds). Tanks are re-planned exactly in every LP;
+    every solve starts from the previous one's basis (the first from ``basis``: the plan's last, same shape)."""
     if not any(s.battery is not None for s in plant.storages):
         return energy, held, 0, 0.0
     best = value(plant, energy, weights)
@@ -123,11 +125,11 @@ def polish(plant: Plant, weights: Mapping[str, float], energy: np.ndarray, held:
             else s for s, e in zip(plant.storages, energy, strict=True))
         lp = build(dataclasses.replace(plant, storages=storages), weights)
         try:
-            solution = solve(lp, solver=solver)
+            solution = solve(lp, solver=solver, basis=basis)
         except SolveError:
             radius /= 4
             continue
-        seconds += solution.seconds
+        seconds, basis = seconds + solution.seconds, solution.basis
         cols = lp.columns
         n = cols.n
         new = np.array([solution.x[cols.charge[s]:cols.charge[s] + n] - solution.x[cols.discharge[s]:cols.discharge[s] + n]
