@@ -19,18 +19,21 @@ The env's battery physics that is not linear, and how the oracle makes the LP ag
 Without the peak objective the buildings do not interact and each one is solved on its own (same optimum,
 smaller LPs; each building's first solve starts from the previous building's basis when the LPs have the
 same shape, and ``workers`` > 1 solves chunks of buildings in parallel processes); with it the district is
-one LP. (Merging batteries that are scaled copies of each other would shrink that LP but is not exact: with a
-power-dependent efficiency, batteries at different powers can beat the same batteries in lockstep -- 1.2 % on
-the peak of citylearn_challenge_2022_phase_1's month.) Every solve after the first of a group restarts from
+one LP -- or, for the peak alone above :data:`LOCKSTEP_SIZE` storage-steps, one LP of the batteries merged in
+lockstep (:mod:`pipeline.optimal.lockstep`; not exact: with a power-dependent efficiency, batteries at
+different powers can beat the same batteries in lockstep, 1.6 % on the peak of citylearn_challenge_2022_phase_all's
+month; the bound says how much at most). Every solve after the first of a group restarts from
 the previous basis.
 
-What the value is: the optimum of the LP at the efficiencies it converged to, for a plan the env executes as
-planned (replay gaps of at most 1e-3 % on every upstream dataset). It is not a certified lower bound on every
-policy: the non-concave efficiency curve makes the env's problem non-convex (the fixed point is a local
-optimum of it), and the plant restricts three rare situations (no tank discharge where the heater or heat pump
-is undersized; charging during an outage only from the PV surplus; a battery decays below its depth-of-
-discharge floor only through a penalised slack). With tanks only, the LP is (but for those restrictions)
-the env's problem exactly.
+What the result says: ``value`` is the best plan found -- the fixed point, then polished on the batteries'
+marginal efficiencies (:mod:`pipeline.optimal.polish`) -- a plan the env executes as planned (replay gaps of
+at most 1e-3 % on every upstream dataset). With batteries it is a local optimum of a non-convex problem; the
+plant also restricts three rare situations (no tank discharge where the heater or heat pump is undersized;
+charging during an outage only from the PV surplus; a battery decays below its depth-of-discharge floor only
+through a penalised slack). ``bound`` is certified: the optimum of a relaxation (:mod:`pipeline.optimal.relax`)
+that no executable schedule beats; ``gap`` is how far apart they are. With tanks only and none of the
+restrictions acting, the LP is the env's problem and ``exact`` is true. For the peak alone, batteries that are
+scaled copies run in lockstep above :data:`LOCKSTEP_SIZE` storage-steps (:mod:`pipeline.optimal.lockstep`).
 """
 
 from __future__ import annotations
