@@ -62,6 +62,9 @@ FREE_SOLVES = 2
 TRUST_RADIUS = 0.1
 TRUST_SHRINK = 0.1
 MAX_ITERATIONS = 12
+#: the polish's time budget: this many times the plan's own wall time (and at least POLISH_MIN_SECONDS)
+POLISH_BUDGET = 1.0
+POLISH_MIN_SECONDS = 1.0
 #: storages x steps above which the peak's district LP merges batteries in lockstep by default (17 x 720 stays
 #: one joint LP; 100 x 720 and 17 x 8,760 merge)
 LOCKSTEP_SIZE = 20_000
@@ -260,7 +263,9 @@ def solve_group(plant: Plant, weights: Mapping[str, float], solver: str = "choos
     follows the env's physics within :data:`PATH_TOLERANCE` or ``limit`` solves were made; keep
     the plan closest to the physics. A trust region that leaves no feasible plan (the refreshed efficiencies
     moved the last plan out of reach) is widened and the solve repeated. Then at most ``polishes`` LP solves
-    polish the batteries on their true marginal efficiency (:func:`pipeline.optimal.polish.polish`)."""
+    polish the batteries on their true marginal efficiency (:func:`pipeline.optimal.polish.polish`), within
+    :data:`POLISH_BUDGET` times the time the plan took."""
+    began = time.perf_counter()
     seconds, basis, first, best = 0.0, start, None, None
     center, radius, solves = None, None, 0
     while solves < limit:
@@ -287,7 +292,8 @@ def solve_group(plant: Plant, weights: Mapping[str, float], solver: str = "choos
     error, plant, energy, held = best
     size = (int(lp.cost.size), int(lp.row_lower.size), int(lp.value.size))
     if polishes:
-        energy, held, more, spent = polish(plant, weights, energy, held, solver, polishes, basis)
+        budget = max(POLISH_BUDGET * (time.perf_counter() - began), POLISH_MIN_SECONDS)
+        energy, held, more, spent = polish(plant, weights, energy, held, solver, polishes, basis, budget)
         solves, seconds = solves + more, seconds + spent
         plant, error = _refresh(plant, energy, held)
     return Group(plant, energy, held, solves, error, seconds, size, first)

@@ -16,6 +16,7 @@ from __future__ import annotations
 import bisect
 import dataclasses
 import math
+import time
 from collections.abc import Mapping
 from typing import Any
 
@@ -110,15 +111,18 @@ def value(plant: Plant, energy: np.ndarray, weights: Mapping[str, float]) -> flo
 
 
 def polish(plant: Plant, weights: Mapping[str, float], energy: np.ndarray, held: np.ndarray,
-           solver: str = "choose", limit: int = POLISH_SOLVES, basis: Any = None) -> tuple[np.ndarray, np.ndarray, int, float]:
+           solver: str = "choose", limit: int = POLISH_SOLVES, basis: Any = None,
+           budget: float = float("inf")) -> tuple[np.ndarray, np.ndarray, int, float]:
     """Improve the plan (``energy``, ``held``: (S, n) [kWh]) of ``plant`` by trust-region sequential LP on its
     batteries; returns (energy, held, LP solves, HiGHS seconds). Tanks are re-planned exactly in every LP;
-    every solve starts from the previous one's basis (the first from ``basis``: the plan's last, same shape)."""
+    every solve starts from the previous one's basis (the first from ``basis``: the plan's last, same shape);
+    no new solve starts after ``budget`` seconds (wall, the polish's own)."""
     if not any(s.battery is not None for s in plant.storages):
         return energy, held, 0, 0.0
     best = value(plant, energy, weights)
     radius, solves, seconds = POLISH_RADIUS, 0, 0.0
-    while solves < limit and radius >= POLISH_FLOOR:
+    began = time.perf_counter()
+    while solves < limit and radius >= POLISH_FLOOR and time.perf_counter() - began < budget:
         solves += 1
         storages = tuple(
             trust(tangent(battery_path(s, e), e), e, radius * s.battery.nominal_power) if s.battery is not None
