@@ -30,6 +30,10 @@ times sum_k p_k (T the episode's steps, ``plant.episode_steps`` for a window), p
 (``THROUGHPUT_PENALTY`` x the largest coefficient, on c and d) keeps the LP from charging and discharging in the
 same step when it is indifferent, and the slack v costs ``SLACK_PENALTY`` x that coefficient per kWh. The
 reported objective leaves both penalties out.
+
+Two variants: ``build(..., relaxed=True)`` writes the relaxation of :mod:`pipeline.optimal.relax` (its optimum is
+the certified lower bound; a battery adds stored and removed energies bounded by its efficiency lines, no
+penalties); a storage with a ``tangent`` has its balance linearised at a plan (:mod:`pipeline.optimal.polish`).
 """
 
 from __future__ import annotations
