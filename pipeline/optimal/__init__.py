@@ -3,7 +3,9 @@
 
 Modules: ``plant`` reads the env's storage problem (typed config + episode series), ``lp`` builds the sparse LP,
 ``solver`` solves it with highspy (imported there only, lazily), ``oracle`` iterates the battery efficiencies to
-their fixed point and assembles the schedule, ``replay`` runs a schedule in the env, ``objectives`` defines the
+their fixed point and assembles the schedule, ``polish`` improves it on the batteries' marginal efficiencies,
+``relax`` is the relaxation behind the certified lower bound, ``lockstep`` merges scaled-copy batteries for the
+district peak, ``replay`` runs a schedule in the env, ``objectives`` defines the
 objectives, ``mpc`` plans over a moving horizon (``forecasts``: what a controller could know ahead; ``window``: the
 plant of one horizon, from forecasts), ``surrogate`` plans heat pumps through the LSTM by sampling (``snapshot``:
 copies of the env's state for rollouts), ``optimum`` is the oracle (and MPC) as one call, :func:`optimal`, and

@@ -1,4 +1,5 @@
-"""``districtgen optimal SCHEMA``: the perfect-foresight bound of a district's storage, printed, and its schedule
+"""``districtgen optimal SCHEMA``: the best perfect-foresight plan of a district's storage and a certified lower
+bound, printed, and the plan's schedule
 written as CSV (:func:`pipeline.optimal.optimum.optimal`); with ``--mpc``, receding-horizon MPC beside it (its
 actions written instead). The parser loads nothing heavy (HiGHS loads when
 the command runs)."""

@@ -30,6 +30,10 @@ times sum_k p_k (T the episode's steps, ``plant.episode_steps`` for a window), p
 (``THROUGHPUT_PENALTY`` x the largest coefficient, on c and d) keeps the LP from charging and discharging in the
 same step when it is indifferent, and the slack v costs ``SLACK_PENALTY`` x that coefficient per kWh. The
 reported objective leaves both penalties out.
+
+Two variants: ``build(..., relaxed=True)`` writes the relaxation of :mod:`pipeline.optimal.relax` (its optimum is
+the certified lower bound; a battery adds stored and removed energies bounded by its efficiency lines, no
+penalties); a storage with a ``tangent`` has its balance linearised at a plan (:mod:`pipeline.optimal.polish`).
 """
 
 from __future__ import annotations
@@ -39,6 +43,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pipeline.optimal import objectives as obj
+from pipeline.optimal import relax
 from pipeline.optimal.plant import Plant, Storage
 
 THROUGHPUT_PENALTY = 1e-5
@@ -59,6 +64,8 @@ class Columns:
     peak: int
     days: int
     total: int
+    stored: np.ndarray | None = None
+    removed: np.ndarray | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -124,10 +131,15 @@ def _full(values, k: int, dtype) -> np.ndarray:
     return array if array.shape == (k,) else np.full(k, array.reshape(-1)[0] if array.size == 1 else array, dtype)
 
 
-def layout(plant: Plant, weights: dict[str, float], coefficient: np.ndarray) -> Columns:
-    """Column offsets for ``plant``: storages first, then imports where they cost something, then peaks."""
+def layout(plant: Plant, weights: dict[str, float], coefficient: np.ndarray, relaxed: bool = False) -> Columns:
+    """Column offsets for ``plant``: storages first, then imports where they cost something, then peaks.
+    ``relaxed``: a battery has stored and removed energies (columns 4 and 5 of its block) and no slack."""
     n, storages = plant.steps - 1, plant.storages
-    blocks = np.array([4 if s.battery is not None and s.battery.floor > 0 else 3 for s in storages], dtype=np.intp)
+    if relaxed:
+        blocks = np.array([5 if s.battery is not None else 3 for s in storages], dtype=np.intp)
+    else:
+        blocks = np.array([4 if s.battery is not None and s.battery.floor > 0 else 3 for s in storages],
+                          dtype=np.intp)
     first = np.concatenate([[0], np.cumsum(blocks * n)])[:-1].astype(np.intp)
     has_storage = np.zeros(len(plant.building_names), bool)
     has_storage[[s.building for s in storages]] = True
@@ -138,21 +150,32 @@ def layout(plant: Plant, weights: dict[str, float], coefficient: np.ndarray) -> 
     total += int(wanted.sum())
     days = -(-(plant.day_offset + plant.steps) // obj.DAY_STEPS) if weights[obj.PEAK] > 0 else 0
     peak = total if days else -1
+    if relaxed:
+        return Columns(n=n, charge=first, discharge=first + n, energy=first + 2 * n,
+                       slack=np.full(len(storages), -1, dtype=np.intp), imports=imports, peak=peak, days=days,
+                       total=total + days, stored=np.where(blocks == 5, first + 3 * n, -1),
+                       removed=np.where(blocks == 5, first + 4 * n, -1))
     return Columns(n=n, charge=first, discharge=first + n, energy=first + 2 * n,
                    slack=np.where(blocks == 4, first + 3 * n, -1), imports=imports, peak=peak, days=days,
                    total=total + days)
 
 
-def build(plant: Plant, weights: dict[str, float]) -> LinearProgram:
-    """The LP of ``plant`` for the objective ``weights`` (see the module docstring)."""
+def build(plant: Plant, weights: dict[str, float], relaxed: bool = False) -> LinearProgram:
+    """The LP of ``plant`` for the objective ``weights`` (see the module docstring). ``relaxed``: the
+    relaxation of :mod:`pipeline.optimal.relax` (give it ``relax.relaxed_plant(plant)``): batteries store and
+    remove within their efficiency lines, the balance is an inequality, the depth of discharge is its chord,
+    outage steps do not cap charging, and the objective has no penalties (its optimum is the bound)."""
     coefficient = obj.import_coefficients(weights, plant.price, plant.carbon)
-    cols = layout(plant, weights, coefficient)
+    cols = layout(plant, weights, coefficient, relaxed)
     n = cols.n
     lower, upper = np.zeros(cols.total), np.full(cols.total, np.inf)
     cost = np.zeros(cols.total)
     rows = RowBuilder()
     for s, storage in enumerate(plant.storages):
-        _storage_rows(rows, storage, s, cols, lower, upper)
+        if relaxed and storage.battery is not None:
+            _relaxed_battery_rows(rows, storage, s, cols, upper)
+        else:
+            _storage_rows(rows, storage, s, cols, lower, upper)
     used = cols.imports >= 0
     cost[cols.imports[used]] = coefficient[:, 1:][used]
     base = plant.base_net
@@ -160,13 +183,14 @@ def build(plant: Plant, weights: dict[str, float]) -> LinearProgram:
     free[:, 1:] = ~used
     constant = float((coefficient * np.clip(base, 0.0, None))[free].sum())
     _import_rows(rows, plant, cols)
-    _outage_rows(rows, plant, cols)
+    if not relaxed:
+        _outage_rows(rows, plant, cols)
     if cols.days:
         scale = obj.DAY_STEPS / (plant.episode_steps or plant.steps)
         _peak_rows(rows, plant, cols, lower, cost, weights[obj.PEAK] * scale)
     scale = max(float(cost.max(initial=0.0)), 1e-12)
     objective = cost.copy()
-    for s in range(len(plant.storages)):
+    for s in range(len(plant.storages) if not relaxed else 0):
         cost[cols.charge[s]:cols.energy[s]] += THROUGHPUT_PENALTY * scale
         if cols.slack[s] >= 0:
             cost[cols.slack[s]:cols.slack[s] + n] = SLACK_PENALTY * scale
@@ -187,13 +211,56 @@ def _storage_rows(rows: RowBuilder, s: Storage, i: int, cols: Columns, lower: np
     a, r = s.retention, s.one_way
     start = np.zeros(n)
     start[0] = a * s.initial_energy
-    rows.add(start, start, (en, 1.0), (prev, -a), (ch, -r), (dis, 1.0 / r))
+    if s.tangent is None:
+        rows.add(start, start, (en, 1.0), (prev, -a), (ch, -r), (dis, 1.0 / r))
+    else:
+        gain, loss, offset = s.tangent
+        rows.add(start + offset, start + offset, (en, 1.0), (prev, -a), (ch, -gain), (dis, loss))
     if s.battery is not None:
         _battery_rows(rows, s, cols.slack[i], ch, dis, en, prev, upper)
     if s.low is not None or s.high is not None:
         low, high = s.window()
         lower[ch], upper[ch] = np.maximum(low, 0.0), np.where(high <= 0, 0.0, np.minimum(upper[ch], high))
         lower[dis], upper[dis] = np.maximum(-high, 0.0), np.where(low >= 0, 0.0, np.minimum(upper[dis], -low))
+
+
+def _relaxed_battery_rows(rows: RowBuilder, s: Storage, i: int, cols: Columns, upper: np.ndarray) -> None:
+    """A battery in the relaxation: E_i - a E_(i-1) - stored_i + removed_i <= 0 (a E_(-1) at i = 0), stored
+    and removed within the efficiency lines, the capacity-power and free-capacity rows of the plan's LP at the
+    first step's usable capacity, and the depth-of-discharge chord (:mod:`pipeline.optimal.relax`)."""
+    n = cols.n
+    steps = np.arange(n)
+    ch, dis, en = cols.charge[i] + steps, cols.discharge[i] + steps, cols.energy[i] + steps
+    put, take = cols.stored[i] + steps, cols.removed[i] + steps
+    prev = np.concatenate([[-1], en[:-1]])
+    b, a = s.battery, s.retention
+    upper[ch], upper[en] = s.charge_max, s.capacity
+    start = np.zeros(n)
+    start[0] = a * s.initial_energy
+    rows.add(np.full(n, -np.inf), start, (en, 1.0), (prev, -a), (put, -1.0), (take, 1.0))
+    store, remove = relax.efficiency_lines(b.efficiency, relax.power_range(s), b.extrapolate)
+    p = b.nominal_power
+    for slope, intercept in store:  # stored <= P intercept + slope c
+        rows.add(np.full(n, -np.inf), p * intercept, (put, 1.0), (ch, -slope))
+    for slope, intercept in remove:  # removed >= P intercept + slope d
+        rows.add(np.full(n, p * intercept), np.inf, (take, 1.0), (dis, -slope))
+    later = prev >= 0
+    for alpha, beta in b.lines:
+        limit0 = max(0.0, p * (alpha + beta * a * s.initial_energy / s.capacity))
+        upper[ch[0]], upper[dis[0]] = min(upper[ch[0]], limit0), min(upper[dis[0]], limit0)
+        if beta == 0.0:
+            upper[ch], upper[dis] = np.minimum(upper[ch], p * alpha), np.minimum(upper[dis], p * alpha)
+            continue
+        for var in (ch, dis):
+            rows.add(np.full(n - 1, -np.inf), p * alpha, (var[later], 1.0), (prev[later], -p * beta * a / s.capacity))
+    usable = float(b.usable_capacity[0])
+    upper[ch[0]] = min(upper[ch[0]], max(0.0, usable - a * s.initial_energy))
+    rows.add(np.full(n - 1, -np.inf), usable, (ch[later], 1.0), (prev[later], a))
+    best = float(b.one_way_prev[0])
+    upper[dis[0]] = min(upper[dis[0]], max(0.0, best * (s.initial_energy - b.floor)))
+    if b.floor > 0:
+        chord = best * (s.capacity - b.floor) / s.capacity
+        rows.add(np.full(n - 1, -np.inf), 0.0, (dis[later], 1.0), (prev[later], -chord))
 
 
 def _battery_rows(rows: RowBuilder, s: Storage, slack: int, ch: np.ndarray, dis: np.ndarray, en: np.ndarray,

@@ -75,7 +75,7 @@ def mpc(env, objective: str | Mapping[str, float] = "cost", *, horizon: int = 24
         window = horizon_plant(full, env, t, length)
         if seer.name != "perfect":
             window = forecast_plant(window, env, seer.window(t, length))
-        plan = solve_plant(window, weights, solves=solves_per_step, joint=True)
+        plan = solve_plant(window, weights, solves=solves_per_step, joint=True, bound=False, polishes=0)
         count += plan.iterations
         applied.append(schedule_actions(env, plan.schedule)[0])
         return applied[-1]

@@ -1,5 +1,7 @@
 """The oracle as one call for the CLI: :func:`optimal` loads a schema, plans the storage with perfect foresight,
-replays the plan in the environment, prints and returns the result and writes the schedule as CSV.
+replays the plan in the environment, prints and returns the result and writes the schedule as CSV. It reports
+the best plan found (the env's value, replayed) and a certified lower bound with their gap; "minimum" only where
+the LP is the environment's problem (tanks only, :attr:`pipeline.optimal.oracle.Oracle.exact`).
 
 The district is the schema's, with the heat-pump and heater actions inactive (the devices serve the data set's
 ideal loads, as in the paper's storage benchmarks: :func:`pipeline.controllers.without_device_actions`) and one
@@ -31,8 +33,8 @@ UNITS = {"cost": "$", "emissions": "kg", "consumption": "kWh", "average_daily_pe
 
 @dataclass(frozen=True)
 class Result:
-    """What :func:`optimal` found: the ``oracle`` (bound, objectives, schedule), the ``replay`` in the env (None
-    when not replayed), the behaviour ``preset`` name, the episode's first and last data rows, the CSV written
+    """What :func:`optimal` found: the ``oracle`` (best plan, certified bound, objectives, schedule), the
+    ``replay`` in the env (None when not replayed), the behaviour ``preset`` name, the episode's first and last data rows, the CSV written
     and how the replay followed the plan (``track``)."""
 
     oracle: Oracle
@@ -46,17 +48,44 @@ class Result:
 
     @property
     def bound(self) -> float:
-        """The oracle's value of the objective (weighted sum for weights) over the episode."""
-        return self.oracle.value
+        """The certified lower bound of the objective (weighted sum for weights): no schedule the env can execute
+        does better (:mod:`pipeline.optimal.relax`; -inf when not computed)."""
+        return self.oracle.bound
+
+    @property
+    def value(self) -> float:
+        """The best plan's objective (weighted sum for weights): the env's, replayed, or the plan's own when
+        not replayed."""
+        if self.replay is None:
+            return self.oracle.value
+        return obj.weighted(self.replay.objectives, {k: w for k, w in self.oracle.weights.items() if w})
+
+    @property
+    def gap(self) -> float:
+        """(value - bound) / |bound| [-]: the most the best plan could still be improved on (NaN without a
+        bound)."""
+        bound = self.bound
+        return (self.value - bound) / abs(bound) if np.isfinite(bound) and bound else float("nan")
 
     def summary(self) -> str:
-        """A few lines: objective, bound vs no control, each objective, the replay's gap, the solve."""
+        """A few lines: the best plan found and the certified bound with their gap, each objective of the plan
+        vs no control and the env's replay, the solve."""
         o = self.oracle
         used = [k for k, w in o.weights.items() if w]
         name = used[0] if len(used) == 1 else " + ".join(f"{o.weights[k]:.4g} {k}" for k in used)
-        lines = [f"oracle: minimum {name} over data rows {self.start}..{self.end} "
+        unit = f" {UNITS[used[0]]}" if len(used) == 1 else ""
+        lines = [f"oracle: best plan found for {name} over data rows {self.start}..{self.end} "
                  f"({o.schedule.net.shape[1]} steps, {o.schedule.net.shape[0]} buildings, "
                  f"{len(o.schedule.storages)} storages; env preset {self.preset})"]
+        where = "in the env" if self.replay is not None else "planned, not replayed"
+        if o.exact:
+            lines.append(f"  minimum {self.value:.6g}{unit} ({where}): tanks only, the LP is the env's problem "
+                         f"(relaxation {self.bound:.6g}{unit})")
+        elif np.isfinite(self.bound):
+            lines.append(f"  best plan {self.value:.6g}{unit} ({where}); certified lower bound {self.bound:.6g}"
+                         f"{unit} (relaxation: no schedule does better); gap {self.gap * 100:.3f} %")
+        else:
+            lines.append(f"  best plan {self.value:.6g}{unit} ({where}); no bound computed")
         for k in obj.OBJECTIVES:
             base, best = o.baseline[k], o.objectives[k]
             change = f"{(best - base) / abs(base) * 100:+.2f} %" if base else "n/a"
@@ -73,9 +102,9 @@ class Result:
 
 
 def _mpc_lines(run: MpcRun, bound: Oracle) -> list[str]:
-    """MPC's objectives in the env beside the oracle's bound and no control."""
+    """MPC's objectives in the env beside the oracle's best plan and no control."""
     lines = [f"mpc: horizon {run.horizon} steps, {run.forecast} forecasts, {run.solves} LP solves, "
-             f"{run.seconds:.2f} s (env values; the oracle's bound and no control beside them)"]
+             f"{run.seconds:.2f} s (env values; the oracle's best plan and no control beside them)"]
     for k in obj.OBJECTIVES:
         lines.append(f"  {k:19s} {run.objectives[k]:14.6g} {UNITS[k]:3s} (oracle {bound.objectives[k]:.6g}, "
                      f"no control {bound.baseline[k]:.6g})")
@@ -117,7 +146,7 @@ def optimal(schema: str | Path | Mapping[str, Any] | DistrictConfig, objective: 
             start: int | None = None, end: int | None = None, out: str | Path | None = None, *,
             settings: Any = None, seed: int = 0, normalise: bool = False, check: bool = True, track: str = "soc",
             workers: int = 1, quiet: bool = False, control: Mapping[str, Any] | None = None) -> Result:
-    """The perfect-foresight optimum of ``schema``'s storage for ``objective`` (a name of
+    """The best perfect-foresight plan of ``schema``'s storage, and a certified lower bound, for ``objective`` (a name of
     :data:`pipeline.optimal.objectives.OBJECTIVES` or ``{name: weight}``; ``normalise`` divides the weights
     by the no-control values) over the data rows ``start`` .. ``end``.
 
@@ -127,7 +156,7 @@ def optimal(schema: str | Path | Mapping[str, Any] | DistrictConfig, objective: 
     open loop (``"energy"``; :mod:`pipeline.optimal.replay`); ``workers``: processes solving buildings in
     parallel; ``quiet``: print nothing; ``control``: run MPC too (keywords of :func:`pipeline.optimal.mpc.mpc`:
     ``horizon``, ``forecast``, ``train``; the weights as the oracle's) and write its actions to ``out`` instead of
-    the schedule. Returns a :class:`Result` (its ``bound``, ``summary()``, ``mpc``).
+    the schedule. Returns a :class:`Result` (its ``value``, ``bound``, ``gap``, ``summary()``, ``mpc``).
     """
     config = district(schema, start=start, end=end, settings=settings)
     env = CityLearnEnv(config, settings=settings)

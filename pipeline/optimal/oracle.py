@@ -19,18 +19,21 @@ The env's battery physics that is not linear, and how the oracle makes the LP ag
 Without the peak objective the buildings do not interact and each one is solved on its own (same optimum,
 smaller LPs; each building's first solve starts from the previous building's basis when the LPs have the
 same shape, and ``workers`` > 1 solves chunks of buildings in parallel processes); with it the district is
-one LP. (Merging batteries that are scaled copies of each other would shrink that LP but is not exact: with a
-power-dependent efficiency, batteries at different powers can beat the same batteries in lockstep -- 1.2 % on
-the peak of citylearn_challenge_2022_phase_1's month.) Every solve after the first of a group restarts from
+one LP -- or, for the peak alone above :data:`LOCKSTEP_SIZE` storage-steps, one LP of the batteries merged in
+lockstep (:mod:`pipeline.optimal.lockstep`; not exact: with a power-dependent efficiency, batteries at
+different powers can beat the same batteries in lockstep, 1.6 % on the peak of citylearn_challenge_2022_phase_all's
+month; the bound says how much at most). Every solve after the first of a group restarts from
 the previous basis.
 
-What the value is: the optimum of the LP at the efficiencies it converged to, for a plan the env executes as
-planned (replay gaps of at most 1e-3 % on every upstream dataset). It is not a certified lower bound on every
-policy: the non-concave efficiency curve makes the env's problem non-convex (the fixed point is a local
-optimum of it), and the plant restricts three rare situations (no tank discharge where the heater or heat pump
-is undersized; charging during an outage only from the PV surplus; a battery decays below its depth-of-
-discharge floor only through a penalised slack). With tanks only, the LP is (but for those restrictions)
-the env's problem exactly.
+What the result says: ``value`` is the best plan found -- the fixed point, then polished on the batteries'
+marginal efficiencies (:mod:`pipeline.optimal.polish`) -- a plan the env executes as planned (replay gaps of
+at most 1e-3 % on every upstream dataset). With batteries it is a local optimum of a non-convex problem; the
+plant also restricts three rare situations (no tank discharge where the heater or heat pump is undersized;
+charging during an outage only from the PV surplus; a battery decays below its depth-of-discharge floor only
+through a penalised slack). ``bound`` is certified: the optimum of a relaxation (:mod:`pipeline.optimal.relax`)
+that no executable schedule beats; ``gap`` is how far apart they are. With tanks only and none of the
+restrictions acting, the LP is the env's problem and ``exact`` is true. For the peak alone, batteries that are
+scaled copies run in lockstep above :data:`LOCKSTEP_SIZE` storage-steps (:mod:`pipeline.optimal.lockstep`).
 """
 
 from __future__ import annotations
@@ -43,9 +46,12 @@ from typing import Any
 
 import numpy as np
 
+from pipeline.optimal import lockstep as steps_lockstep
 from pipeline.optimal import objectives as obj
+from pipeline.optimal import relax
 from pipeline.optimal.lp import build
 from pipeline.optimal.plant import Plant, battery_path, path_error, plant_from_env, trust
+from pipeline.optimal.polish import POLISH_SOLVES, polish
 from pipeline.optimal.solver import SolveError, solve
 
 #: stop refreshing the battery efficiencies when the planned path is this close to the env's [fraction of capacity]
@@ -56,6 +62,12 @@ FREE_SOLVES = 2
 TRUST_RADIUS = 0.1
 TRUST_SHRINK = 0.1
 MAX_ITERATIONS = 12
+#: the polish's time budget: this many times the plan's own wall time (and at least POLISH_MIN_SECONDS)
+POLISH_BUDGET = 1.0
+POLISH_MIN_SECONDS = 1.0
+#: storages x steps above which the peak's district LP merges batteries in lockstep by default (17 x 720 stays
+#: one joint LP; 100 x 720 and 17 x 8,760 merge)
+LOCKSTEP_SIZE = 20_000
 
 
 @dataclass(frozen=True, eq=False)
@@ -81,7 +93,9 @@ class Oracle:
     ``iterations``: LP solves of the building group that needed most; ``path_error``: how far the planned
     battery paths are from the env's physics at their own powers [fraction of capacity]; ``solve_seconds``:
     HiGHS time summed over the LPs; ``seconds``: the whole oracle (wall); ``size``: (columns, rows, non-zeros)
-    of the largest LP."""
+    of the largest LP; ``bound``: the certified lower bound (the relaxation's optimum, :mod:`pipeline.optimal.relax`:
+    no schedule the env can execute has a lower weighted objective; -inf when not computed); ``exact``: the LP is
+    the env's problem itself (tanks only, no restriction acting), so ``value`` is the minimum."""
 
     weights: Mapping[str, float]
     value: float
@@ -93,6 +107,16 @@ class Oracle:
     solve_seconds: float
     seconds: float
     size: tuple[int, int, int]
+    bound: float = float("-inf")
+    exact: bool = False
+
+    @property
+    def gap(self) -> float:
+        """(value - bound) / |bound| [-]: how much better than the plan any schedule could still be (NaN without
+        a bound or where it is 0)."""
+        if not np.isfinite(self.bound) or self.bound == 0:
+            return float("nan")
+        return (self.value - self.bound) / abs(self.bound)
 
 
 @dataclass(frozen=True, eq=False)
@@ -109,22 +133,34 @@ class Group:
     solve_seconds: float
     size: tuple[int, int, int]
     first_basis: Any = None
+    bound: float = float("-inf")
 
 
 def oracle(env, objective: str | Mapping[str, float] = "cost", *, normalise: bool = False,
-           workers: int = 1) -> Oracle:
+           workers: int = 1, runner: Any = None, bound: bool = True) -> Oracle:
     """The oracle of ``env``'s current episode (call ``env.reset(seed=...)`` first: the outage signal of that
     reset is the one planned for). ``objective``: a name of :data:`objectives.OBJECTIVES` or weights;
     ``normalise``: divide the weights by the no-control values (a sum of ratios); ``workers``: processes
-    solving buildings in parallel (objectives without the peak only)."""
-    return solve_plant(plant_from_env(env), objective, normalise=normalise, workers=workers)
+    solving buildings in parallel (objectives without the peak only); ``runner``: a
+    :class:`pipeline.runners.Runner` mapping the per-building groups instead (e.g. the build's); ``bound``:
+    solve the relaxations for the certified lower bound too."""
+    return solve_plant(plant_from_env(env), objective, normalise=normalise, workers=workers, runner=runner,
+                       bound=bound)
 
 
 def solve_plant(plant: Plant, objective: str | Mapping[str, float] = "cost", *, normalise: bool = False,
-                workers: int = 1, solver: str = "choose", solves: int = MAX_ITERATIONS, joint: bool = False) -> Oracle:
+                workers: int = 1, solver: str = "choose", solves: int = MAX_ITERATIONS, joint: bool = False,
+                bound: bool = True, runner: Any = None, polishes: int = POLISH_SOLVES,
+                lockstep: bool | None = None) -> Oracle:
     """The oracle of ``plant`` (see :func:`oracle`; ``solver``: HiGHS's solver option; ``solves``: at most
     this many LP solves per building group; ``joint``: one LP for the district even when the buildings do not
-    interact -- fewer, larger solves, for short horizons)."""
+    interact -- fewer, larger solves, for short horizons; ``bound``: also solve the relaxation of every group
+    for the certified lower bound; ``runner``: a :class:`pipeline.runners.Runner` that maps the building groups
+    (default: in this process, or ``workers`` spawned processes); ``polishes``: at most this many LP solves of
+    the polish per group (:mod:`pipeline.optimal.polish`; 0: none; a district LP of several storages is not
+    polished); ``lockstep``: for the peak alone, merge batteries that are scaled copies
+    (:mod:`pipeline.optimal.lockstep`; None: when the district LP would have more than :data:`LOCKSTEP_SIZE`
+    storage-steps))."""
     began = time.perf_counter()
     weights = obj.weights_of(objective)
     baseline = obj.values(plant.base_net, plant.price, plant.carbon)
@@ -135,41 +171,101 @@ def solve_plant(plant: Plant, objective: str | Mapping[str, float] = "cost", *, 
         plants = [plant]  # one LP; buildings without storage count in the district's peak
     else:
         plants = [plant.only([b]) for b in owners]
-    if workers > 1 and len(plants) > 1:
-        from pipeline.runners import ProcessRunner  # only when asked for: spawns worker processes
-
-        chunks = {str(i): (plants[i::workers], weights, solver, solves) for i in range(min(workers, len(plants)))}
-        done = ProcessRunner(len(chunks)).map("oracle", solve_groups, chunks)
-        solved = [g for chunk in done.values() for g in chunk]
-    else:
-        solved = solve_groups(plants, weights, solver, solves)
+    together = len(plants) == 1 and steps_lockstep.applies(plant, weights)
+    merged = groups = None
+    if together:  # the peak alone: the merged batteries' relaxation is the joint one, far smaller
+        aggregated, groups = steps_lockstep.aggregate(plant)
+        if lockstep is not False and (lockstep or len(plant.storages) * plant.steps > LOCKSTEP_SIZE):
+            merged = plants[0] = aggregated
+    if merged is None and (joint or weights[obj.PEAK] > 0) and len(plant.storages) > 1:
+        polishes = 0  # a district LP: each polish solve costs as much as a plan solve (month x 17: ~20 s)
+    solved = _run_groups(plants, (weights, solver, solves, bound and not together, polishes), runner, workers)
+    if together and bound:
+        lower, seconds = group_bound(aggregated, weights, solver)
+        solved[0] = dataclasses.replace(solved[0], bound=lower, solve_seconds=solved[0].solve_seconds + seconds)
+    if merged is not None:  # every battery of a class runs its share of the merged plan
+        energy, held = steps_lockstep.spread(plant, groups, solved[0].energy, solved[0].held)
+        solved = [dataclasses.replace(solved[0], plant=plant, energy=energy, held=held)]
     schedule = _schedule(plant, solved)
     values = obj.values(schedule.net, plant.price, plant.carbon)
+    # the groups' bounds cover their own buildings; a building without storage adds its fixed objective
+    lower = obj.weighted(baseline, weights) + sum(
+        g.bound - obj.weighted(obj.values(g.plant.base_net, g.plant.price, g.plant.carbon), weights) for g in solved)
     return Oracle(weights=weights, value=obj.weighted(values, weights), objectives=values, baseline=baseline,
                   schedule=schedule, iterations=max((g.iterations for g in solved), default=0),
                   path_error=max((g.path_error for g in solved), default=0.0),
                   solve_seconds=sum(g.solve_seconds for g in solved), seconds=time.perf_counter() - began,
-                  size=max((g.size for g in solved), default=(0, 0, 0)))
+                  size=max((g.size for g in solved), default=(0, 0, 0)),
+                  bound=lower if bound else float("-inf"), exact=bound and exact(plant))
+
+
+def _run_groups(plants: Sequence[Plant], settings: tuple, runner: Any, workers: int) -> list[Group]:
+    """:func:`solve_groups` of ``plants`` with ``settings`` (weights, solver, solves, bound, polishes): one call
+    per group on ``runner`` (labelled by the group's first building), else chunks on ``workers`` spawned
+    processes, else here."""
+    if runner is not None:
+        calls = {p.building_names[0]: ([p], *settings) for p in plants}
+        return [g for chunk in runner.map("oracle", solve_groups, calls).values() for g in chunk]
+    if workers > 1 and len(plants) > 1:
+        from pipeline.runners import ProcessRunner  # only when asked for: spawns worker processes
+
+        chunks = {str(i): (plants[i::workers], *settings) for i in range(min(workers, len(plants)))}
+        done = ProcessRunner(len(chunks)).map("oracle", solve_groups, chunks)
+        return [g for chunk in done.values() for g in chunk]
+    return solve_groups(plants, *settings)
+
+
+def exact(plant: Plant) -> bool:
+    """Whether the plan's LP is the environment's problem itself (then its optimum is the minimum and the bound
+    equals it): no battery, and none of the tank restrictions acts (no undersized device where a tank could
+    discharge, no outage at a building with a storage)."""
+    if any(s.battery is not None for s in plant.storages):
+        return False
+    for s in plant.storages:
+        if s.relaxed_discharge is not None and np.any(s.relaxed_discharge != s.discharge_max):
+            return False
+        if plant.outage[s.building, 1:].any():
+            return False
+    return True
 
 
 def solve_groups(plants: Sequence[Plant], weights: Mapping[str, float], solver: str = "choose",
-                 solves: int = MAX_ITERATIONS) -> list[Group]:
+                 solves: int = MAX_ITERATIONS, bound: bool = True, polishes: int = POLISH_SOLVES) -> list[Group]:
     """Solve the building groups ``plants`` one after the other, each first solve starting from the previous
-    group's first basis (used only when the LP has the same shape). The bases are dropped from the result
-    (HiGHS objects do not cross process boundaries)."""
+    group's first basis (used only when the LP has the same shape), and (``bound``) each group's relaxation.
+    The bases are dropped from the result (HiGHS objects do not cross process boundaries)."""
     out: list[Group] = []
     for plant in plants:
-        out.append(solve_group(plant, weights, solver, start=out[-1].first_basis if out else None, limit=solves))
+        group = solve_group(plant, weights, solver, start=out[-1].first_basis if out else None, limit=solves,
+                            polishes=polishes)
+        if bound:
+            value, seconds = group_bound(plant, weights, solver)
+            group = dataclasses.replace(group, bound=value, solve_seconds=group.solve_seconds + seconds)
+        out.append(group)
     return [dataclasses.replace(g, first_basis=None) for g in out]
 
 
+def group_bound(plant: Plant, weights: Mapping[str, float], solver: str = "choose") -> tuple[float, float]:
+    """(certified lower bound, HiGHS seconds) of ``plant``'s objective: the optimum of its relaxation
+    (:mod:`pipeline.optimal.relax`), which no schedule the environment can execute beats."""
+    lp = build(relax.relaxed_plant(plant), weights, relaxed=True)
+    try:
+        solution = solve(lp, solver=solver)
+    except SolveError:  # the relaxation is degenerate (no penalties); the interior point copes where simplex stalls
+        solution = solve(lp, solver="ipm")
+    return solution.objective, solution.seconds
+
+
 def solve_group(plant: Plant, weights: Mapping[str, float], solver: str = "choose", start: Any = None,
-                limit: int = MAX_ITERATIONS) -> Group:
+                limit: int = MAX_ITERATIONS, polishes: int = POLISH_SOLVES) -> Group:
     """Solve, refresh the battery efficiencies and usable capacity from the schedule, and solve again (warm
     started; in a shrinking trust region around the last plan after :data:`FREE_SOLVES` solves) until the plan
     follows the env's physics within :data:`PATH_TOLERANCE` or ``limit`` solves were made; keep
     the plan closest to the physics. A trust region that leaves no feasible plan (the refreshed efficiencies
-    moved the last plan out of reach) is widened and the solve repeated."""
+    moved the last plan out of reach) is widened and the solve repeated. Then at most ``polishes`` LP solves
+    polish the batteries on their true marginal efficiency (:func:`pipeline.optimal.polish.polish`), within
+    :data:`POLISH_BUDGET` times the time the plan took."""
+    began = time.perf_counter()
     seconds, basis, first, best = 0.0, start, None, None
     center, radius, solves = None, None, 0
     while solves < limit:
@@ -195,6 +291,11 @@ def solve_group(plant: Plant, weights: Mapping[str, float], solver: str = "choos
             radius = TRUST_RADIUS if radius is None else radius * TRUST_SHRINK
     error, plant, energy, held = best
     size = (int(lp.cost.size), int(lp.row_lower.size), int(lp.value.size))
+    if polishes:
+        budget = max(POLISH_BUDGET * (time.perf_counter() - began), POLISH_MIN_SECONDS)
+        energy, held, more, spent = polish(plant, weights, energy, held, solver, polishes, basis, budget)
+        solves, seconds = solves + more, seconds + spent
+        plant, error = _refresh(plant, energy, held)
     return Group(plant, energy, held, solves, error, seconds, size, first)
 
 

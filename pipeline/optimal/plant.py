@@ -43,7 +43,9 @@ class BatteryTerms:
     discharge floor (1 - DoD) x capacity; ``efficiency``: the power-efficiency curve (x = |energy| / nominal
     power, y = round trip); ``one_way_prev`` (n,): sqrt of the previous step's round-trip efficiency (the env's
     depth-of-discharge limit uses it); ``usable_capacity`` (n,) [kWh]: the faded capacity at the start of step
-    i; ``capacity_loss`` [-]: the capacity-fade coefficient; ``extrapolate``: the 2.1 curve quirk."""
+    i; ``capacity_loss`` [-]: the capacity-fade coefficient; ``extrapolate``: the 2.1 curve quirk;
+    ``power_points`` (2, K): the capacity-power curve's points (x = SOC, y = fraction of nominal power; the
+    relaxation of :mod:`pipeline.optimal.relax` takes their concave majorant; None: ``lines`` are exact)."""
 
     nominal_power: float
     lines: np.ndarray
@@ -54,6 +56,7 @@ class BatteryTerms:
     capacity_loss: float
     initial_efficiency: float
     extrapolate: bool
+    power_points: np.ndarray | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -65,7 +68,11 @@ class Storage:
     device-side]: 1 / COP for a tank, 1 for a battery; ``charge_max`` / ``discharge_max`` (n,) [kWh per step]:
     the limits that do not depend on the state of charge; ``action_scale`` [kWh per unit of action];
     ``low`` / ``high`` (n,) [kWh]: a window the device-side energy must stay in (None: none; the oracle's
-    trust region around its last plan, see :func:`trust`); ``end_use``: a tank's end use (None: the battery)."""
+    trust region around its last plan, see :func:`trust`); ``relaxed_discharge`` (n,) [kWh per step]: a tank's
+    discharge limit with the undersized-device restriction lifted (the relaxation's; None: ``discharge_max``);
+    ``tangent``: (gain, cost, offset) (n,) each, the balance linearised around a plan (the oracle's polish,
+    :mod:`pipeline.optimal.polish`): E_i = a E_(i-1) + offset_i + gain_i c_i - cost_i d_i (None: ``one_way``);
+    ``end_use``: a tank's end use (None: the battery)."""
 
     building: int
     slot: str
@@ -80,6 +87,8 @@ class Storage:
     battery: BatteryTerms | None = None
     low: np.ndarray | None = None
     high: np.ndarray | None = None
+    relaxed_discharge: np.ndarray | None = None
+    tangent: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
     end_use: str | None = None
 
     def window(self) -> tuple[np.ndarray, np.ndarray]:
@@ -209,7 +218,8 @@ def tank_storage(p: EndUseParams, b: int, cop: np.ndarray, demand: np.ndarray) -
         one_way=np.full(n, float(tank.one_way_efficiency[b])), electricity=1.0 / cop,
         charge_max=np.minimum(np.maximum(0.0, reach - demand), tank.max_input_power[b]),
         discharge_max=np.where(undersized, 0.0, np.minimum(demand, tank.max_output_power[b])),
-        action_scale=float(tank.capacity[b]), end_use=p.name)
+        action_scale=float(tank.capacity[b]), relaxed_discharge=np.minimum(demand, tank.max_output_power[b]),
+        end_use=p.name)
 
 
 def curve_lines(xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
@@ -240,7 +250,8 @@ def _battery(d, settings, b: int) -> Storage:
         floor=max(0.0, (1.0 - float(bat.depth_of_discharge[b])) * capacity), efficiency=efficiency,
         one_way_prev=one_way.copy(), usable_capacity=np.full(n, capacity),
         capacity_loss=float(bat.capacity_loss_coefficient[b]), initial_efficiency=float(bat.efficiency[b]),
-        extrapolate=bool(settings.battery_curve_extrapolates_first_segment))
+        extrapolate=bool(settings.battery_curve_extrapolates_first_segment),
+        power_points=np.stack([bat.capacity_power.xs[b], bat.capacity_power.ys[b]]))
     return Storage(
         building=b, slot=BATTERY_SLOT, capacity=capacity, retention=1.0 - float(bat.loss_coefficient[b]),
         initial_energy=float(bat.initial_soc[b] * capacity), one_way=one_way, electricity=np.ones(n),
