@@ -15,8 +15,10 @@ from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
+import surrogates.config as trainer  # torch-free: the build's recipe and the trainer's names
 from citylearn_env.sizing import BATTERIES, SizingRules
 from pipeline.errors import InputError
+from surrogates.precision import PRECISIONS
 
 #: a district name: it becomes the folder ``<output root>/<name>``, so no separators, no hidden or dot names
 NAME_PATTERN = r"[A-Za-z0-9][A-Za-z0-9_.-]{0,63}"
@@ -126,15 +128,22 @@ class PV(_Frozen):
     azimuth: float = Field(180.0, ge=0, lt=360)
 
 
+#: the sizing defaults: :class:`citylearn_env.sizing.SizingRules`' (the paper's), the one place they are set
+_RULES = SizingRules()
+
+
 class Sizing(_Frozen):
-    heat_pump_efficiency: float = Field(0.25, gt=0, le=1)
-    target_cooling_temperature: float = 8.0
-    target_heating_temperature: float = 45.0
-    electric_heater_efficiency: float = Field(1.0, gt=0, le=1)
-    dhw_heater_efficiency: float = Field(0.9, gt=0, le=1)
-    dhw_tank_fraction: float = Field(0.5, ge=0)
-    battery: str = "BYD LVS"
-    pv_zne_fraction: float = Field(0.215, ge=0, le=10, description="PV yield / consumption over the period")
+    """The ``[sizing]`` keys: the :class:`SizingRules` a district may change, defaulting to its values."""
+
+    heat_pump_efficiency: float = Field(_RULES.heat_pump_efficiency, gt=0, le=1)
+    target_cooling_temperature: float = _RULES.target_cooling_temperature
+    target_heating_temperature: float = _RULES.target_heating_temperature
+    electric_heater_efficiency: float = Field(_RULES.electric_heater_efficiency, gt=0, le=1)
+    dhw_heater_efficiency: float = Field(_RULES.dhw_heater_efficiency, gt=0, le=1)
+    dhw_tank_fraction: float = Field(_RULES.dhw_tank_fraction, ge=0)
+    battery: str = _RULES.battery
+    pv_zne_fraction: float = Field(_RULES.pv_zne_fraction, ge=0, le=10,
+                                   description="PV yield / consumption over the period")
 
     @field_validator("battery")
     @classmethod
@@ -147,28 +156,48 @@ class Sizing(_Frozen):
         return SizingRules(**self.model_dump())
 
 
+def _recipe(key: str):
+    """A default factory: ``key`` of :data:`surrogates.config.BUILD_RECIPE` when a configuration is read."""
+    return lambda: getattr(trainer.BUILD_RECIPE, key)
+
+
+#: the ``[surrogate]`` keys that are training settings (:class:`surrogates.config.TrainConfig` fields of the
+#: same names): each defaults to the build's recipe, and :func:`pipeline.builder.surrogates.train_config`
+#: puts them over it
+RECIPE_KEYS = ("hidden_size", "num_layers", "epochs", "pretrain_steps", "long_chunk_epochs", "max_seconds", "seed",
+               "precision", "start")
+
+
 class Surrogate(_Frozen):
+    """The ``[surrogate]`` section: where the ILV data comes from, and the training settings of
+    :data:`RECIPE_KEYS`, whose defaults are :data:`surrogates.config.BUILD_RECIPE`'s."""
+
     source: Literal["csv", "energyplus", "fmu", "none"] = Field(
         "csv", description="ILV data: precomputed tables, EnergyPlus runs, an FMU, or none (no LSTM)")
     fmu: Path | None = Field(None, description="FMI 2.0 co-simulation FMU of a building (source fmu)")
     fmu_variables: dict[str, str] = Field(default_factory=dict, description="our name -> FMU variable name")
     fmu_start_values: dict[str, float] = Field(default_factory=dict)
-    hidden_size: int = Field(16, ge=1, le=1024)
-    num_layers: int = Field(2, ge=1, le=8)
-    lookback: int = Field(1, ge=1, le=720)
-    epochs: int = Field(16, ge=1, le=10_000, description="closed-loop epochs; the last long_chunk_epochs on 168-h chunks")
-    pretrain_steps: int = Field(5000, ge=0, le=1_000_000, description="teacher-forced warm-start updates")
-    long_chunk_epochs: int = Field(6, ge=0, le=10_000, description="last closed-loop epochs on 168-h chunks")
+    hidden_size: int = Field(default_factory=_recipe("hidden_size"), ge=1, le=1024)
+    num_layers: int = Field(default_factory=_recipe("num_layers"), ge=1, le=8)
+    epochs: int = Field(default_factory=_recipe("epochs"), ge=1, le=10_000,
+                        description="closed-loop epochs; the last long_chunk_epochs on 168-h chunks")
+    pretrain_steps: int = Field(default_factory=_recipe("pretrain_steps"), ge=0, le=1_000_000,
+                                description="teacher-forced warm-start updates")
+    long_chunk_epochs: int = Field(default_factory=_recipe("long_chunk_epochs"), ge=0, le=10_000,
+                                   description="last closed-loop epochs on 168-h chunks")
     season_margin: int = Field(0, ge=0, le=6, description="train on the period's calendar months and this many "
                                                           "months either side (6: every month)")
-    max_seconds: float | None = Field(None, gt=0, description="optional wall-clock cap (makes training machine-dependent)")
-    seed: int = Field(0, ge=0, lt=SEED_LIMIT)
-    precision: Literal["auto", "float32", "bfloat16"] = Field(
-        "auto", description="numeric mode of the updates: auto = bfloat16 only where the CPU multiplies it "
-                            "natively and it measures faster (the mode that ran is in timings.json)")
-    start: Literal["generic", "random"] = Field(
-        "generic", description="the weights each house's training begins from: generic = the model trained once on "
-                               "many houses (surrogates/generic.py), random = seeded random weights")
+    max_seconds: float | None = Field(default_factory=_recipe("max_seconds"), gt=0,
+                                      description="optional wall-clock cap (makes training machine-dependent)")
+    seed: int = Field(default_factory=_recipe("seed"), ge=0, lt=SEED_LIMIT)
+    precision: Literal[PRECISIONS] = Field(
+        default_factory=_recipe("precision"),
+        description="numeric mode of the updates: auto = bfloat16 only where the CPU multiplies it natively and it "
+                    "measures faster (the mode that ran is in timings.json)")
+    start: Literal[trainer.STARTS] = Field(
+        default_factory=_recipe("start"),
+        description="the weights each house's training begins from: generic = the model trained once on many "
+                    "houses (surrogates/generic.py), random = seeded random weights")
     strict: bool = Field(False, description="refuse the build when a house's surrogate misses the bound against "
                                             "the judge (monthly RMSE median 0.25 / worst month 0.5 degC); else warn")
 
@@ -179,7 +208,7 @@ class BuildConfig(_Frozen):
     inputs: Inputs
     pv: PV = PV()
     sizing: Sizing = Sizing()
-    surrogate: Surrogate = Surrogate()
+    surrogate: Surrogate = Field(default_factory=Surrogate)  # made when read: its defaults are the recipe's
     selection: Selection | None = None
     simulation: Simulation = Simulation()
     layout: Literal["v2.1", "v2.2"] = "v2.2"

@@ -11,21 +11,21 @@ from collections.abc import Callable
 from pathlib import Path
 
 from citylearn_env.errors import InputError
-from surrogates.config import STARTS, TrainConfig
+from surrogates.config import BUILD_RECIPE, STARTS, TrainConfig, recipe
 from surrogates.precision import PRECISIONS
 from surrogates.sources.csv import read_ilv_table
 
 
 def train(table_path: str | os.PathLike, out_dir: str | os.PathLike, name: str | None = None,
           config: TrainConfig | None = None) -> dict:
-    """Read an ILV table (CSV/parquet), train, evaluate and export; returns the metrics report. ``name``
-    defaults to the table's file stem without ``.ilv`` (a district's ``surrogates/Building_1.ilv.parquet`` ->
-    ``Building_1``)."""
+    """Read an ILV table (CSV/parquet), train ``config`` (default: the build's recipe,
+    :func:`surrogates.config.recipe`), evaluate and export; returns the metrics report. ``name`` defaults to the
+    table's file stem without ``.ilv`` (a district's ``surrogates/Building_1.ilv.parquet`` -> ``Building_1``)."""
     from surrogates.export import train_and_export  # torch: the CLI builds its parser without it
 
     table = read_ilv_table(table_path)
     name = name or Path(table_path).stem.removesuffix(".ilv")
-    return train_and_export(table, out_dir, name, config, source=table_path)
+    return train_and_export(table, out_dir, name, config if config is not None else recipe(), source=table_path)
 
 
 def evaluate(pth: str | os.PathLike, table_path: str | os.PathLike, all_runs: bool = False,
@@ -78,11 +78,16 @@ def _months(text: str) -> tuple[int, ...]:
         raise argparse.ArgumentTypeError(f"comma-separated calendar months 1-12, got {text!r}") from None
 
 
+def train_settings(args: argparse.Namespace) -> TrainConfig:
+    """The training settings of ``districtgen surrogate train``: the build's recipe
+    (:data:`surrogates.config.BUILD_RECIPE`, read when called) with the options given over it."""
+    return recipe(hidden_size=args.hidden, num_layers=args.layers, epochs=args.epochs,
+                  pretrain_steps=args.pretrain_steps, seed=args.seed, precision=args.precision, start=args.start,
+                  progress=not args.quiet, months=args.months)
+
+
 def _train_command(args: argparse.Namespace) -> int:
-    config = TrainConfig(hidden_size=args.hidden, num_layers=args.layers, lookback=args.lookback,
-                         epochs=args.epochs, pretrain_steps=args.pretrain_steps, seed=args.seed,
-                         precision=args.precision, progress=not args.quiet, months=args.months, start=args.start)
-    report = train(args.table, args.out_dir, args.name, config)
+    report = train(args.table, args.out_dir, args.name, train_settings(args))
     print(json.dumps({"building": report["building"], "files": report["files"],
                       "train_seconds": report["training"]["train_seconds"],
                       "precision": report["training"].get("precision"),
@@ -132,30 +137,32 @@ def register(subparsers: argparse._SubParsersAction, *, install: Handler | None 
     None: the command says it needs the pipeline)."""
     parser = subparsers.add_parser("surrogate", help="train or evaluate an LSTM indoor-temperature surrogate")
     sub = parser.add_subparsers(dest="surrogate_command", required=True)
-    defaults = TrainConfig()
-    train_parser = sub.add_parser("train", help="train one building's LSTM on an ILV table and export it")
+    shown = BUILD_RECIPE  # the defaults the help shows; the command reads the recipe when it runs
+    train_parser = sub.add_parser("train", help="train one building's LSTM on an ILV table and export it; the "
+                                                "options default to the build's recipe (BUILD_RECIPE)")
     train_parser.add_argument("table", help="ILV table (.csv or .parquet), see docs/surrogates.md")
     train_parser.add_argument("-o", "--out-dir", required=True, help="folder for <name>.pth, .dynamics.json, "
                               ".metrics.json, .png")
     train_parser.add_argument("--name", help="building name (default: the table's file stem without .ilv)")
-    train_parser.add_argument("--hidden", type=int, default=defaults.hidden_size, help="LSTM hidden size")
-    train_parser.add_argument("--layers", type=int, default=defaults.num_layers, help="stacked LSTM layers")
-    train_parser.add_argument("--lookback", type=int, default=defaults.lookback,
-                              help="window length (h); the other defaults are tuned for 1 (longer windows "
-                                   "get a warm start on independent windows; docs/surrogates.md, sixth pass)")
-    train_parser.add_argument("--epochs", type=int, default=defaults.epochs, help="closed-loop epochs (max)")
-    train_parser.add_argument("--pretrain-steps", type=int, default=defaults.pretrain_steps,
-                              help="one-step warm-start updates before the closed-loop epochs")
-    train_parser.add_argument("--seed", type=int, default=defaults.seed)
+    train_parser.add_argument("--hidden", type=int, help=f"LSTM hidden size (default {shown.hidden_size})")
+    train_parser.add_argument("--layers", type=int, help=f"stacked LSTM layers (default {shown.num_layers})")
+    train_parser.add_argument("--epochs", type=int,
+                              help=f"closed-loop epochs (max; default {shown.epochs}, the last "
+                                   f"{shown.long_chunk_epochs} on {shown.long_chunk_hours}-h chunks)")
+    train_parser.add_argument("--pretrain-steps", type=int,
+                              help="one-step warm-start updates before the closed-loop epochs (default "
+                                   f"{shown.pretrain_steps})")
+    train_parser.add_argument("--seed", type=int, help=f"default {shown.seed}")
     train_parser.add_argument("--months", type=_months, default=(), metavar="M,M,...",
                               help="train and validate on these calendar months only, e.g. 12,1,2 (a build "
                                    "trains on its period's months and one either side; default: every month)")
-    train_parser.add_argument("--start", choices=STARTS, default=defaults.start,
+    train_parser.add_argument("--start", choices=STARTS,
                               help="initial weights: random (seeded) or generic (the model trained once on many "
-                                   "houses, surrogates/generic.py, where its size matches: hidden 16, 2 layers)")
-    train_parser.add_argument("--precision", choices=PRECISIONS, default=defaults.precision,
+                                   "houses, surrogates/generic.py, where its size matches: hidden 16, 2 layers; "
+                                   f"default {shown.start})")
+    train_parser.add_argument("--precision", choices=PRECISIONS,
                               help="numeric mode of the updates: auto = bfloat16 only where this CPU multiplies "
-                                   "it natively and it measures faster, else float32")
+                                   f"it natively and it measures faster, else float32 (default {shown.precision})")
     train_parser.add_argument("--quiet", action="store_true", help="no progress bar")
     train_parser.set_defaults(func=_train_command)
     eval_parser = sub.add_parser("evaluate", help="print the per-month closed-loop table and write the plot, or "

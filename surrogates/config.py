@@ -4,7 +4,7 @@ build read them without loading torch; :mod:`surrogates.train` runs them."""
 from __future__ import annotations
 
 import datetime
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass, replace
 
 from citylearn_env.errors import InputError
 from surrogates.precision import check_precision
@@ -31,25 +31,31 @@ INPUTS_WITH_DAY_TYPE: tuple[str, ...] = (*DEFAULT_INPUTS[:-1], "day_type_sin", "
 STARTS = ("random", "generic")
 
 
+#: settings the training records state that are no longer settings: (key, its value, the field it follows).
+#: ``lookback`` (the window, :attr:`TrainConfig.lookback`) and ``ensemble`` (seeds merged into one LSTM) were
+#: knobs no recipe used (benchmarks/surrogate_recipes.md); the records keep them, so a district's files read
+#: as before
+FIXED_SETTINGS: tuple[tuple[str, int, str], ...] = (
+    ("lookback", 1, "num_layers"), ("ensemble", 1, "validation_hours"))
+
+
 @dataclass(frozen=True)
 class TrainConfig:
     """Hyper-parameters; the defaults are the best recipe measured on the independent validation suite
-    (docs/surrogates.md, section 4 and its eighth pass): lookback 1 (a plain stateful LSTM), a
-    teacher-forced warm start on 48-h sequences, then closed-loop epochs on 48-h and 168-h chunks."""
+    (docs/surrogates.md, section 4 and its eighth pass): a plain stateful LSTM (:attr:`lookback` 1), a
+    teacher-forced warm start on 48-h sequences, then closed-loop epochs on 48-h and 168-h chunks. The build
+    and ``districtgen surrogate train`` train :data:`BUILD_RECIPE` (:func:`recipe`), not these defaults."""
 
     inputs: tuple[str, ...] = DEFAULT_INPUTS
     hidden_size: int = 32
     num_layers: int = 2
-    #: window length (h); the other defaults are tuned for 1, where the warm start trains whole sequences
-    #: (longer windows run, with a warm start on independent windows from zero state)
-    lookback: int = 1
     epochs: int = 32
     seed: int = 0
     pretrain_steps: int = 6000
-    #: samples per one-step update: windows (lookback > 1) or sequences (lookback 1)
+    #: sequences per one-step update of the warm start
     pretrain_batch_size: int = 32
-    #: lookback 1 only: length (h) of the teacher-forced sequences of the warm start (state carried through
-    #: each, from zero); at most the longest training segment allows
+    #: length (h) of the teacher-forced sequences of the warm start (state carried through each, from zero); at
+    #: most the longest training segment allows
     pretrain_sequence_hours: int = 48
     chunk_hours: int = 48
     #: the last ``long_chunk_epochs`` epochs (at most ``epochs - 1``; 0: none) train on chunks of
@@ -69,10 +75,9 @@ class TrainConfig:
     #: learns not to copy its temperature input, which it will be fed back from its own predictions, and
     #: drifts less in closed loop (docs/surrogates.md, sixth and seventh passes)
     pretrain_noise: float = 0.06
-    #: the first ``pretrain_clean_hours`` temperatures of each warm-start sample (sequence or window) carry no
-    #: noise: with its state still empty the model should trust its temperature input, as it must at the start
-    #: of a rollout, where that input is measured (docs/surrogates.md, eighth pass). Tuned for lookback 1: a
-    #: window of ``lookback`` <= ``pretrain_clean_hours`` rows gets no noise at all
+    #: the first ``pretrain_clean_hours`` temperatures of each warm-start sequence carry no noise: with its state
+    #: still empty the model should trust its temperature input, as it must at the start of a rollout, where
+    #: that input is measured (docs/surrogates.md, eighth pass)
     pretrain_clean_hours: int = 6
     #: the validated and exported weights are an exponential moving average of the closed-loop iterates, this
     #: decay per update (0: the iterates themselves)
@@ -86,7 +91,6 @@ class TrainConfig:
     months: tuple[int, ...] = ()
     test_runs: int = 1
     validation_hours: int = 336
-    ensemble: int = 1
     max_seconds: float | None = None
     threads: int = 1
     progress: bool = True
@@ -105,8 +109,8 @@ class TrainConfig:
     def __post_init__(self):
         if self.inputs and self.inputs[-1] != TARGET:
             raise InputError(f"the last input must be {TARGET!r}", column="inputs")
-        for key in ("hidden_size", "num_layers", "lookback", "epochs", "chunk_hours", "long_chunk_hours",
-                    "batch_size", "ensemble", "pretrain_batch_size", "pretrain_sequence_hours"):
+        for key in ("hidden_size", "num_layers", "epochs", "chunk_hours", "long_chunk_hours", "batch_size",
+                    "pretrain_batch_size", "pretrain_sequence_hours"):
             if getattr(self, key) < 1:
                 raise InputError("must be >= 1", column=key)
         for key in ("long_chunk_epochs", "pretrain_noise", "pretrain_clean_hours", "ema_decay"):
@@ -118,6 +122,24 @@ class TrainConfig:
         bad = [m for m in self.months if not 1 <= m <= 12]
         if bad:
             raise InputError(f"calendar months are 1-12, got {bad[0]}", column="months")
+
+    @property
+    def lookback(self) -> int:
+        """Window length (h) of the trained model: 1, CityLearn's sliding window of one row, which is a plain
+        stateful LSTM (the warm start teacher-forces whole sequences). Not a setting: longer windows lost on
+        the validation suite and left the trainer (benchmarks/surrogate_recipes.md); exported models of any
+        lookback still evaluate and run in the environment."""
+        return 1
+
+    def record(self) -> dict:
+        """The settings as plain data, in the order of the training records (``training.config`` of
+        ``<name>.metrics.json``): every field, and the fixed ``lookback`` 1 and ``ensemble`` 1 (one model)
+        where the records have always stated them (:data:`FIXED_SETTINGS`)."""
+        out: dict = {}
+        for key, value in asdict(self).items():
+            out[key] = value
+            out.update({fixed: stated for fixed, stated, after in FIXED_SETTINGS if after == key})
+        return out
 
     @property
     def long_start(self) -> int | None:
@@ -135,7 +157,9 @@ def season_months(start: datetime.date, end: datetime.date, margin: int = 0) -> 
     return tuple(sorted((start.month - 1 - margin + k) % 12 + 1 for k in range(span)))
 
 
-#: the build's recipe (``[surrogate]`` defaults), cut to fit about 30 s of CPU per building-year in float32 on an
+#: the build's recipe, the one source of its training settings: the ``[surrogate]`` keys default to its values
+#: (:class:`pipeline.config.Surrogate`) and ``districtgen surrogate train`` trains it unless told otherwise
+#: (:func:`recipe`). Cut to fit about 30 s of CPU per building-year in float32 on an
 #: AVX2-only CPU (AMD EPYC, no native bfloat16), where ``TrainConfig()`` takes 72-92 s: hidden 16; the model
 #: underfits, so the budget goes to the warm start: 5000 updates of batch 16 (about 1.5x cheaper per update
 #: than 32) at rate 0.02, then 16 closed-loop epochs of which the last 6 on 168-h chunks. Against 2000 updates
@@ -152,3 +176,9 @@ def season_months(start: datetime.date, end: datetime.date, margin: int = 0) -> 
 BUILD_RECIPE = TrainConfig(hidden_size=16, pretrain_steps=5000, pretrain_batch_size=16, learning_rate=0.02,
                            epochs=16, long_chunk_epochs=6, validation_hours=720, pretrain_noise=0.2,
                            start="generic")
+
+
+def recipe(**settings: object) -> TrainConfig:
+    """:data:`BUILD_RECIPE` (read when called) with ``settings`` over it; a setting given as None keeps the
+    recipe's value (a command-line option not given)."""
+    return replace(BUILD_RECIPE, **{key: value for key, value in settings.items() if value is not None})

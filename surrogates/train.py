@@ -2,10 +2,10 @@
 
 Objective: the model is trained the way the environment runs it. After many cheap teacher-forced updates
 whose temperature history is perturbed by noise (warm start, :func:`warm_start`: they fit the hour-to-hour
-response without copying the temperature input; with the default lookback 1, whole 48-h sequences with the
-state carried, otherwise independent windows from zero state), each training sample is a chunk of a
-reference run (``lookback`` warm-up hours + ``chunk_hours`` predicted hours) rolled out closed-loop with the
-stateful sliding window of :func:`surrogates.model.rollout` from zero state, and the loss is the mean squared
+response without copying the temperature input: whole 48-h sequences with the state carried), each
+training sample is a chunk of a reference run (one warm-up hour, the model's lookback, + ``chunk_hours``
+predicted hours) rolled out closed-loop with the stateful sliding window of :func:`surrogates.model.rollout`
+from zero state, and the loss is the mean squared
 error of the whole rollout (normalised indoor temperature), back-propagated through the feedback; the last
 epochs use longer chunks at a low rate (multi-day drift). Chunk offsets are re-drawn every epoch so chunk
 boundaries move. The weights of the epoch with the lowest closed-loop validation RMSE (degC) are kept.
@@ -37,7 +37,6 @@ from surrogates.model import (
     Normalization,
     available_inputs,
     feature_matrix,
-    merge_ensemble,
     rollout,
     seeded_model,
     torch_threads,
@@ -76,7 +75,7 @@ class Trained:
     precision: Choice | None = None
 
     def summary(self) -> dict:
-        config = asdict(self.config)
+        config = self.config.record()
         config["inputs"] = list(self.inputs)
         ran = self.precision.record() if self.precision is not None else {}
         return {"config": config, "best_epoch": self.best_epoch, "train_seconds": round(self.seconds, 2),
@@ -218,12 +217,7 @@ def train_surrogate(table: pd.DataFrame, config: TrainConfig | None = None,
     check_trainable(table, splits, config)
     started = time.perf_counter()
     with torch_threads(config.threads):
-        choice = update_precision(config)
-        if config.ensemble == 1:
-            return _fit(table, inputs, splits, config, started, progress, choice)
-        members = [_fit(table, inputs, splits, replace(config, seed=config.seed + k), started, progress, choice)
-                   for k in range(config.ensemble)]
-    return merge_trained(members, config, time.perf_counter() - started)
+        return _fit(table, inputs, splits, config, started, progress, update_precision(config))
 
 
 def progress_units(config: TrainConfig) -> int:
@@ -256,17 +250,6 @@ def _update_probe(layers: int, hidden: int, n_inputs: int, batch: int, hours: in
         prediction.float().square().mean().backward()
 
     return Probe(f"surrogate update (LSTM {layers} x {hidden}, batch {batch} x {hours} h)", run)
-
-
-def merge_trained(members: Sequence[Trained], config: TrainConfig, seconds: float) -> Trained:
-    """One :class:`Trained` whose model is the exact average of the members' (:func:`merge_ensemble`: one
-    LSTM of hidden ``K h``); members share data, splits and normalisation (same table and config but the
-    seed). History and best epoch are the first member's; CPU seconds add up."""
-    first = members[0]
-    model = merge_ensemble([m.model for m in members])
-    model.eval()
-    return Trained(model, first.normalization, first.inputs, config, first.splits, first.history, first.best_epoch,
-                   seconds, sum(m.cpu_seconds for m in members), first.precision)
 
 
 def _fit(table, inputs, splits, config: TrainConfig, started: float, progress=None,
@@ -433,28 +416,23 @@ def warm_start(model: LSTMModel, optimizer: FlatAdam, x: np.ndarray, segments: S
     ``pretrain_clean_hours`` of a sample is perturbed by ``pretrain_noise`` drawn afresh per update (robustness
     to the fed-back errors of closed loop).
 
-    * lookback 1 (the default): the stateful sliding window of one row is a plain recurrent model, so whole
-      sequences of ``pretrain_sequence_hours`` are teacher-forced in one LSTM call
-      (:meth:`LSTMModel.sequence`; state from zero at each sequence's start, every hour predicted, offsets
-      re-drawn on every pass, gradients clipped at norm 1); every pass also holds the first sequence of each
-      segment in ``anchors`` (:func:`warm_start_sequences`);
-    * lookback > 1: independent windows of ``lookback`` rows from zero state, the last hour predicted.
+    The stateful sliding window of one row (lookback 1) is a plain recurrent model, so whole sequences of
+    ``pretrain_sequence_hours`` are teacher-forced in one LSTM call (:meth:`LSTMModel.sequence`; state from
+    zero at each sequence's start, every hour predicted, offsets re-drawn on every pass, gradients clipped at
+    norm 1); every pass also holds the first sequence of each segment in ``anchors``
+    (:func:`warm_start_sequences`).
 
     Row ``t`` of a sample holds the exogenous inputs of hour ``t+1`` and the temperature of hour ``t``.
     ``tick(k)`` after each k-th tenth of the updates (:data:`WARM_START_UNITS`): the build's progress line
     moves during what is most of the training time."""
     if config.pretrain_steps < 1:
         return
-    sequences = config.lookback == 1
-    if sequences:
-        longest = max(s.stop - s.start for s in segments)  # check_trainable: >= 1 + chunk_hours
-        hours = min(config.pretrain_sequence_hours, longest - 1)
-        def draw() -> torch.Tensor:
-            return torch.from_numpy(warm_start_sequences(x, segments, hours, rng, anchors))
-    else:
-        windows = torch.from_numpy(_chunks(x, segments, config.lookback + 1, None, 1))
-        def draw() -> torch.Tensor:
-            return windows
+    longest = max(s.stop - s.start for s in segments)  # check_trainable: >= 1 + chunk_hours
+    hours = min(config.pretrain_sequence_hours, longest - 1)
+
+    def draw() -> torch.Tensor:
+        return torch.from_numpy(warm_start_sequences(x, segments, hours, rng, anchors))
+
     weights = model.flat_weights()
     model.train()
     marks = {max(1, round(config.pretrain_steps * k / WARM_START_UNITS)): k for k in range(1, WARM_START_UNITS + 1)}
@@ -462,13 +440,11 @@ def warm_start(model: LSTMModel, optimizer: FlatAdam, x: np.ndarray, segments: S
         temps = perturb_history(batch[:, :-1, -1:], config.pretrain_noise, config.pretrain_clean_hours, rng)
         rows = torch.cat([batch[:, 1:, :-1], temps], dim=2)
         with _autocast(config):
-            prediction = model.sequence(rows, weights) if sequences else model.step(rows, None, weights)[0]
-        target = batch[:, 1:, -1] if sequences else batch[:, -1, -1]
-        loss = torch.mean((prediction.float() - target) ** 2)
+            prediction = model.sequence(rows, weights)
+        loss = torch.mean((prediction.float() - batch[:, 1:, -1]) ** 2)
         optimizer.zero_grad()
         loss.backward()
-        if sequences:
-            optimizer.clip_grad_norm(1.0)
+        optimizer.clip_grad_norm(1.0)
         optimizer.step()
         if tick is not None and done in marks:
             tick(marks[done])
@@ -476,7 +452,7 @@ def warm_start(model: LSTMModel, optimizer: FlatAdam, x: np.ndarray, segments: S
 
 def warm_start_sequences(x: np.ndarray, segments: Sequence[Segment], hours: int, rng: np.random.Generator,
                          anchors: Sequence[Segment] = ()) -> np.ndarray:
-    """One pass of the lookback-1 warm start's samples, (n, hours + 1, inputs) float32: sequences of
+    """One pass of the warm start's samples, (n, hours + 1, inputs) float32: sequences of
     ``hours + 1`` rows, ``hours`` apart, from every segment at a random offset, then the first sequence of
     each segment of ``anchors`` (long enough)."""
     samples = _chunks(x, segments, hours + 1, rng, hours)

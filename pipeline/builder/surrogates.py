@@ -24,12 +24,12 @@ from pipeline.builder.manifest import (
 )
 from pipeline.builder.staging import write_new_file
 from pipeline.builder.steps import eulp_metadata_row
-from pipeline.config import BuildConfig
+from pipeline.config import RECIPE_KEYS, BuildConfig
 from pipeline.errors import InputError
 from pipeline.ingest.stock import read_characteristics_row
 from pipeline.ingest.weather import check_weather
 from pipeline.progress import epochs, report
-from surrogates.config import BUILD_RECIPE, season_months
+from surrogates.config import TrainConfig, recipe, season_months
 from surrogates.energyplus.ilv_runs import ILVConfig, partial_runs_for
 from surrogates.export import train_and_export
 from surrogates.ilv import read_ilv, table_digest, validate_ilv
@@ -81,18 +81,17 @@ class Judgement:
     hit: bool
 
 
-def train_config(config: BuildConfig):
-    """The :class:`surrogates.train.TrainConfig` of the build (single-threaded, no progress bar): the
-    ``[surrogate]`` settings over :data:`surrogates.config.BUILD_RECIPE` (about 30 s of CPU per building-year
-    in float32 on an AVX2-only CPU), trained on the months the district serves its surrogates in: the
-    period's and ``season_margin`` either side (:func:`surrogates.config.season_months`)."""
+def train_config(config: BuildConfig) -> TrainConfig:
+    """The :class:`surrogates.config.TrainConfig` of the build (single-threaded, no progress bar): the
+    ``[surrogate]`` training settings (:data:`pipeline.config.RECIPE_KEYS`, each defaulting to the recipe's)
+    over :data:`surrogates.config.BUILD_RECIPE` (about 30 s of CPU per building-year in float32 on an
+    AVX2-only CPU), trained on the months the district serves its surrogates in: the period's and
+    ``season_margin`` either side (:func:`surrogates.config.season_months`)."""
 
     s = config.surrogate
     months = season_months(config.period.start, config.period.end, s.season_margin)
-    return replace(BUILD_RECIPE, hidden_size=s.hidden_size, num_layers=s.num_layers, lookback=s.lookback,
-                   epochs=s.epochs, pretrain_steps=s.pretrain_steps, long_chunk_epochs=s.long_chunk_epochs,
-                   seed=s.seed, max_seconds=s.max_seconds, precision=s.precision, start=s.start, months=months,
-                   progress=False, threads=1)
+    return replace(recipe(), **{key: getattr(s, key) for key in RECIPE_KEYS}, months=months, progress=False,
+                   threads=1)
 
 
 def resolve_precision(config: BuildConfig) -> tuple[BuildConfig, Choice | None]:
@@ -232,7 +231,7 @@ def surrogate_cache_parts(config: BuildConfig, bldg_id: int, name: str, table: p
 
     train = train_config(config)
     # the mode asked for is not a part: the mode that runs is (auto and its outcome asked for give one key)
-    settings = {k: v for k, v in asdict(train).items() if k not in ("progress", "precision")}
+    settings = {k: v for k, v in train.record().items() if k not in ("progress", "precision")}
     parts: dict[str, object] = {
         "building": name, "bldg_id": int(bldg_id), "train": settings,
         "precision": update_precision(train).precision,  # what runs here: auto resolves per CPU

@@ -351,7 +351,7 @@ def test_config_needs_one_building_source_and_complete_fmu_settings():
 
 def test_surrogate_section_defaults_are_the_trainers():
     """A ``[surrogate]`` section that names no hyper-parameter trains ``BUILD_RECIPE``: the section's
-    defaults repeat the trainer's (pipeline/config.py must not import torch), and this keeps them together."""
+    defaults are the recipe's (tests/pipeline/builder/test_recipe.py changes the recipe)."""
     pytest.importorskip("torch", reason="the surrogate extra is not installed")
     from dataclasses import replace
 

@@ -181,7 +181,7 @@ def tiny_model(table: Path, out: Path, **settings) -> Path:
     from surrogates.cli import train
     from surrogates.config import TrainConfig
 
-    config = TrainConfig(hidden_size=8, num_layers=1, lookback=6, epochs=1, pretrain_steps=30, batch_size=64,
+    config = TrainConfig(hidden_size=8, num_layers=1, epochs=1, pretrain_steps=30, batch_size=64,
                          pretrain_batch_size=64, progress=False, **settings)
     train(table, out, "retrained", config)
     return out / "retrained.pth"
