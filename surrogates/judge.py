@@ -16,7 +16,7 @@ runs) is rolled out closed loop over the whole run from its first hour, like an 
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import asdict, dataclass, replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -130,7 +130,7 @@ def judge_record(scores: Mapping[str, object], judge_config: ILVConfig, training
     passes, and both ILV configurations (the judge's seed and timestep count differ from the training's)."""
     return {**scores, "median_bound_c": MEDIAN_BOUND_C, "worst_bound_c": WORST_BOUND_C,
             "ideal_goal_c": IDEAL_GOAL_C, "passes": verdict(scores) is None,
-            "judge_ilv": _plain(asdict(judge_config)), "training_ilv": _plain(asdict(training))}
+            "judge_ilv": _plain(judge_config.record()), "training_ilv": _plain(training.record())}
 
 
 def _plain(config: dict) -> dict:

@@ -168,7 +168,7 @@ def judge_cache_part(config: BuildConfig, row: Mapping[str, object]) -> dict:
     (the judge's months come from the district's period) and the judge's and generator's sources."""
     package = Path(surrogates.__file__).parent
     return {"row": dict(row), "epw_sha256": sha256_file(Path(config.inputs.weather)),
-            "judge": asdict(judge_config(config)), "training_ilv": asdict(judge_training_config(config)),
+            "judge": asdict(judge_config(config)), "training_ilv": judge_training_config(config).record(),
             "judge_sha256": files_digest([package / f for f in JUDGE_SOURCES], package)}
 
 

@@ -34,7 +34,7 @@ import calendar
 import math
 import tempfile
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -97,6 +97,14 @@ class ILVConfig:
     timezone: str | None = None
     #: seed of the occupant schedules (with the building id): another seed, other households in the same house
     schedule_seed: int = 0
+
+    def record(self) -> dict:
+        """The configuration as a plain dict for records and cache keys; ``schedule_seed`` only where it is not
+        0 (a repeated house's), so the records of districts without repeats keep their bytes."""
+        data = asdict(self)
+        if data["schedule_seed"] == 0:
+            del data["schedule_seed"]
+        return data
 
 
 @dataclass
