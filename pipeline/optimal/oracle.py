@@ -46,9 +46,9 @@ from typing import Any
 
 import numpy as np
 
+from pipeline.optimal import checks, relax
 from pipeline.optimal import lockstep as steps_lockstep
 from pipeline.optimal import objectives as obj
-from pipeline.optimal import relax
 from pipeline.optimal.lp import build
 from pipeline.optimal.plant import Plant, battery_path, path_error, plant_from_env, trust
 from pipeline.optimal.polish import POLISH_SOLVES, polish
@@ -143,7 +143,9 @@ def oracle(env, objective: str | Mapping[str, float] = "cost", *, normalise: boo
     ``normalise``: divide the weights by the no-control values (a sum of ratios); ``workers``: processes
     solving buildings in parallel (objectives without the peak only); ``runner``: a
     :class:`pipeline.runners.Runner` mapping the per-building groups instead (e.g. the build's); ``bound``:
-    solve the relaxations for the certified lower bound too."""
+    solve the relaxations for the certified lower bound too. Weights outside the range of
+    :func:`pipeline.optimal.checks.check_weights` are refused."""
+    checks.check_weights(obj.weights_of(objective))
     return solve_plant(plant_from_env(env), objective, normalise=normalise, workers=workers, runner=runner,
                        bound=bound)
 
@@ -160,12 +162,17 @@ def solve_plant(plant: Plant, objective: str | Mapping[str, float] = "cost", *, 
     the polish per group (:mod:`pipeline.optimal.polish`; 0: none; a district LP of several storages is not
     polished); ``lockstep``: for the peak alone, merge batteries that are scaled copies
     (:mod:`pipeline.optimal.lockstep`; None: when the district LP would have more than :data:`LOCKSTEP_SIZE`
-    storage-steps))."""
+    storage-steps)). A problem that is not meaningful (a no-control value <= 0 to normalise by, a negative import
+    coefficient, an efficiency or retention the LP cannot divide by: :mod:`pipeline.optimal.checks`) is one
+    :class:`pipeline.errors.InputError`."""
     began = time.perf_counter()
     weights = obj.weights_of(objective)
     baseline = obj.values(plant.base_net, plant.price, plant.carbon)
     if normalise:
+        checks.check_baseline(weights, baseline)
         weights = obj.normalised(weights, baseline)
+    checks.check_prices(plant, weights)
+    checks.check_devices(plant)
     owners = sorted({s.building for s in plant.storages})
     if (joint or weights[obj.PEAK] > 0) and owners:
         plants = [plant]  # one LP; buildings without storage count in the district's peak
