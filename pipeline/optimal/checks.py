@@ -1,9 +1,9 @@
 """What makes the oracle's problem meaningful, checked before HiGHS sees it (issue 50): each check is one
 :class:`pipeline.errors.InputError` naming the option or the building, slot and step.
 
-* weights: only their ratios matter, but HiGHS's tolerances are absolute (1e-7 on reduced costs), so a weight
-  of 1e-12 lets any plan pass as optimal and 1e15 overflows the model: every weight is at most
-  :data:`WEIGHT_MAX` and the largest at least :data:`WEIGHT_MIN`;
+* weights: only their ratios matter (the oracle scales its LP's coefficients, ``oracle.lp_scale``); a weight of
+  1e15 or 1e-12 is a slip, not a preference: every weight is at most :data:`WEIGHT_MAX` and the largest at
+  least :data:`WEIGHT_MIN`;
 * import coefficients (cost weight x price + emissions weight x carbon + consumption weight) >= 0 wherever a
   storage can change the import: max(net, 0) x a negative coefficient is not convex, the LP leaves such steps
   out of its objective and its plan and bound would not be the env's (the environment itself accepts prices
@@ -24,9 +24,9 @@ from pipeline.optimal import objectives as obj
 from pipeline.optimal.plant import Plant
 
 #: the largest weight may be no smaller [objective-units^-1]
-WEIGHT_MIN = 1e-3
+WEIGHT_MIN = 1e-6
 #: no weight may be larger
-WEIGHT_MAX = 1e3
+WEIGHT_MAX = 1e6
 #: smallest one-way efficiency sqrt(round trip) [-] (round trip 1e-6)
 ONE_WAY_MIN = 1e-3
 #: smallest heat delivered per kWh of electricity by a tank's heater or heat pump (1 / electricity) [-]
