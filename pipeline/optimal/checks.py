@@ -31,6 +31,7 @@ WEIGHT_MAX = 1e6
 ONE_WAY_MIN = 1e-3
 #: smallest heat delivered per kWh of electricity by a tank's heater or heat pump (1 / electricity) [-]
 DELIVERY_MIN = 1e-3
+UNITS = {"cost": "$", "emissions": "kg", "consumption": "kWh", "average_daily_peak": "kW"}
 #: smallest retention per step (1 - loss_coefficient) [-]
 RETENTION_MIN = 1e-3
 
@@ -49,7 +50,7 @@ def check_baseline(weights: Mapping[str, float], baseline: Mapping[str, float]) 
     for k, w in weights.items():
         if w and not (np.isfinite(baseline[k]) and baseline[k] > 0):
             raise InputError(f"--normalise divides each weight by its objective's no-control value, which must be "
-                             f"> 0: {k} is {baseline[k]:.6g} over this period (negative prices?); weigh the "
+                             f"> 0: {k} is {baseline[k]:.6g} {UNITS[k]} over this period (negative prices?); weigh the "
                              "objectives without --normalise", column="--normalise")
 
 
