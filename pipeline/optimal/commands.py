@@ -7,6 +7,7 @@ the command runs)."""
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 #: objectives a user names on the command line (weights: ``--objective cost=1 emissions=0.5``)
@@ -75,7 +76,14 @@ def optimal_command(args: argparse.Namespace) -> int:
         raise InputError("--horizon, --forecast and --train apply to --mpc only", column="--mpc")
     control = {"horizon": args.horizon, "forecast": args.forecast,
                "train": None if args.train is None else tuple(args.train)} if args.mpc else None
-    optimal(args.schema, parse_objective(args.objective), start=args.start, end=args.end, out=args.output,
-            settings="citylearn-2.1" if args.compat else None, normalise=args.normalise,
-            check=not args.no_check, workers=args.workers, control=control)
+    from pipeline.optimal.solver import SolveError
+
+    try:
+        optimal(args.schema, parse_objective(args.objective), start=args.start, end=args.end, out=args.output,
+                settings="citylearn-2.1" if args.compat else None, normalise=args.normalise,
+                check=not args.no_check, workers=args.workers, control=control)
+    except SolveError as error:  # a status HiGHS reports: one line, exit 1 (the input passed every check)
+        print(f"districtgen: error: {args.schema}: the oracle's linear program was not solved: {error}",
+              file=sys.stderr)
+        return 1
     return 0

@@ -11,6 +11,7 @@ the corrected one, ``citylearn_env.settings.CORRECTED``).
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -21,13 +22,16 @@ import numpy as np
 from citylearn_env import CityLearnEnv, load_schema
 from citylearn_env.config import DistrictConfig
 from citylearn_env.settings import PRESETS, resolve
-from pipeline.controllers import without_device_actions
+from pipeline.controllers import run_episode, without_device_actions
 from pipeline.errors import InputError
 from pipeline.optimal import objectives as obj
 from pipeline.optimal.mpc import MpcRun, mpc
 from pipeline.optimal.oracle import Oracle, Schedule, oracle
+from pipeline.optimal.plant import BATTERY_SLOT, END_USE_SLOTS
 from pipeline.optimal.replay import Replay, replay
 
+#: a plan counts as worse than no control when its objective is above no control's by more than this [relative]
+WORSE = 1e-9
 UNITS = {"cost": "$", "emissions": "kg", "consumption": "kWh", "average_daily_peak": "kW"}
 
 
@@ -45,6 +49,8 @@ class Result:
     csv: Path | None = None
     track: str = "soc"
     mpc: MpcRun | None = None
+    #: no control replayed in the env, where the plan found is worse (then no control is the best plan)
+    no_control: Replay | None = None
 
     @property
     def bound(self) -> float:
@@ -55,7 +61,9 @@ class Result:
     @property
     def value(self) -> float:
         """The best plan's objective (weighted sum for weights): the env's, replayed, or the plan's own when
-        not replayed."""
+        not replayed; no control's where the plan found is worse (:attr:`no_control`)."""
+        if self.no_control is not None:
+            return obj.weighted(self.no_control.objectives, {k: w for k, w in self.oracle.weights.items() if w})
         if self.replay is None:
             return self.oracle.value
         return obj.weighted(self.replay.objectives, {k: w for k, w in self.oracle.weights.items() if w})
@@ -78,7 +86,12 @@ class Result:
                  f"({o.schedule.net.shape[1]} steps, {o.schedule.net.shape[0]} buildings, "
                  f"{len(o.schedule.storages)} storages; env preset {self.preset})"]
         where = "in the env" if self.replay is not None else "planned, not replayed"
-        if o.exact:
+        if self.no_control is not None:
+            found = Result(self.oracle, self.replay, self.preset, self.start, self.end).value
+            lines.append(f"  warning: the plan found ({found:.6g}{unit}) is worse than no control ({self.value:.6g}"
+                         f"{unit}) in the env; the best plan reported is no control (every storage idle)")
+            where = "no control, in the env"
+        if o.exact and self.no_control is None:
             lines.append(f"  minimum {self.value:.6g}{unit} ({where}): tanks only, the LP is the env's problem "
                          f"(relaxation {self.bound:.6g}{unit})")
         elif np.isfinite(self.bound):
@@ -163,15 +176,46 @@ def optimal(schema: str | Path | Mapping[str, Any] | DistrictConfig, objective: 
     env.reset(seed=seed)
     solution = oracle(env, objective, normalise=normalise, workers=workers)
     checked = replay(env, solution.schedule, seed=seed, track=track) if check else None
+    used = {k: w for k, w in solution.weights.items() if w}
+    found = obj.weighted(checked.objectives if checked is not None else solution.objectives, used)
+    idle, none = None, None
+    if checked is not None or found > obj.weighted(solution.baseline, used):
+        idle, none = no_control(env, solution.schedule, seed=seed)
+        if not found > obj.weighted(none.objectives, used) + WORSE * abs(obj.weighted(none.objectives, used)):
+            idle, none = None, None
     run = mpc(env, solution.weights, seed=seed, **control) if control is not None else None
     first = config.episode_time_steps[0]
-    written = solution.schedule if run is None else run.schedule
+    written = (solution.schedule if idle is None else idle) if run is None else run.schedule
     csv = write_schedule(written, out, first=first[0]) if out is not None else None
     result = Result(oracle=solution, replay=checked, preset=preset_name(settings), start=first[0], end=first[1],
-                    csv=csv, track=track, mpc=run)
+                    csv=csv, track=track, mpc=run, no_control=none)
     if not quiet:
         print(result.summary())
     return result
+
+
+def no_control(env, schedule: Schedule, *, seed: int = 0) -> tuple[Schedule, Replay]:
+    """No control (every storage action 0) run in ``env`` (reset with ``seed``): the idle schedule of ``schedule``'s
+    storages (SOC and net consumption as the env reports them) and the env's objectives."""
+    run_episode(env, lambda _: np.zeros(len(env.action_pairs)), seed)
+    objectives = {k: float(v) for k, v in env.objectives().items() if k in obj.OBJECTIVES}
+    series, names = env.series(), list(env.building_names)
+    soc = np.array([series[f"{slot}_soc"][names.index(b)] for b, slot in schedule.storages]).reshape(
+        schedule.soc.shape)
+    capacity = np.array([_capacity(env, names.index(b), slot) for b, slot in schedule.storages])
+    zero = np.zeros_like(schedule.action)
+    idle = dataclasses.replace(schedule, energy=zero, action=zero.copy(), soc=soc, held=soc * capacity[:, None],
+                               net=np.asarray(series["net_electricity_consumption"], dtype=float))
+    return idle, Replay(objectives=objectives, gap=dict.fromkeys(obj.OBJECTIVES, 0.0), soc_gap=0.0)
+
+
+def _capacity(env, building: int, slot: str) -> float:
+    """The nominal capacity [kWh] of ``building``'s storage in ``slot``."""
+    d = env.district
+    if slot == BATTERY_SLOT:
+        return float(d.battery.capacity[building])
+    use = next(u for u in d.end_uses if END_USE_SLOTS[u.params.name].storage == slot)
+    return float(use.params.tank.capacity[building])
 
 
 def write_schedule(schedule: Schedule, path: str | Path, *, first: int = 0) -> Path:

@@ -46,9 +46,9 @@ from typing import Any
 
 import numpy as np
 
+from pipeline.optimal import checks, relax
 from pipeline.optimal import lockstep as steps_lockstep
 from pipeline.optimal import objectives as obj
-from pipeline.optimal import relax
 from pipeline.optimal.lp import build
 from pipeline.optimal.plant import Plant, battery_path, path_error, plant_from_env, trust
 from pipeline.optimal.polish import POLISH_SOLVES, polish
@@ -62,6 +62,8 @@ FREE_SOLVES = 2
 TRUST_RADIUS = 0.1
 TRUST_SHRINK = 0.1
 MAX_ITERATIONS = 12
+#: the LP's largest objective coefficient is kept in this range by scaling the weights (:func:`lp_scale`)
+COEFFICIENT_RANGE = (1e-3, 1e3)
 #: the polish's time budget: this many times the plan's own wall time (and at least POLISH_MIN_SECONDS)
 POLISH_BUDGET = 1.0
 POLISH_MIN_SECONDS = 1.0
@@ -143,7 +145,9 @@ def oracle(env, objective: str | Mapping[str, float] = "cost", *, normalise: boo
     ``normalise``: divide the weights by the no-control values (a sum of ratios); ``workers``: processes
     solving buildings in parallel (objectives without the peak only); ``runner``: a
     :class:`pipeline.runners.Runner` mapping the per-building groups instead (e.g. the build's); ``bound``:
-    solve the relaxations for the certified lower bound too."""
+    solve the relaxations for the certified lower bound too. Weights outside the range of
+    :func:`pipeline.optimal.checks.check_weights` are refused."""
+    checks.check_weights(obj.weights_of(objective))
     return solve_plant(plant_from_env(env), objective, normalise=normalise, workers=workers, runner=runner,
                        bound=bound)
 
@@ -160,12 +164,19 @@ def solve_plant(plant: Plant, objective: str | Mapping[str, float] = "cost", *, 
     the polish per group (:mod:`pipeline.optimal.polish`; 0: none; a district LP of several storages is not
     polished); ``lockstep``: for the peak alone, merge batteries that are scaled copies
     (:mod:`pipeline.optimal.lockstep`; None: when the district LP would have more than :data:`LOCKSTEP_SIZE`
-    storage-steps))."""
+    storage-steps)). A problem that is not meaningful (a no-control value <= 0 to normalise by, a negative import
+    coefficient, an efficiency or retention the LP cannot divide by: :mod:`pipeline.optimal.checks`) is one
+    :class:`pipeline.errors.InputError`."""
     began = time.perf_counter()
     weights = obj.weights_of(objective)
     baseline = obj.values(plant.base_net, plant.price, plant.carbon)
     if normalise:
+        checks.check_baseline(weights, baseline)
         weights = obj.normalised(weights, baseline)
+    checks.check_prices(plant, weights)
+    checks.check_devices(plant)
+    scale = lp_scale(plant, weights)
+    solving = {k: w / scale for k, w in weights.items()}  # the same optimum, coefficients HiGHS resolves
     owners = sorted({s.building for s in plant.storages})
     if (joint or weights[obj.PEAK] > 0) and owners:
         plants = [plant]  # one LP; buildings without storage count in the district's peak
@@ -179,9 +190,9 @@ def solve_plant(plant: Plant, objective: str | Mapping[str, float] = "cost", *, 
             merged = plants[0] = aggregated
     if merged is None and (joint or weights[obj.PEAK] > 0) and len(plant.storages) > 1:
         polishes = 0  # a district LP: each polish solve costs as much as a plan solve (month x 17: ~20 s)
-    solved = _run_groups(plants, (weights, solver, solves, bound and not together, polishes), runner, workers)
+    solved = _run_groups(plants, (solving, solver, solves, bound and not together, polishes), runner, workers)
     if together and bound:
-        lower, seconds = group_bound(aggregated, weights, solver)
+        lower, seconds = group_bound(aggregated, solving, solver)
         solved[0] = dataclasses.replace(solved[0], bound=lower, solve_seconds=solved[0].solve_seconds + seconds)
     if merged is not None:  # every battery of a class runs its share of the merged plan
         energy, held = steps_lockstep.spread(plant, groups, solved[0].energy, solved[0].held)
@@ -189,14 +200,28 @@ def solve_plant(plant: Plant, objective: str | Mapping[str, float] = "cost", *, 
     schedule = _schedule(plant, solved)
     values = obj.values(schedule.net, plant.price, plant.carbon)
     # the groups' bounds cover their own buildings; a building without storage adds its fixed objective
-    lower = obj.weighted(baseline, weights) + sum(
-        g.bound - obj.weighted(obj.values(g.plant.base_net, g.plant.price, g.plant.carbon), weights) for g in solved)
+    lower = scale * (obj.weighted(baseline, solving) + sum(
+        g.bound - obj.weighted(obj.values(g.plant.base_net, g.plant.price, g.plant.carbon), solving) for g in solved))
     return Oracle(weights=weights, value=obj.weighted(values, weights), objectives=values, baseline=baseline,
                   schedule=schedule, iterations=max((g.iterations for g in solved), default=0),
                   path_error=max((g.path_error for g in solved), default=0.0),
                   solve_seconds=sum(g.solve_seconds for g in solved), seconds=time.perf_counter() - began,
                   size=max((g.size for g in solved), default=(0, 0, 0)),
                   bound=lower if bound else float("-inf"), exact=bound and exact(plant))
+
+
+def lp_scale(plant: Plant, weights: Mapping[str, float]) -> float:
+    """1, or the power of 10 near the LP's largest objective coefficient when that lies outside
+    :data:`COEFFICIENT_RANGE` (the import coefficients [objective per kWh] and the peak's weight x 24 / T): the
+    oracle solves with the weights divided by it. HiGHS's tolerances are absolute (1e-7 on reduced costs), so
+    prices of 1e-9 $/kWh, or weights normalised by a district-year's cost, would let any plan pass as optimal."""
+    coefficient = obj.import_coefficients(weights, plant.price, plant.carbon)
+    largest = max(float(np.abs(coefficient).max()) if coefficient.size else 0.0,
+                  weights[obj.PEAK] * obj.DAY_STEPS / max(plant.episode_steps or plant.steps, 1))
+    low, high = COEFFICIENT_RANGE
+    if not largest > 0 or low <= largest <= high:
+        return 1.0
+    return float(10.0 ** np.round(np.log10(largest)))
 
 
 def _run_groups(plants: Sequence[Plant], settings: tuple, runner: Any, workers: int) -> list[Group]:

@@ -86,7 +86,8 @@ def solve(lp: LinearProgram, *, basis: Any = None, solver: str = "choose", time_
                 lp.start.astype(np.int32), lp.index.astype(np.int32), lp.value,
                 np.zeros(n, dtype=np.int32))  # every column continuous
     if loaded != highspy.HighsStatus.kOk:
-        raise SolveError(f"HiGHS refused the model ({n} columns, {m} rows): {loaded}")
+        raise SolveError(f"HiGHS refused the model ({n} columns, {m} rows: a coefficient or bound beyond its "
+                         f"limits): {loaded}")
     if basis is not None and basis[:2] == (n, m):
         h.setBasis(basis[2])
     h.run()
