@@ -273,29 +273,31 @@ def rule_misfits(objectives: Mapping[str, Mapping[str, float]]) -> list[str]:
 
 
 def oracle_table(bounds: OracleBounds, objectives: Mapping[str, Mapping[str, float]]) -> list[str]:
-    """The oracle's bound per objective next to each policy's value (``objectives``: policy -> name -> value),
-    with the share of the bound's saving each policy captures; one line with the reason where the oracle does
-    not apply."""
-    head = ["## Oracle bound (perfect-foresight storage schedule)", ""]
+    """The oracle's best plan and certified lower bound per objective next to each policy's value
+    (``objectives``: policy -> name -> value), with the share of the best plan's saving each policy captures;
+    one line with the reason where the oracle does not apply."""
+    head = ["## Oracle (perfect-foresight storage schedule)", ""]
     if bounds.reason is not None:
-        return [*head, f"No oracle bound: {bounds.reason}", ""]
+        return [*head, f"No oracle: {bounds.reason}", ""]
     policies = list(objectives)
     rows = []
     for key, (label, unit, decimals) in ORACLE_BOUNDS.items():
         found = bounds.bounds[key]
         base = objectives.get("no_control", {}).get(key, found.no_control)
         values = [objectives[p][key] for p in policies]
-        rows.append([label, unit, *(f"{v:.{decimals}f}" for v in values), f"{found.bound:.{decimals}f}",
-                     _change(found.bound, base),
-                     *(_captured(base, v, found.bound) for p, v in zip(policies, values, strict=True)
+        lower = f"{found.lower_bound:.{decimals}f}" if np.isfinite(found.lower_bound) else "-"
+        rows.append([label, unit, *(f"{v:.{decimals}f}" for v in values), f"{found.plan:.{decimals}f}", lower,
+                     _change(found.plan, base),
+                     *(_captured(base, v, found.plan) for p, v in zip(policies, values, strict=True)
                        if p != "no_control")])
     labels = [POLICY_LABELS.get(p, p) for p in policies]
-    header = ["objective", "unit", *labels, "oracle bound", "oracle vs no control",
-              *(f"{POLICY_LABELS.get(p, p)}: share of the oracle's saving" for p in policies if p != "no_control")]
-    return [*head, f"The lowest value each objective can reach by scheduling the {bounds.storages} storages "
-            "(DHW tanks, batteries) alone, with perfect knowledge of the period (pipeline/optimal, "
-            "docs/controllers.md); one schedule per objective. Share = (no control - policy) / (no control - "
-            "oracle).", "", *_table(header, rows), ""]
+    header = ["objective", "unit", *labels, "oracle best plan", "certified lower bound", "best plan vs no control",
+              *(f"{POLICY_LABELS.get(p, p)}: share of the best plan's saving" for p in policies
+                if p != "no_control")]
+    return [*head, f"The best schedule found for each objective by scheduling the {bounds.storages} storages "
+            "(DHW tanks, batteries) alone, with perfect knowledge of the period, and a certified lower bound no "
+            "schedule can beat (pipeline/optimal, docs/controllers.md); one schedule per objective. Share = "
+            "(no control - policy) / (no control - best plan).", "", *_table(header, rows), ""]
 
 
 def _captured(base: float, value: float, bound: float) -> str:

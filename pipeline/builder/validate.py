@@ -44,15 +44,17 @@ class PolicyRun:
 
 @dataclass(frozen=True)
 class OracleBound:
-    """The oracle's value of one objective and the LP's no-control value [the objective's unit]."""
+    """The oracle on one objective [the objective's unit]: the best plan found (its value), the LP's no-control
+    value and the certified lower bound (no schedule of the storages can do better; -inf: not computed)."""
 
-    bound: float
+    plan: float
     no_control: float
+    lower_bound: float = float("-inf")
 
 
 @dataclass(frozen=True)
 class OracleBounds:
-    """The perfect-foresight bounds (:func:`oracle_bounds`): objective -> :class:`OracleBound` over the
+    """The perfect-foresight oracle (:func:`oracle_bounds`): objective -> :class:`OracleBound` over the
     ``storages`` scheduled, or, where the oracle does not apply, empty with the one-line ``reason``."""
 
     bounds: Mapping[str, OracleBound] = field(default_factory=dict)
@@ -108,4 +110,4 @@ def oracle_bounds(district: Any, seed: int = 0, env: Any = None) -> OracleBounds
     except (InputError, SolveError) as error:
         return OracleBounds(reason=str(error).splitlines()[0])
     storages = len(next(iter(solved.values())).schedule.storages)
-    return OracleBounds({k: OracleBound(o.value, o.baseline[k]) for k, o in solved.items()}, storages)
+    return OracleBounds({k: OracleBound(o.value, o.baseline[k], o.bound) for k, o in solved.items()}, storages)

@@ -10,7 +10,7 @@ paper's objective of its benchmark (:data:`ORACLE_OBJECTIVES`):
   paper's objective; the LP minimises the sum of daily peaks, not the reward's hourly sum).
 
 The oracle plans the whole test period with perfect knowledge and its schedule is replayed in the env (the
-row's numbers are the env's, as for RBC and SAC; the LP's own value is kept as ``bound``). MPC re-plans
+row's numbers are the env's, as for RBC and SAC; the certified lower bound is kept as ``bound``). MPC re-plans
 every step over the next :data:`HORIZON` steps with perfect forecasts (:func:`pipeline.optimal.mpc.mpc`).
 Every reference row also carries the configuration's no-control values (all storage idle, the same env),
 the baseline of the regret table (:mod:`pipeline.paper.results`).
@@ -76,7 +76,7 @@ def run_reference(district, b: Benchmark, controller: str, *, seed: int = 0, mul
                   options: RunOptions | None = None) -> dict[str, Any]:
     """Run ``controller`` ("oracle" or "mpc") on ``b``'s configuration over the test period; return the row of
     :func:`pipeline.paper.benchmarks.episode_result` plus ``baseline`` (no control: {field: value}),
-    ``objective`` (the oracle objective), ``bound`` (the oracle's LP value; MPC: NaN), ``seconds``; or, when
+    ``objective`` (the oracle objective), ``bound`` (the certified lower bound; MPC: NaN), ``seconds``; or, when
     the controller refuses the configuration, {"id", "controller", "skipped": reason}."""
     reason = unsupported(b)
     if reason is not None:
@@ -111,13 +111,14 @@ def no_control(env, seed: int) -> dict[str, float]:
 
 def oracle_actions(env, objective: str, seed: int) -> tuple[list[np.ndarray], float]:
     """Plan ``env``'s episode with perfect foresight for ``objective`` and replay the plan (following its
-    states of charge, :class:`pipeline.optimal.replay.SocTracker`); return the actions and the LP's value."""
+    states of charge, :class:`pipeline.optimal.replay.SocTracker`); return the actions and the certified lower
+    bound of the objective (:attr:`pipeline.optimal.oracle.Oracle.bound`: no schedule can do better)."""
     from pipeline.optimal.oracle import oracle  # highspy loads only when a reference runs
     from pipeline.optimal.replay import SocTracker
 
     env.reset(seed=seed)
     plan = oracle(env, objective)
-    return run_episode(env, SocTracker(env, plan.schedule), seed), float(plan.value)
+    return run_episode(env, SocTracker(env, plan.schedule), seed), float(plan.bound)
 
 
 def mpc_actions(env, objective: str, seed: int) -> tuple[list[np.ndarray], float]:
