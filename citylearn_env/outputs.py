@@ -66,9 +66,10 @@ def check_not_district(path: str | os.PathLike, *, column: str | None = None) ->
                              file=path, column=column)
 
 
-def output_folder(path: str | os.PathLike, *, column: str) -> Path:
-    """The output folder ``path``, created (with its parents) if missing: refused (one line) when it is a
-    symbolic link, a file, or a built district or inside one (:func:`check_not_district`). Returns the path."""
+def output_folder(path: str | os.PathLike, *, column: str, create: bool = True) -> Path:
+    """The output folder ``path``, created (with its parents) if missing (unless not ``create``: checked only):
+    refused (one line) when it is a symbolic link, a file, or a built district or inside one
+    (:func:`check_not_district`). Returns the path."""
     folder = Path(path)
     if folder.is_symlink():
         raise InputError("the output folder is a symbolic link: not written through (give the real folder)",
@@ -76,6 +77,8 @@ def output_folder(path: str | os.PathLike, *, column: str) -> Path:
     check_not_district(folder, column=column)
     if folder.exists() and not folder.is_dir():
         raise InputError("the output folder is a file", file=folder, column=column)
+    if not create:
+        return folder
     try:
         folder.mkdir(parents=True, exist_ok=True)
     except OSError as error:

@@ -25,11 +25,11 @@ def train(table_path: str | os.PathLike, out_dir: str | os.PathLike, name: str |
     from surrogates.export import train_and_export  # torch: the CLI builds its parser without it
 
     name = check_slug(name or Path(table_path).stem.removesuffix(".ilv"), column="--name", file=table_path)
-    folder = output_folder(out_dir, column="--out-dir")  # never a link, never inside a built district
+    folder = output_folder(out_dir, column="--out-dir", create=False)  # never a link, never in a built district
     for suffix in TRAIN_OUTPUTS:
         check_output_name(folder, f"{name}{suffix}", column="--out-dir")
-    table = read_ilv_table(table_path)
-    return train_and_export(table, folder, name, config, source=table_path)
+    table = read_ilv_table(table_path)  # a bad table fails before the folder is made
+    return train_and_export(table, output_folder(folder, column="--out-dir"), name, config, source=table_path)
 
 
 #: what ``surrogate train`` writes into its folder, after the building's name
