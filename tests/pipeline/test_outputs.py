@@ -285,3 +285,25 @@ def test_install_errors_name_the_district_not_its_working_copy(schema, tmp_path)
     missing = in_district(FileNotFoundError(2, "No such file or directory", str(work / "report" / "x.png")),
                           work, folder)
     assert isinstance(missing, FileNotFoundError) and missing.filename == str(folder / "report" / "x.png")
+
+
+@pytest.mark.slow  # one build with surrogates and one tiny training: about a minute on 2 cores
+def test_a_failed_install_names_the_district_file(tmp_path, capsys):
+    from pipeline.builder.driver import build_district_local
+    from pipeline.config import read_build_config
+    from tests.pipeline.builder.test_manifest import district_config, tiny_model
+
+    path = district_config(tmp_path, source="csv")
+    config = read_build_config(path).model_copy(update={"cache_dir": tmp_path / "cache"})
+    district = build_district_local(config, tmp_path / "out")
+    model = tiny_model(district / "surrogates" / "Building_1.ilv.parquet", tmp_path / "model")
+    csv = district / "Building_2.csv"
+    lines = csv.read_text().splitlines()
+    lines[5] = ",".join("nan" for _ in lines[5].split(","))   # verify fails; --force installs, revalidation fails
+    csv.write_text("\n".join(lines) + "\n")
+    before = snapshot(district)
+    assert main(["surrogate", "install", str(district), "Building_1", str(model), "--force"]) == 2
+    overrides, line = capsys.readouterr().err.strip().splitlines()
+    assert "--force overrides: Building_2.csv" in overrides
+    assert str(csv) in line and "row 4" in line and ".install-" not in line, line    # not the deleted copy
+    assert snapshot(district) == before and sorted(p.name for p in district.parent.iterdir()) == [district.name]
