@@ -32,6 +32,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def run_command(args: argparse.Namespace) -> int:
     """``run [--schema S] [--policy zero|random] [--seed N] [--compat]``: one episode, its KPI table and
     objectives printed."""
+    if args.seed < 0:
+        raise InputError(f"--seed must be >= 0, got {args.seed}", column="--seed")
     policy = "no_control" if args.policy == "zero" else "random"
     if args.schema is not None:
         check_memory(args.schema)

@@ -45,6 +45,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from citylearn_env.outputs import output_file, write_output
 from pipeline.errors import InputError
 from surrogates.energyplus.metadata import (
     parse_ach50,
@@ -398,15 +399,23 @@ def register(subparsers) -> None:
 
 def select_command(args) -> int:
     houses = args.houses if args.houses == "auto" else _int(args.houses)
+    check_options(houses, args.max_clusters, args.seed)
+    folder, name = output_file(args.output, column="--output")  # before the work: a link, a built district
     selection = select_from_file(args.metadata, parse_filters(args.filter), houses=houses, seed=args.seed,
                                  method=args.method, max_clusters=args.max_clusters)
     k = int(selection.chosen["k"].iloc[0])
     print(format_validity(selection.validity, k))
-    args.output.parent.mkdir(parents=True, exist_ok=True)
-    selection.chosen.to_csv(args.output, index=False)
+    write_output(folder, name, lambda stream: selection.chosen.to_csv(stream, index=False), column="--output")
     print(f"{len(selection.chosen)} buildings ({describe_selection(selection.chosen)}; {args.method}, seed "
           f"{args.seed}) -> {args.output}: {', '.join(str(i) for i in selection.chosen['bldg_id'])}")
     return 0
+
+
+def check_options(houses: int | str, max_clusters: int | None, seed: int) -> None:
+    """Refuse (one line naming the option) ``--houses`` or ``--max-clusters`` below 1 and a negative ``--seed``."""
+    for option, value, least in (("--houses", houses, 1), ("--max-clusters", max_clusters, 1), ("--seed", seed, 0)):
+        if isinstance(value, int) and value < least:
+            raise InputError(f"{option} must be >= {least}, got {value}", column=option)
 
 
 def _int(text: str) -> int:

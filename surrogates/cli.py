@@ -11,6 +11,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 from citylearn_env.errors import InputError
+from citylearn_env.outputs import check_output_name, check_slug, output_file, output_folder
 from surrogates.config import BUILD_RECIPE, STARTS, TrainConfig, recipe
 from surrogates.precision import PRECISIONS
 from surrogates.sources.csv import read_ilv_table
@@ -23,9 +24,17 @@ def train(table_path: str | os.PathLike, out_dir: str | os.PathLike, name: str |
     table's file stem without ``.ilv`` (a district's ``surrogates/Building_1.ilv.parquet`` -> ``Building_1``)."""
     from surrogates.export import train_and_export  # torch: the CLI builds its parser without it
 
-    table = read_ilv_table(table_path)
-    name = name or Path(table_path).stem.removesuffix(".ilv")
-    return train_and_export(table, out_dir, name, config if config is not None else recipe(), source=table_path)
+    name = check_slug(name or Path(table_path).stem.removesuffix(".ilv"), column="--name", file=table_path)
+    folder = output_folder(out_dir, column="--out-dir", create=False)  # never a link, never in a built district
+    for suffix in TRAIN_OUTPUTS:
+        check_output_name(folder, f"{name}{suffix}", column="--out-dir")
+    table = read_ilv_table(table_path)  # a bad table fails before the folder is made
+    return train_and_export(table, output_folder(folder, column="--out-dir"), name,
+                            config if config is not None else recipe(), source=table_path)
+
+
+#: what ``surrogate train`` writes into its folder, after the building's name
+TRAIN_OUTPUTS = (".pth", ".dynamics.json", ".metrics.json", ".png")
 
 
 def evaluate(pth: str | os.PathLike, table_path: str | os.PathLike, all_runs: bool = False,
@@ -37,6 +46,8 @@ def evaluate(pth: str | os.PathLike, table_path: str | os.PathLike, all_runs: bo
     from surrogates.export import load_surrogate  # torch: not at parser build
     from surrogates.train import run_segments, split_segments, within_months  # torch: not at parser build
 
+    if plot:
+        output_file(plot, column="--plot")  # before the work: not through a link, not into a built district
     model, norm, names, lookback = load_surrogate(pth)
     table = read_ilv_table(table_path)
     segments = list(run_segments(table).values()) if all_runs else split_segments(table)["test"]

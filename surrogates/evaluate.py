@@ -19,6 +19,7 @@ import torch
 from citylearn_env.dataset import DynamicsBlock
 from citylearn_env.dynamics import LSTMBank, LSTMSpec, read_pth_state_dict
 from citylearn_env.errors import InputError
+from citylearn_env.outputs import write_output
 from citylearn_env.settings import CORRECTED
 from surrogates import model as lstm
 from surrogates.ilv import validate_ilv
@@ -91,12 +92,10 @@ def evaluate_segments(model: LSTMModel, normalization: Normalization, inputs: Se
 
 
 def write_json(data: dict, path: str | os.PathLike) -> Path:
-    """Write JSON atomically (temp file in the same folder, then rename)."""
+    """Write JSON atomically: a new file beside it renamed into place, never through a link
+    (:func:`citylearn_env.outputs.write_output`)."""
     path = Path(path)
-    temp = path.with_name(f".{path.name}.tmp")
-    temp.write_text(json.dumps(data, indent=2) + "\n")
-    os.replace(temp, path)
-    return path
+    return write_output(path.parent, path.name, json.dumps(data, indent=2) + "\n")
 
 
 def plot_predictions(hours: pd.DataFrame, path: str | os.PathLike, title: str = "") -> Path:
@@ -119,10 +118,11 @@ def plot_predictions(hours: pd.DataFrame, path: str | os.PathLike, title: str = 
     axes[0].set_title(title or f"reference run {ref}")
     axes[0].legend(loc="upper right", fontsize=8)
     fig.tight_layout()
-    temp = path.with_name(f".{path.stem}.tmp.png")
-    fig.savefig(temp, dpi=90, format="png", metadata={"Software": None})  # no version tag: reproducible
-    plt.close(fig)
-    os.replace(temp, path)
+    try:  # a new file renamed into place, never through a link (citylearn_env.outputs)
+        write_output(path.parent, path.name, lambda stream: fig.savefig(
+            stream, dpi=90, format="png", metadata={"Software": None}), binary=True)  # no version tag: reproducible
+    finally:
+        plt.close(fig)
     return path
 
 

@@ -17,6 +17,8 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -24,6 +26,7 @@ import torch
 
 from citylearn_env.dataset import DynamicsBlock
 from citylearn_env.errors import InputError, SchemaError
+from citylearn_env.outputs import check_output_name
 from surrogates.config import TrainConfig
 from surrogates.evaluate import evaluate_segments, plot_predictions, write_json
 from surrogates.ilv import table_digest, validate_ilv
@@ -51,9 +54,14 @@ def save_checkpoint(trained: Trained, path: str | os.PathLike) -> Path:
     checkpoint = {"model_state_dict": state, "epoch": int(trained.best_epoch),
                   "train_loss": float((best.get("train_rmse_c", 0.0) / scale) ** 2),
                   "val_loss": float((best.get("val_closed_loop_rmse_c", 0.0) / scale) ** 2)}
-    temp = path.with_name(f".{path.name}.tmp")
-    torch.save(checkpoint, temp)
-    os.replace(temp, path)
+    private = Path(tempfile.mkdtemp(prefix=f".{path.name}.", dir=path.parent))  # 0700: no link planted in it
+    try:
+        temp = private / f".{path.name}.tmp"  # the name torch records in the archive, as before
+        torch.save(checkpoint, temp)
+        check_output_name(path.parent, path.name)  # a link at the name: refused (os.replace would replace it)
+        os.replace(temp, path)
+    finally:
+        shutil.rmtree(private, ignore_errors=True)
     return path
 
 

@@ -18,6 +18,7 @@ from typing import Any
 
 import pandas as pd
 
+from citylearn_env.errors import LocatedError
 from pipeline.builder.manifest import (
     MANIFEST,
     TIMINGS,
@@ -259,9 +260,27 @@ def install_into(folder: Path, work: Path, building: str, files: ModelFiles, sch
         make_world_readable(work)
         check_no_links(work)
         swap_in(work, folder)
+    except (LocatedError, OSError) as error:  # name the district the user gave, not the deleted working copy
+        raise in_district(error, work, folder) from None
     finally:
         shutil.rmtree(work, ignore_errors=True)
     return folder
+
+
+def in_district(error: LocatedError | OSError, work: Path, folder: Path) -> LocatedError | OSError:
+    """``error`` (raised inside the working copy ``work``) with every mention of ``work`` replaced by the
+    district ``folder`` it copies: the message names the file the user gave, not a copy deleted on exit."""
+    def mapped(text: object) -> str:
+        return str(text).replace(str(work), str(folder)).replace(work.name, folder.name)
+
+    if isinstance(error, LocatedError):
+        located = type(error)(mapped(error))
+        located.file = None if error.file is None else mapped(error.file)
+        located.column, located.row = error.column, error.row
+        return located
+    if error.filename is None:
+        return error
+    return type(error)(error.errno, error.strerror, mapped(error.filename))
 
 
 def write_install_timings(folder: Path, building: str, pth: Path, seconds: Mapping[str, Any]) -> Path:

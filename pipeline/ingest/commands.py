@@ -18,6 +18,7 @@ from pathlib import Path
 import pandas as pd
 
 from citylearn_env.dataset import LAYOUTS, write_table
+from citylearn_env.outputs import output_file
 from pipeline.ingest.carbon import read_carbon_intensity
 from pipeline.ingest.eulp import citylearn_building, read_eulp_building, solar_noon_lag_hours
 from pipeline.ingest.tariff import citylearn_pricing, read_tariff
@@ -32,6 +33,7 @@ DateLike = str | dt.date
 def write_weather(path: PathLike, start: DateLike, end: DateLike, output: PathLike, *, layout: str = "v2.2",
                   forecast: str = "perfect", seed: int = 0) -> Path:
     """Write CityLearn ``weather.csv`` for a period from an EPW or ResStock weather file."""
+    output_file(output, column="--output")
 
     index = period_index(start, end)
     frame, _ = read_weather_file(path, tmy_year=index[0].year)
@@ -42,6 +44,7 @@ def write_weather(path: PathLike, start: DateLike, end: DateLike, output: PathLi
 def write_pricing(path: PathLike, start: DateLike, end: DateLike, output: PathLike, *,
                   layout: str = "v2.2") -> Path:
     """Write CityLearn ``pricing.csv`` for a period from a tariff TOML file."""
+    output_file(output, column="--output")
 
     table = citylearn_pricing(read_tariff(path), period_index(start, end))
     return _write(output, "pricing", table, layout)
@@ -51,6 +54,7 @@ def write_carbon(path: PathLike, start: DateLike, end: DateLike, output: PathLik
                  clock: str = "prevailing", timezone: str = "America/Chicago",
                  factors: PathLike | None = None) -> Path:
     """Write CityLearn ``carbon_intensity.csv`` from an ERCOT workbook (.xlsx) or a long CSV."""
+    output_file(output, column="--output")
     table = read_carbon_intensity(path, period_index(start, end), clock=clock, timezone=timezone, factors=factors)
     return _write(output, "carbon", table, layout)
 
@@ -61,6 +65,7 @@ def write_building(source: PathLike, building: int, start: DateLike, end: DateLi
                    weather: PathLike | None = None, tilt: float | None = None, azimuth: float = 180.0,
                    timezone: str | None = None, holidays: Iterable[DateLike] = ()) -> Path:
     """Write one CityLearn building CSV from EULP data (local release folder or base URL)."""
+    output_file(output, column="--output")
     index = period_index(start, end)
     eulp = read_eulp_building(str(source), int(building), upgrade=upgrade, state=state, cache_dir=cache_dir,
                               timestamp_offset_hours=timestamp_offset_hours)
@@ -77,7 +82,10 @@ def write_building(source: PathLike, building: int, start: DateLike, end: DateLi
 
 
 def _write(output: PathLike, kind: str, table: pd.DataFrame, layout: str) -> Path:
-    """Write a frame of internal-name columns through :func:`citylearn_env.dataset.write_table`."""
+    """Write a frame of internal-name columns through :func:`citylearn_env.dataset.write_table` (a new file
+    renamed into place); ``output`` is checked again (:func:`citylearn_env.outputs.output_file`: no link at it, not
+    in a built district)."""
+    output_file(output, column="--output")
     return write_table(output, kind, {name: table[name].to_numpy(dtype=float) for name in table.columns}, layout)
 
 

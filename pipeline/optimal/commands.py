@@ -66,6 +66,21 @@ def parse_objective(terms: list[str]) -> str | dict[str, float]:
     return weights
 
 
+#: the forecasts that learn from past data rows (the others ignore --train)
+TRAINED_FORECASTS = ("day_ahead", "predicted")
+
+
+def check_mpc_options(args: argparse.Namespace) -> None:
+    """Refuse (one line) ``--horizon`` below 1 and ``--train`` with a forecast that does not learn from it."""
+    from pipeline.errors import InputError
+
+    if args.horizon < 1:
+        raise InputError(f"--horizon N needs N >= 1 steps, got {args.horizon}", column="--horizon")
+    if args.train is not None and args.forecast not in TRAINED_FORECASTS:
+        raise InputError(f"--train applies to the forecasts that learn from past rows ({', '.join(TRAINED_FORECASTS)}"
+                         f"); --forecast {args.forecast} ignores it", column="--train")
+
+
 def optimal_command(args: argparse.Namespace) -> int:
     from pipeline.errors import InputError
     from pipeline.optimal.optimum import optimal
@@ -74,6 +89,7 @@ def optimal_command(args: argparse.Namespace) -> int:
         raise InputError("--workers N needs N >= 1", column="--workers")
     if not args.mpc and (args.horizon != 24 or args.forecast != "perfect" or args.train is not None):
         raise InputError("--horizon, --forecast and --train apply to --mpc only", column="--mpc")
+    check_mpc_options(args)
     control = {"horizon": args.horizon, "forecast": args.forecast,
                "train": None if args.train is None else tuple(args.train)} if args.mpc else None
     from pipeline.optimal.solver import SolveError

@@ -21,6 +21,7 @@ import numpy as np
 
 from citylearn_env import CityLearnEnv, load_schema
 from citylearn_env.config import DistrictConfig
+from citylearn_env.outputs import output_file, write_output
 from citylearn_env.settings import PRESETS, resolve
 from pipeline.controllers import run_episode, without_device_actions
 from pipeline.errors import InputError
@@ -171,6 +172,8 @@ def optimal(schema: str | Path | Mapping[str, Any] | DistrictConfig, objective: 
     ``horizon``, ``forecast``, ``train``; the weights as the oracle's) and write its actions to ``out`` instead of
     the schedule. Returns a :class:`Result` (its ``value``, ``bound``, ``gap``, ``summary()``, ``mpc``).
     """
+    if out is not None:
+        output_file(out, column="--output")  # refused before the solve: a link at it, a built district
     config = district(schema, start=start, end=end, settings=settings)
     env = CityLearnEnv(config, settings=settings)
     env.reset(seed=seed)
@@ -221,14 +224,15 @@ def _capacity(env, building: int, slot: str) -> float:
 def write_schedule(schedule: Schedule, path: str | Path, *, first: int = 0) -> Path:
     """Write ``schedule`` as CSV: ``time_step`` (data row, from ``first``), then per storage
     ``<building>.<slot>.action`` (the action applied at that step; 0 at the uncontrolled first step) and
-    ``<building>.<slot>.soc`` (state of charge after the step). Returns the path."""
+    ``<building>.<slot>.soc`` (state of charge after the step). Written as a new file renamed into place, never
+    through a link and never into a built district (:mod:`citylearn_env.outputs`). Returns the path."""
     import pandas as pd  # lazy: only when a file is written
 
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
+    folder, name = output_file(path, column="--output")
     columns: dict[str, np.ndarray] = {"time_step": first + np.arange(schedule.action.shape[1])}
     for row, (building, slot) in enumerate(schedule.storages):
         columns[f"{building}.{slot}.action"] = schedule.action[row] + 0.0  # + 0.0: no "-0" in the file
         columns[f"{building}.{slot}.soc"] = schedule.soc[row]
-    pd.DataFrame(columns).to_csv(path, index=False, float_format="%.10g")
-    return path
+    frame = pd.DataFrame(columns)
+    return write_output(folder, name, lambda stream: frame.to_csv(stream, index=False, float_format="%.10g"),
+                        column="--output")

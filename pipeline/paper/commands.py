@@ -9,6 +9,7 @@ import argparse
 import os
 from pathlib import Path
 
+from citylearn_env.outputs import output_file
 from pipeline.errors import InputError
 from pipeline.paper.sac.train import BACKENDS
 from pipeline.runners import DaskRunner
@@ -60,8 +61,9 @@ def paper_command(args: argparse.Namespace) -> int:
     from pipeline.paper.benchmarks import RunOptions
     from pipeline.paper.tasks import run_paper
 
-    if args.sac_threads is not None and args.sac_threads < 1:
-        raise InputError("--sac-threads N needs N >= 1 (leave it out to choose per task)", column="--sac-threads")
+    check_numbers(args)
+    if args.docs:
+        output_file(args.docs, column="--docs")  # before the run: not through a link, not into a built district
     options = RunOptions(sac_episodes=args.sac_episodes, roles=tuple(args.buildings) if args.buildings else None,
                          rules=args.rules, compat=args.compat, sac=args.sac,
                          sac_threads=args.sac_threads, precision=args.precision)
@@ -81,6 +83,22 @@ def paper_command(args: argparse.Namespace) -> int:
 
         print(f"wrote {write_docs_page(args.output, args.docs, command=paper_command_line(args))}")
     return 0
+
+
+#: the numeric options and the least value each admits (the multipliers: finite as well)
+LEAST = {"sac_episodes": 1, "seeds": 1, "workers": 1, "seed": 0, "sac_threads": 1, "multiplier": 0.0}
+
+
+def check_numbers(args: argparse.Namespace) -> None:
+    """Refuse (one line naming the option) a numeric option out of its range (:data:`LEAST`; the m-sweep's
+    multipliers as ``--multiplier``): nothing runs and nothing is written."""
+    values = [(f"--{name.replace('_', '-')}", name, getattr(args, name)) for name in LEAST]
+    values += [("--sweep", "multiplier", m) for m in args.sweep or ()]
+    for option, name, value in values:
+        if value is None:  # --sac-threads left out: chosen per task
+            continue
+        if not value >= LEAST[name] or value in (float("inf"), float("-inf")):
+            raise InputError(f"{option} must be a number >= {LEAST[name]:g}, got {value:g}", column=option)
 
 
 def paper_command_line(args: argparse.Namespace) -> str:

@@ -19,6 +19,10 @@ from typing import Any
 
 import numpy as np
 
+from citylearn_env.outputs import write_output
+
+#: the figures' file names, in drawing order
+FIGURES = ("cost_emissions.png", "actions_soc.png", "daily_peak.png", "soc_trajectories.png")
 BASELINES = ("x-b1_b2-x-x", "x-b1_b2-x-pv")
 STORAGE_RL = ("rlc-b1-c-dhw", "rlc-b1-e-dhw", "rlc-b1-c-bess_pv", "rlc-b1-e-bess_pv", "rlc-b1-c-dhw_bess_pv",
               "rlc-b1-e-dhw_bess_pv")
@@ -34,13 +38,12 @@ def write_figures(out: Path, results: Sequence[Mapping[str, Any]], sweep: Sequen
     matplotlib.use("Agg")
     by_id = {r["id"]: r for r in results}
     written = []
-    for name, draw in (("cost_emissions.png", cost_emissions), ("actions_soc.png", actions_soc),
-                       ("daily_peak.png", daily_peak),
-                       ("soc_trajectories.png", lambda rows: soc_trajectories(rows, references or {}))):
+    for name, draw in zip(FIGURES, (cost_emissions, actions_soc, daily_peak,
+                                    lambda rows: soc_trajectories(rows, references or {})), strict=True):
         figure = draw(by_id)
         if figure is not None:
-            figure.savefig(out / name, dpi=110, bbox_inches="tight")
-            written.append(out / name)
+            written.append(write_output(out, name, lambda stream, f=figure: f.savefig(
+                stream, format="png", dpi=110, bbox_inches="tight"), binary=True, column="--output"))
             import matplotlib.pyplot as plt  # matplotlib loads only when a figure is drawn
 
             plt.close(figure)

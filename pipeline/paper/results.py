@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from citylearn_env.outputs import output_file, write_output
 from pipeline.controllers import MISFIT_REASON
 from pipeline.paper.benchmarks import BENCHMARKS, SWEEP_ID, RunOptions, Task, configuration
 from pipeline.paper.figures import write_figures
@@ -84,20 +85,24 @@ def write_results(out: Path, runs: Sequence[Mapping[str, Any]], tasks: Sequence[
     results = [annotate(summarise(groups[(i, multiplier)]), references) for i in order]
     swept = [summarise(groups[(SWEEP_ID, float(m))]) for m in sweep if (SWEEP_ID, float(m)) in groups]
     plain = [{k: v for k, v in r.items() if k not in ("trace", "baseline")} for r in runs]
-    pd.DataFrame(plain).to_csv(out / "runs.csv", index=False)
+    write_csv(out, "runs.csv", pd.DataFrame(plain))
     regret = regret_rows(results, references)
     if results:
-        pd.DataFrame([{k: v for k, v in r.items() if k != "trace"} for r in results]).to_csv(
-            out / "results.csv", index=False)
-        (out / "results.md").write_text(results_table(results, options, seeds))
+        write_csv(out, "results.csv", pd.DataFrame([{k: v for k, v in r.items() if k != "trace"} for r in results]))
+        write_output(out, "results.md", results_table(results, options, seeds), column="--output")
     if regret:
-        pd.DataFrame(regret).to_csv(out / "regret.csv", index=False)
-        (out / "regret.md").write_text(regret_table(regret))
+        write_csv(out, "regret.csv", pd.DataFrame(regret))
+        write_output(out, "regret.md", regret_table(regret), column="--output")
     if swept:
-        (out / "multiplier_sweep.md").write_text(sweep_table(swept))
+        write_output(out, "multiplier_sweep.md", sweep_table(swept), column="--output")
     write_figures(out, results, swept, references)
     own = [run for task, run in zip(tasks, runs, strict=True) if not task.controller]
     return {"results": results, "sweep": swept, "runs": own, "references": references, "regret": regret}
+
+
+def write_csv(out: Path, name: str, frame: pd.DataFrame) -> Path:
+    """Write ``frame`` (no index) as ``out / name`` through :func:`citylearn_env.outputs.write_output`."""
+    return write_output(out, name, lambda stream: frame.to_csv(stream, index=False), column="--output")
 
 
 def captured(baseline: float, value: float, best: float) -> float:
@@ -285,13 +290,11 @@ def docs_page(out: Path, *, command: str, machine: str, finished: str) -> str:
 
 
 def write_docs_page(out: str | Path, page: str | Path, *, command: str) -> Path:
-    """Write :func:`docs_page` of the run folder ``out`` to ``page`` (atomically: a temporary sibling renamed
-    into place), naming this machine's CPU and load average; returns the page's path."""
+    """Write :func:`docs_page` of the run folder ``out`` to ``page`` (:func:`citylearn_env.outputs.write_output`:
+    a new sibling renamed into place, never through a link, never into a built district), naming this machine's CPU and load average; returns the page's path."""
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
     machine = f"{capability().describe()}, load average {load:.1f} (a machine possibly shared)"
     finished = dt.datetime.now(dt.UTC).strftime("%Y-%m-%d %H:%M UTC")
-    target = Path(page)
-    scratch = target.with_name(f".{target.name}.tmp{os.getpid()}")
-    scratch.write_text(docs_page(Path(out), command=command, machine=machine, finished=finished))
-    scratch.replace(target)
-    return target
+    folder, name = output_file(page, column="--docs")
+    return write_output(folder, name, docs_page(Path(out), command=command, machine=machine, finished=finished),
+                        column="--docs")

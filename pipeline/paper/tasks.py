@@ -21,6 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from citylearn_env.errors import InputError
+from citylearn_env.outputs import check_output_name, output_folder, write_output
 from pipeline.paper.benchmarks import (
     BENCHMARKS,
     SWEEP_ID,
@@ -31,6 +32,7 @@ from pipeline.paper.benchmarks import (
     resolve_roles,
     run_benchmark,
 )
+from pipeline.paper.figures import FIGURES
 from pipeline.paper.reference import CONTROLLERS, REFERENCES, configurations, run_reference
 from pipeline.paper.results import write_results
 from pipeline.runners import DaskRunner, InProcessRunner, ProcessRunner
@@ -122,9 +124,8 @@ def run_task(schema_path: str, task: Task, options: RunOptions, out_file: str,
     else:
         result = run_benchmark(district, bench, seed=task.seed, multiplier=task.multiplier, options=options)
     target = Path(out_file)
-    scratch = target.with_suffix(f".tmp{os.getpid()}")
-    scratch.write_text(json.dumps({"fingerprint": dict(expected), "result": result}))
-    scratch.replace(target)
+    write_output(target.parent, target.name, json.dumps({"fingerprint": dict(expected), "result": result}),
+                 column="--output")
     done = f"skipped ({result['skipped']})" if "skipped" in result else f"in {result['seconds']:.1f} s"
     print(f"finished {task.key} {done}", flush=True)
     return result
@@ -141,6 +142,7 @@ def run_paper(schema_path: str | Path, out_dir: str | Path, *, only: Sequence[st
     figures into ``out_dir``. Returns :func:`pipeline.paper.results.write_results`' dict."""
 
     options = options or RunOptions()
+    out = prepare_output(out_dir)
     schema_path = str(Path(schema_path).resolve())
     district = load_district(schema_path, options.settings)
     roles = resolve_roles(district, options.roles)
@@ -149,8 +151,9 @@ def run_paper(schema_path: str | Path, out_dir: str | Path, *, only: Sequence[st
     for bench in (b for b in BENCHMARKS if b.id in {t.id for t in tasks if not t.controller}):
         for note in benchmark_notes(district, bench, roles):
             log(f"note: {bench.id}: {note}")
-    out = Path(out_dir)
-    (out / "tasks").mkdir(parents=True, exist_ok=True)
+    tasks_folder = output_folder(out / "tasks", column="--output")
+    for task in tasks:
+        check_output_name(tasks_folder, f"{task.key}.json", column="--output")
     expected = fingerprint(schema_path, options)
     done, todo = {}, {}
     for task in tasks:
@@ -169,6 +172,21 @@ def run_paper(schema_path: str | Path, out_dir: str | Path, *, only: Sequence[st
     runs = [done[t.key] for t in tasks]
     return write_results(out, runs, tasks, multiplier=multiplier, only=only, sweep=sweep, options=options,
                          seeds=seeds)
+
+
+def prepare_output(out_dir: str | Path) -> Path:
+    """The run folder ``out_dir`` (:func:`citylearn_env.outputs.output_folder`: created if missing, never a link,
+    never inside a built district) with no symbolic link at any name the run writes: refused in one line before
+    anything runs."""
+    out = output_folder(out_dir, column="--output")
+    for name in OUTPUT_NAMES:
+        check_output_name(out, name, column="--output")
+    return out
+
+
+#: the files a run writes into its folder (besides ``tasks/<key>.json``)
+OUTPUT_NAMES = ("runs.csv", "results.csv", "results.md", "regret.csv", "regret.md", "multiplier_sweep.md",
+                *FIGURES)
 
 
 def cores_per_task(runner: Any, tasks: int) -> int:
