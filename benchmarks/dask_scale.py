@@ -44,7 +44,9 @@ import tomllib
 from datetime import date
 from pathlib import Path
 
-from pipeline.builder.manifest import TIMINGS, district_digest
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from benchmarks.build_scale import dump_toml  # noqa: E402  (one TOML writer for both scale benchmarks)
+from pipeline.builder.manifest import TIMINGS, district_digest  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 RAW = ROOT / "raw" / "district.toml"
@@ -62,27 +64,6 @@ def district(houses: int, start: date, end: date) -> dict:
     config["selection"].pop("clusters", None)
     config["surrogate"] = {**config["surrogate"], "precision": "float32"}  # not measured per build (see above)
     return config
-
-
-def toml_text(config: dict) -> str:
-    """TOML of a two-level mapping of str/int/float/bool/date values, lists and inline tables (all it has)."""
-    def value(v: object) -> str:
-        if isinstance(v, bool):
-            return "true" if v else "false"
-        if isinstance(v, date):
-            return v.isoformat()
-        if isinstance(v, (int, float)):
-            return repr(v)
-        if isinstance(v, list):
-            return "[" + ", ".join(value(x) for x in v) + "]"
-        if isinstance(v, dict):
-            return "{ " + ", ".join(f"{json.dumps(k)} = {value(x)}" for k, x in v.items()) + " }"
-        return json.dumps(str(v))
-
-    top = [f"{k} = {value(v)}" for k, v in config.items() if not isinstance(v, dict)]
-    sections = [f"\n[{k}]\n" + "\n".join(f"{kk} = {value(vv)}" for kk, vv in v.items())
-                for k, v in config.items() if isinstance(v, dict)]
-    return "\n".join(top) + "\n" + "\n".join(sections) + "\n"
 
 
 def cpu_seconds(usage) -> float:
@@ -181,7 +162,7 @@ def main(argv: list[str] | None = None) -> int:
     with tempfile.TemporaryDirectory(prefix="dask_scale_") as scratch:
         scratch = Path(scratch)
         toml = scratch / f"dask{args.houses}.toml"
-        toml.write_text(toml_text(district(args.houses, args.start, args.end)))
+        toml.write_text(dump_toml(district(args.houses, args.start, args.end)))
         before = os.getloadavg()
         runs = []
         for workers in args.workers:
