@@ -19,6 +19,7 @@ from typing import Any
 import pandas as pd
 
 from citylearn_env.errors import LocatedError
+from citylearn_env.outputs import check_slug
 from pipeline.builder.manifest import (
     MANIFEST,
     TIMINGS,
@@ -208,6 +209,7 @@ def install_surrogate(district: str | os.PathLike, building: str, model: str | o
     (resolved).
     """
     folder = Path(district).resolve()
+    check_slug(building, column="building", file=folder / "schema.json")  # it names files: never a path, --force or not
     check_not_inside(folder)
     clean_leftovers(folder.parent, folder.name)  # a killed earlier install or build: old or new, never neither
     manifest = read_manifest(folder)

@@ -516,3 +516,19 @@ def test_verify_does_not_hash_an_input_of_another_size(district, tmp_path):
     crafted_inputs(district, {"weather": {"path": relative, "sha256": "0" * 64, "bytes": 10}})
     problems = verify_district(district)
     assert len(problems) == 1 and "4096 bytes against the recorded 10; not read" in problems[0]
+
+
+@pytest.mark.parametrize("building", ["../../victim", "/etc/victim", "..", "a/b"])
+def test_install_refuses_a_building_name_that_is_a_path_even_with_force(district, tmp_path, building):
+    """A crafted schema naming a building ``../../victim`` cannot make install (``--force`` included) write
+    outside the district: the name is refused in one line before anything is read or copied."""
+    from pipeline.builder.install import install_surrogate
+    from pipeline.errors import InputError
+
+    victim = tmp_path / "victim.pth"
+    victim.write_bytes(b"precious")
+    before = {p: p.read_bytes() for p in district.rglob("*") if p.is_file()}
+    with pytest.raises(InputError, match="is not a safe name"):
+        install_surrogate(district, building, tmp_path / "model.pth", force=True)
+    assert victim.read_bytes() == b"precious"
+    assert {p: p.read_bytes() for p in district.rglob("*") if p.is_file()} == before
