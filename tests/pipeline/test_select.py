@@ -249,10 +249,9 @@ def _repeat_district(cache: Path) -> object:
 
 @pytest.mark.slow  # 4 EnergyPlus passes of June (2 houses, built twice from empty caches)
 def test_two_copies_of_one_row_have_their_own_loads_and_rebuild_byte_identical(tmp_path):
-    from surrogates.energyplus.engine import find_energyplus
-
     from pipeline.builder.driver import build_district_local
     from pipeline.builder.manifest import district_digest
+    from surrogates.energyplus.engine import find_energyplus
 
     try:
         find_energyplus()
