@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import importlib
 import os
-import signal
 import threading
 from collections.abc import Iterator, Sequence
 from concurrent.futures import ThreadPoolExecutor
@@ -32,6 +31,7 @@ from prefect import flow
 from prefect.task_runners import ThreadPoolTaskRunner
 
 from pipeline import progress
+from pipeline.builder.staging import exit_on_signals
 from pipeline.config import BuildConfig, read_build_config
 from pipeline.errors import InputError
 from pipeline.prefect_server import PORTS, OrchestrationError, api_loss_in_one_line, start_server
@@ -130,7 +130,8 @@ def prefect_api(ports: Sequence[int] = PORTS) -> Iterator[str]:
         with temporary_settings(updates=patient_client()), api_loss_in_one_line(configured):
             yield configured
         return
-    previous = _exit_on_signals()
+    signals = exit_on_signals()  # SIGTERM / SIGHUP: the finally below stops the server
+    signals.__enter__()
     server = None
     settings = {**server_database(), **patient_settings()}
     try:
@@ -149,7 +150,7 @@ def prefect_api(ports: Sequence[int] = PORTS) -> Iterator[str]:
 
                 APILogWorker.drain_all(timeout=5)
             server.stop()
-        _restore_signals(previous)
+        signals.__exit__(None, None, None)
 
 
 #: what a build imports after the API is up (torch, pandas, pvlib, scikit-learn, EnergyPlus glue: 5-8 s)
@@ -231,17 +232,3 @@ def patient_settings() -> dict:
             **{setting: value for setting, value in wanted.items() if setting.name not in os.environ}}
 
 
-def _exit_on_signals() -> dict:
-    """Turn SIGTERM and SIGHUP into SystemExit (so ``finally`` blocks stop the server); main thread only."""
-    if threading.current_thread() is not threading.main_thread():
-        return {}
-
-    def leave(signum, frame):
-        raise SystemExit(128 + signum)
-
-    return {sig: signal.signal(sig, leave) for sig in (signal.SIGTERM, signal.SIGHUP)}
-
-
-def _restore_signals(previous: dict) -> None:
-    for sig, handler in previous.items():
-        signal.signal(sig, handler)

@@ -165,8 +165,8 @@ def test_results_come_home_when_done_and_a_killed_task_runs_again_on_a_replaceme
 
 def _config(tmp_path: Path, cache: str):
     """The synthetic fixture district (2 buildings x 3 days) with tiny csv-table surrogates (a few seconds of
-    training each: a task long enough to be killed in), its own surrogate cache. Precision float32: ``auto``
-    measures bfloat16 against float32 in each build, and on a loaded CPU two builds may choose differently."""
+    training each: a task long enough to be killed in), its own surrogate cache. Precision float32 (whatever
+    the CPU multiplies natively): the digests compared must not depend on the machine's recorded choice."""
     from pipeline.config import read_build_config
     from tests.pipeline.builder.test_build import _short_config
 
