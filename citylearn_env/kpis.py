@@ -247,13 +247,29 @@ def evaluate(series: Mapping[str, np.ndarray], building_names: Sequence[str], *,
     ``District`` rows hold the district KPIs (on district sums) and the mean over buildings (NaN ignored) of
     the building KPIs. Ratios are dimensionless; discomfort deltas in degC. ``settings``: the ``kpi_*`` quirks.
     """
+
+    rows = (building_kpis_2_5 if settings.kpi_names_2_5 else building_kpis)(
+        series, building_names, dynamics=dynamics, comfort_band=comfort_band, window=window, settings=settings)
+    return kpi_frame(rows, building_names, district_values(series, dynamics=dynamics, window=window,
+                                                           settings=settings))
+
+
+def district_values(series: Mapping[str, np.ndarray], *, dynamics: Sequence[bool], window: slice | None = None,
+                    settings: Behaviour = CORRECTED) -> dict[str, float]:
+    """The district KPIs of :func:`evaluate`'s table (CityLearn 2.1's or 2.5's names, as ``settings`` say) on
+    the district sums of ``series``' net-consumption series; (1, T) sums of building groups give the same."""
+    kpis = district_kpis_2_5 if settings.kpi_names_2_5 else district_kpis
+    return kpis(series, dynamics=dynamics, window=window, settings=settings)
+
+
+def kpi_frame(rows: Sequence[Mapping[str, float]], building_names: Sequence[str],
+              district: Mapping[str, float]) -> pd.DataFrame:
+    """:func:`evaluate`'s long table from its parts: one dict of building KPIs per building (in
+    ``building_names`` order) and the district KPIs; a KPI without a district value gets the mean over
+    buildings (NaN ignored). Tables of building groups evaluated apart combine here, with the district KPIs
+    computed on the groups' summed series."""
     import pandas as pd  # lazy: importing citylearn_env does not import pandas (package docstring)
 
-    table_2_5 = settings.kpi_names_2_5
-    rows = (building_kpis_2_5 if table_2_5 else building_kpis)(
-        series, building_names, dynamics=dynamics, comfort_band=comfort_band, window=window, settings=settings)
-    district = (district_kpis_2_5 if table_2_5 else district_kpis)(series, dynamics=dynamics, window=window,
-                                                                     settings=settings)
     names = sorted({k for r in rows for k in r} | set(district))
     district_rows = [{"cost_function": k, "value": district[k] if k in district else _nanmean([r[k] for r in rows]),
                       "name": "District", "level": "district"} for k in names]
@@ -459,10 +475,14 @@ def objectives(series: Mapping[str, np.ndarray], *, window: slice | None = None,
                                         *comfort_band_edges(series, get, one_set_point=one_set_point))).sum(axis=1),
         "consumption": grid.sum(axis=1),
     }
-    demand = net.sum(axis=0)
-    n = demand.size
-    daily = sum(block.max() for block in _blocks(demand, steps_per_day)) * steps_per_day / n if n else np.nan
     out: dict = {k: float(v.sum()) for k, v in per_building.items()}
-    out["average_daily_peak"] = float(daily)
+    out["average_daily_peak"] = average_daily_peak(net.sum(axis=0), steps_per_day)
     out["per_building"] = per_building
     return out
+
+
+def average_daily_peak(demand: np.ndarray, steps_per_day: int = DAY_STEPS) -> float:
+    """(sum over days d of max_t in d of ``demand``) * steps_per_day / n [kW]: ``demand`` (n,) the district
+    net demand [kWh per 1-h step], days in blocks of ``steps_per_day``; NaN for no steps."""
+    n = demand.size
+    return float(sum(block.max() for block in _blocks(demand, steps_per_day)) * steps_per_day / n) if n else np.nan

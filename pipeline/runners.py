@@ -7,7 +7,10 @@ four implementations:
   or Dask through prefect-dask: :mod:`pipeline.flows`);
 * :class:`DaskRunner` -- a Dask cluster (an existing scheduler, or a local cluster per ``map``).
 
-Every ``map`` returns ``{label: fn(*args)}`` in the order of ``calls``; the first failure ends it.
+Every ``map`` returns ``{label: fn(*args)}`` in the order of ``calls``; the first failure ends it. With
+``keep``, each result is handed to ``keep(label, result)`` in this process as soon as it arrives and only
+what ``keep`` returns is held (a build writes a house's files and keeps a small record: the caller's memory
+does not grow with the results' size).
 """
 
 from __future__ import annotations
@@ -24,30 +27,48 @@ from typing import Any, Protocol
 
 from pipeline import progress
 
+#: what a ``map`` keeps of each result: ``keep(label, result)`` (default: the result itself)
+Keep = Callable[[str, Any], Any]
+
+
+def keep_all(_label: str, result: Any) -> Any:
+    return result
+
 
 class Runner(Protocol):
     """Runs one step for several buildings or tasks, possibly in parallel; results come back by label, in order."""
 
-    def map(self, step: str, fn: Callable[..., Any], calls: Mapping[str, tuple]) -> dict[str, Any]:
-        """``{label: fn(*args) for label, args in calls.items()}``; ``step`` names the work (task names)."""
+    def map(self, step: str, fn: Callable[..., Any], calls: Mapping[str, tuple],
+            keep: Keep = keep_all) -> dict[str, Any]:
+        """``{label: keep(label, fn(*args)) for label, args in calls.items()}``, ``keep`` called in this process
+        as each result arrives (in the order they finish); ``step`` names the work (task names)."""
         ...
 
 
 class InProcessRunner:
     """Plain calls, one after the other, in this process (tests, quick runs, no Prefect needed)."""
 
-    def map(self, step: str, fn: Callable[..., Any], calls: Mapping[str, tuple]) -> dict[str, Any]:
+    def map(self, step: str, fn: Callable[..., Any], calls: Mapping[str, tuple],
+            keep: Keep = keep_all) -> dict[str, Any]:
         results = {}
         for label, args in calls.items():
-            results[label] = fn(*args)
+            results[label] = keep(label, fn(*args))
             progress.advance(step, label)
         return results
 
 
-def gather(submit: Callable[..., Any], fn: Callable[..., Any], calls: Mapping[str, tuple]) -> dict[str, Any]:
-    """Submit every call (``submit(label, fn, *args)`` returns a future), then wait for each: {label: result}."""
+def gather(submit: Callable[..., Any], fn: Callable[..., Any], calls: Mapping[str, tuple],
+           keep: Keep = keep_all) -> dict[str, Any]:
+    """Submit every call (``submit(label, fn, *args)`` returns a future), then take each result as it finishes
+    (:func:`concurrent.futures.as_completed`): ``{label: keep(label, result)}`` in the order of ``calls``."""
+    from concurrent.futures import as_completed
+
     futures = {label: submit(label, fn, *args) for label, args in calls.items()}
-    return {label: future.result() for label, future in futures.items()}
+    labels = {id(future): label for label, future in futures.items()}
+    results = {}
+    for future in as_completed(futures.values()):
+        results[labels[id(future)]] = keep(labels[id(future)], future.result())
+    return {label: results[label] for label in futures}
 
 
 class ProcessRunner:
@@ -58,10 +79,11 @@ class ProcessRunner:
     def __init__(self, workers: int):
         self.workers = workers
 
-    def map(self, step: str, fn: Callable[..., Any], calls: Mapping[str, tuple]) -> dict[str, Any]:
+    def map(self, step: str, fn: Callable[..., Any], calls: Mapping[str, tuple],
+            keep: Keep = keep_all) -> dict[str, Any]:
         with ProcessPoolExecutor(self.workers, mp_context=multiprocessing.get_context("spawn"),
                                  initializer=exit_with_parent, initargs=(os.getpid(),)) as pool:
-            return gather(lambda _, f, *args: pool.submit(f, *args), fn, calls)
+            return gather(lambda _, f, *args: pool.submit(f, *args), fn, calls, keep)
 
 
 #: seconds between a worker's looks at its parent
@@ -83,7 +105,8 @@ def exit_with_parent(parent: int) -> None:
 class PrefectRunner:
     """Each call a Prefect task (named ``<step>-<label>``) of the running flow; waits for all, in order."""
 
-    def map(self, step: str, fn: Callable[..., Any], calls: Mapping[str, tuple]) -> dict[str, Any]:
+    def map(self, step: str, fn: Callable[..., Any], calls: Mapping[str, tuple],
+            keep: Keep = keep_all) -> dict[str, Any]:
         # Prefect is the optional extra `pipeline`: imported only when a flow runs
         from prefect import task
         from prefect.cache_policies import (
@@ -98,7 +121,7 @@ class PrefectRunner:
         results = {}
         for future in as_completed(list(futures.values())):
             # the first failure ends the build (its own error, one line in the CLI)
-            results[labels[id(future)]] = future.result()
+            results[labels[id(future)]] = keep(labels[id(future)], future.result())
             release_dask(future)
             progress.advance(step, labels[id(future)])
         return {label: results[label] for label in futures}
@@ -127,7 +150,8 @@ class DaskRunner:
     def __init__(self, address: str | None = None, workers: int = 2):
         self.address, self.workers = address, workers
 
-    def map(self, step: str, fn: Callable[..., Any], calls: Mapping[str, tuple]) -> dict[str, Any]:
+    def map(self, step: str, fn: Callable[..., Any], calls: Mapping[str, tuple],
+            keep: Keep = keep_all) -> dict[str, Any]:
         # Dask is the optional extra `dask`
         from dask.distributed import Client, LocalCluster
 
@@ -138,18 +162,18 @@ class DaskRunner:
             run = uuid.uuid4().hex[:12]  # keys of its own: a shared scheduler may serve other builds' Building_1
             futures = {label: client.submit(fn, *args, key=f"{step}-{label}-{run}", pure=False)
                        for label, args in calls.items()}
-            return gather_as_done(step, futures)
+            return gather_as_done(step, futures, keep)
 
 
-def gather_as_done(step: str, futures: Mapping[str, Any]) -> dict[str, Any]:
-    """``{label: result}`` of Dask ``futures`` in the order given, each fetched as soon as it is done (the
-    first failure ends it, its own error); reports each building to :mod:`pipeline.progress`."""
+def gather_as_done(step: str, futures: Mapping[str, Any], keep: Keep = keep_all) -> dict[str, Any]:
+    """``{label: keep(label, result)}`` of Dask ``futures`` in the order given, each fetched as soon as it is
+    done (the first failure ends it, its own error); reports each building to :mod:`pipeline.progress`."""
     from dask.distributed import as_completed  # optional extra: dask
 
     labels = {future.key: label for label, future in futures.items()}
     results = {}
     for future in as_completed(list(futures.values())):
-        results[labels[future.key]] = future.result()
+        results[labels[future.key]] = keep(labels[future.key], future.result())
         future.release()  # the result lives here now, not in a worker's memory
         progress.advance(step, labels[future.key])
     return {label: results[label] for label in futures}

@@ -29,11 +29,14 @@ import json
 import time
 from collections.abc import Mapping
 from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
 from pathlib import Path
+
+import pandas as pd
 
 from pipeline import progress
 from pipeline.builder.houses import (
-    HouseSimulation,
+    HouseWork,
     building_notes,
     check_repeats,
     eulp_heating_system,
@@ -104,51 +107,31 @@ def run_build(config: BuildConfig, output_root: str | Path = "artifacts", runner
     configs = {n: house_config(config, r) for n, r in zip(names, repeats, strict=True)}
     with staging(config, output_root) as out:
         started = time.perf_counter()
-        signals, houses, early = signals_and_houses(configs, ids, runner, timings)
-        outdoor = signals.outdoor
-        if config.inputs.characteristics is not None:
-            frames = {n: house_table(config, houses[n], signals.solar) for n in names}
-            systems = {n: houses[n].summary["heating_system"] for n in names}
-        else:
-            progress.stage("ingest", len(names))
-            frames = runner.map("ingest", ingest_building,
-                                {n: (config, i, signals.solar, outdoor) for n, i in ids.items()})
-            systems = {n: eulp_heating_system(config, i) for n, i in ids.items()}
-            progress.end("ingest")
+        signals, records = buildings_written(out, config, configs, ids, runner, timings)
         write_tables(out, config.layout, {
             "weather.csv": ("weather", signals.weather), "pricing.csv": ("pricing", signals.pricing),
-            "carbon_intensity.csv": ("carbon", signals.carbon),
-            **{f"{n}.csv": ("building", frames[n]) for n in names}})
+            "carbon_intensity.csv": ("carbon", signals.carbon)})
         timings["ingest"] = time.perf_counter() - started
-        heating = heating_devices(config, frames, systems)
-        sizes = size_buildings(config, frames, signals.weather, heating)
         started = time.perf_counter()
-        dynamics, cache_use, trained = None, {}, {}
         if config.surrogate.source != "none":
-            tables = {n: None for n in names}
-            if config.surrogate.source == "energyplus" and houses:
-                tables = {n: houses[n].ilv for n in names}
-            elif config.surrogate.source == "fmu":
-                tables = {n: fmu_ilv(config, frames[n], signals.weather) for n in names}
-            todo = {n: (configs[n], i, n, tables[n], outdoor) for n, i in ids.items() if n not in early}
+            todo = {n: (configs[n], i, n, records[n].ilv_input(config, signals), signals.outdoor)
+                    for n, i in ids.items() if records[n].surrogate is None}
             if todo:
                 progress.stage("surrogate", len(todo))
-            trained = early | runner.map("surrogate", surrogate_files, todo)
-            trained = {n: trained[n] for n in names}
+            runner.map("surrogate", surrogate_files, todo,
+                       keep=lambda n, files: records[n].keep_surrogate(out, n, files))
             if todo:
                 progress.end("surrogate")
-            split = {n: split_surrogate_timings(trained[n].files) for n in names}  # seconds -> timings.json
-            dynamics = {n: write_surrogate_files(out, split[n][0]) for n in names}
-            cache_use = {n: {**cache_hits(trained[n]), **split[n][1]} for n in names}
         timings["surrogates"] = time.perf_counter() - started
-        judged = surrogate_errors({n: trained[n].files for n in trained})  # the judge's record per house
+        trained = {n: r.surrogate for n, r in records.items() if r.surrogate is not None}
+        judged = {n: t.judged for n, t in trained.items() if t.judged is not None}  # the judge's record per house
         check_surrogate_errors(judged, config.surrogate.strict)  # a warning per house, or refused (--strict)
+        sizes = {n: records[n].size for n in names}
+        dynamics = {n: trained[n].dynamics for n in names} if trained else None
         schema = annotate_schema(schema_dict(config, names, sizes, dynamics), judged)
         schema_path = out / "schema.json"
         schema_path.write_text(json.dumps(schema, indent=2))
-        buildings = building_notes(ids, systems, heating, {n: h.summary for n, h in houses.items()}, frames,
-                                   sizes)
-        (out / "buildings.json").write_text(json.dumps(buildings, indent=2))
+        (out / "buildings.json").write_text(json.dumps({n: records[n].note for n in names}, indent=2))
         if selection is not None:
             chosen = selection.chosen.assign(building=names)
             if "repeat" in chosen.columns and not (chosen["repeat"] > 0).any():  # no repeats: the former table
@@ -156,32 +139,82 @@ def run_build(config: BuildConfig, output_root: str | Path = "artifacts", runner
             chosen.to_csv(out / "selection.csv", index=False)
         started = time.perf_counter()
         progress.stage("validate")
-        validation = validate_district(schema_path)
+        validation = validate_district(schema_path, runner)
         progress.end("validate")
         chosen = SelectionSummary.of(selection) if selection is not None else None
         write_report(out / "report", district_report(out, config.name, schema, validation, chosen))
         timings["validate"] = time.perf_counter() - started
-        write_manifest(out, config, {n: trained[n].key for n in cache_use},
-                       {n: trained[n].judge_key for n in cache_use if trained[n].judge_key is not None},
+        write_manifest(out, config, {n: t.key for n, t in trained.items()},
+                       {n: t.judge_key for n, t in trained.items() if t.judge_key is not None},
                        selection=chosen.to_json() if chosen is not None else None)
-        write_timings(out, config, timings, cache_use, precision)
+        write_timings(out, config, timings, {n: t.cache_use for n, t in trained.items()}, precision)
         make_world_readable(out)
     return Path(output_root) / config.name
 
 
-def signals_and_houses(configs: Mapping[str, BuildConfig], ids: Mapping[str, int], runner: Runner,
-                       timings: dict[str, float],
-                       ) -> tuple[Signals, dict[str, HouseSimulation], dict[str, SurrogateFiles]]:
-    """The site's signals (read in a thread) while the runner does the per-house work (:func:`house_work`:
-    simulation and, for ``energyplus`` surrogates, training) of buildings from real characteristics;
-    ``configs``: each building's configuration (:func:`pipeline.builder.houses.house_config`).
+@dataclass(frozen=True)
+class TrainedRecord:
+    """What the build keeps of a building's surrogate once its files are in the district: the schema's
+    ``dynamics`` block, the judge's record (None: not judged), the cache keys and what ``timings.json``
+    records (cache hits, training seconds)."""
 
-    Returns the signals, the simulations and the surrogates already trained, by building name; records the
-    wall seconds of both in ``timings`` (``site_signals``, ``houses``)."""
+    dynamics: dict
+    judged: dict | None
+    key: str
+    judge_key: str | None
+    cache_use: dict
+
+
+@dataclass
+class BuildingRecord:
+    """What the build keeps of a building once its table is written: the stock's heating system, the
+    schema's heating device and sizes, the note of ``buildings.json``, its surrogate record (once trained)
+    and, for an FMU surrogate only (which trains on it), its table. A few kB: a district's build holds one
+    per building, never all buildings' tables."""
+
+    size: dict
+    note: dict
+    surrogate: TrainedRecord | None = None
+    frame: pd.DataFrame | None = None
+
+    def ilv_input(self, config: BuildConfig, signals: Signals) -> pd.DataFrame | None:
+        """The ILV table a later surrogate trains on: the FMU's runs over this building's table, else None
+        (a precomputed table or an EnergyPlus pass, found by the trainer)."""
+        return fmu_ilv(config, self.frame, signals.weather) if config.surrogate.source == "fmu" else None
+
+    def keep_surrogate(self, out: Path, name: str, trained: SurrogateFiles) -> None:
+        """Write the building's surrogate files into ``out`` and keep their record (not their bytes)."""
+        files, seconds = split_surrogate_timings(trained.files)  # seconds -> timings.json
+        judged = surrogate_errors({name: trained.files}).get(name)
+        self.surrogate = TrainedRecord(write_surrogate_files(out, files), judged, trained.key, trained.judge_key,
+                                       {**cache_hits(trained), **seconds})
+
+
+def building_record(out: Path, config: BuildConfig, name: str, bldg_id: int, frame: pd.DataFrame, system: str,
+                    summary: Mapping, outdoor: pd.DataFrame) -> BuildingRecord:
+    """Write a building's table into ``out`` and return its record: heating device (from the stock's
+    ``system``), sizes (on the district's ``outdoor`` weather table) and note."""
+    write_tables(out, config.layout, {f"{name}.csv": ("building", frame)})
+    heating = heating_devices(config, {name: frame}, {name: system})
+    size = size_buildings(config, {name: frame}, outdoor, heating)[name]
+    note = building_notes({name: bldg_id}, {name: system}, heating, {name: dict(summary)}, {name: frame},
+                          {name: size})[name]
+    return BuildingRecord(size, note, frame=frame if config.surrogate.source == "fmu" else None)
+
+
+def buildings_written(out: Path, config: BuildConfig, configs: Mapping[str, BuildConfig],
+                      ids: Mapping[str, int], runner: Runner, timings: dict[str, float],
+                      ) -> tuple[Signals, dict[str, BuildingRecord]]:
+    """Every building's per-building work on ``runner`` (houses from real characteristics: :func:`house_work`,
+    simulation and, for ``energyplus`` surrogates, training; EULP buildings: :func:`ingest_building`) while
+    the site's signals are read in a thread; each result is written into ``out`` as it arrives (its table,
+    and its surrogate files when trained) and only its :class:`BuildingRecord` kept. ``configs``: each
+    building's configuration (:func:`pipeline.builder.houses.house_config`).
+
+    Returns the signals and the records by building name; records the wall seconds of the signals and of
+    the houses in ``timings`` (``site_signals``, ``houses``)."""
 
     started = time.perf_counter()
-    houses: dict[str, HouseSimulation] = {}
-    early: dict[str, SurrogateFiles] = {}
 
     def done(_) -> None:
         timings["site_signals"] = time.perf_counter() - started
@@ -189,17 +222,37 @@ def signals_and_houses(configs: Mapping[str, BuildConfig], ids: Mapping[str, int
 
     progress.stage("site signals")
     with ThreadPoolExecutor(max_workers=1, thread_name_prefix="site_signals") as pool:
-        config = next(iter(configs.values()))  # the first copy of a row: the district's own configuration
         pending = pool.submit(site_signals, config)  # read while the houses simulate: serial time hidden
         pending.add_done_callback(done)
+
+        def keep_house(name: str, work: HouseWork) -> BuildingRecord:
+            signals = pending.result()
+            summary = work.simulation.summary
+            record = building_record(out, config, name, ids[name], house_table(config, work.simulation, signals.solar),
+                                     summary["heating_system"], summary, signals.weather)
+            if work.surrogate is not None:
+                record.keep_surrogate(out, name, work.surrogate)
+            return record
+
+        def keep_table(name: str, frame: pd.DataFrame) -> BuildingRecord:
+            signals = pending.result()
+            return building_record(out, config, name, ids[name], frame, eulp_heating_system(config, ids[name]),
+                                   {}, signals.weather)
+
         if config.inputs.characteristics is not None:
             progress.stage("house", len(ids))
-            work = runner.map("house", house_work, {n: (configs[n], i, n) for n, i in ids.items()})
-            houses = {n: work[n].simulation for n in ids}
-            early = {n: work[n].surrogate for n in ids if work[n].surrogate is not None}
+            records = runner.map("house", house_work, {n: (configs[n], i, n) for n, i in ids.items()},
+                                 keep=keep_house)
             timings["houses"] = time.perf_counter() - started
             progress.end("house")
-        return pending.result(), houses, early
+        else:
+            signals = pending.result()
+            progress.stage("ingest", len(ids))
+            records = runner.map("ingest", ingest_building,
+                                 {n: (config, i, signals.solar, signals.outdoor) for n, i in ids.items()},
+                                 keep=keep_table)
+            progress.end("ingest")
+        return pending.result(), records
 
 
 def build_district_local(config: BuildConfig, output_root: str | Path = "artifacts") -> Path:

@@ -107,8 +107,9 @@ def write_report(report_dir: Path, inputs: ReportInputs) -> Path:
     runs = inputs.validation.runs
     for policy, run in runs.items():
         run.kpis.to_csv(report_dir / f"kpis_{policy}.csv", index=False)
-    buildings = included_buildings(inputs.schema)
-    figures = write_figures(report_dir, buildings, {p: r.series for p, r in runs.items()})
+    first = next(iter(runs.values()))
+    figures = write_figures(report_dir, list(first.series_buildings), {p: r.series for p, r in runs.items()},
+                            {p: r.district_net for p, r in runs.items()})
     path = report_dir / "summary.md"
     path.write_text(summary_text(inputs, figures))
     return path
@@ -120,7 +121,7 @@ def summary_text(inputs: ReportInputs, figures: list[tuple[str, str, str]]) -> s
     buildings = included_buildings(inputs.schema)
     runs = inputs.validation.runs
     objectives = {p: r.objectives for p, r in runs.items()}
-    steps = next(iter(runs.values())).series["net_electricity_consumption"].shape[1]
+    steps = next(iter(runs.values())).district_net.size
     lines = [f"# District {inputs.name}", "",
              f"{len(buildings)} buildings, {steps} hourly time steps; each policy runs once over the period with "
              "the heat pumps serving the ideal load (pipeline/controllers.py).", ""]
@@ -131,6 +132,10 @@ def summary_text(inputs: ReportInputs, figures: list[tuple[str, str, str]]) -> s
     lines += building_objectives_table({p: r.per_building for p, r in runs.items()}, buildings)
     lines += kpi_table({p: r.kpis for p, r in runs.items()})
     lines += figure_section(figures)
+    drawn = len(next(iter(runs.values())).series_buildings)
+    if drawn < len(buildings):
+        lines += [f"Figures of the first {drawn} of the {len(buildings)} buildings; every building's series are in "
+                  "its CSV file and its objectives in the tables above.", ""]
     if inputs.buildings is not None:
         lines += building_section(inputs.buildings)
     if inputs.selection is not None:
@@ -279,10 +284,15 @@ def oracle_table(bounds: OracleBounds, objectives: Mapping[str, Mapping[str, flo
     head = ["## Oracle (perfect-foresight storage schedule)", ""]
     if bounds.reason is not None:
         return [*head, f"No oracle: {bounds.reason}", ""]
+    skipped = [f"- {ORACLE_BOUNDS[k][0]}: {why}" for k, why in bounds.skipped.items()]
+    if not bounds.bounds:
+        return [*head, "The oracle was not run:", "", *skipped, ""]
     policies = list(objectives)
     rows = []
     for key, (label, unit, decimals) in ORACLE_BOUNDS.items():
-        found = bounds.bounds[key]
+        found = bounds.bounds.get(key)
+        if found is None:
+            continue
         base = objectives.get("no_control", {}).get(key, found.no_control)
         values = [objectives[p][key] for p in policies]
         lower = f"{found.lower_bound:.{decimals}f}" if np.isfinite(found.lower_bound) else "-"
@@ -297,7 +307,8 @@ def oracle_table(bounds: OracleBounds, objectives: Mapping[str, Mapping[str, flo
     return [*head, f"The best schedule found for each objective by scheduling the {bounds.storages} storages "
             "(DHW tanks, batteries) alone, with perfect knowledge of the period, and a certified lower bound no "
             "schedule can beat (pipeline/optimal, docs/controllers.md); one schedule per objective. Share = "
-            "(no control - policy) / (no control - best plan).", "", *_table(header, rows), ""]
+            "(no control - policy) / (no control - best plan).", "", *_table(header, rows), "",
+            *([*skipped, ""] if skipped else [])]
 
 
 def _captured(base: float, value: float, bound: float) -> str:
@@ -336,12 +347,13 @@ def kpi_table(kpis: Mapping[str, Any]) -> list[str]:
             *_table(["KPI", "unit", *(POLICY_LABELS.get(p, p) for p in policies)], rows), ""]
 
 
-def write_figures(report_dir: Path, buildings: list[str], series: Mapping[str, Mapping[str, np.ndarray]]
-                  ) -> list[tuple[str, str, str]]:
-    """Draw every figure into ``report_dir``; return (section, caption, file name) in report order."""
+def write_figures(report_dir: Path, buildings: list[str], series: Mapping[str, Mapping[str, np.ndarray]],
+                  nets: Mapping[str, np.ndarray]) -> list[tuple[str, str, str]]:
+    """Draw every figure into ``report_dir``: the district's from ``nets`` (policy -> district net
+    consumption (T,) [kWh]), one load and one temperature figure per building of ``buildings`` (the rows of
+    ``series``: policy -> name -> (F, T)); return (section, caption, file name) in report order."""
     baseline = series["no_control"] if "no_control" in series else next(iter(series.values()))
     calendar = parse_calendar(baseline["hour"][0], baseline["month"][0], baseline["day_type"][0])
-    nets = {p: s["net_electricity_consumption"].sum(axis=0) for p, s in series.items()}
     window = peak_week(nets.get("no_control", next(iter(nets.values()))), calendar)
     out = [("District", "district net load, no control vs cost RBC (daily energy, daily peak, peak week)",
             policies_figure(report_dir / "district_net.png", nets, baseline["electricity_pricing"][0],
