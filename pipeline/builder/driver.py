@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import json
 import time
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
@@ -60,7 +60,7 @@ from pipeline.builder.steps import (
     ingest_building,
     resolve_selection,
     schema_dict,
-    site_signals,
+    site_signals_once,
     size_buildings,
     write_tables,
 )
@@ -202,14 +202,38 @@ def building_record(out: Path, config: BuildConfig, name: str, bldg_id: int, fra
     return BuildingRecord(size, note, frame=frame if config.surrogate.source == "fmu" else None)
 
 
+def house_task(config: BuildConfig, bldg_id: int, name: str, out: Path,
+               work: Callable[[BuildConfig, int, str], HouseWork] = house_work) -> BuildingRecord:
+    """A house's whole per-building work where it runs (a worker): :func:`house_work` (simulation and, for
+    ``energyplus`` surrogates, training), then its table and surrogate files written into the district's
+    staging folder ``out`` (shared storage on a cluster; a rerun writes the same bytes); returns its
+    :class:`BuildingRecord`. ``work``: the house work (a benchmark's stand-in)."""
+    done = work(config, bldg_id, name)
+    signals = site_signals_once(config)
+    summary = done.simulation.summary
+    record = building_record(out, config, name, bldg_id, house_table(config, done.simulation, signals.solar),
+                             summary["heating_system"], summary, signals.weather)
+    if done.surrogate is not None:
+        record.keep_surrogate(out, name, done.surrogate)
+    return record
+
+
+def ingest_task(config: BuildConfig, bldg_id: int, name: str, out: Path) -> BuildingRecord:
+    """An EULP building's per-building work where it runs: its table (:func:`ingest_building`) written into
+    ``out``; returns its :class:`BuildingRecord`."""
+    signals = site_signals_once(config)
+    frame = ingest_building(config, bldg_id, signals.solar, signals.outdoor)
+    return building_record(out, config, name, bldg_id, frame, eulp_heating_system(config, bldg_id), {},
+                           signals.weather)
+
+
 def buildings_written(out: Path, config: BuildConfig, configs: Mapping[str, BuildConfig],
                       ids: Mapping[str, int], runner: Runner, timings: dict[str, float],
                       ) -> tuple[Signals, dict[str, BuildingRecord]]:
-    """Every building's per-building work on ``runner`` (houses from real characteristics: :func:`house_work`,
-    simulation and, for ``energyplus`` surrogates, training; EULP buildings: :func:`ingest_building`) while
-    the site's signals are read in a thread; each result is written into ``out`` as it arrives (its table,
-    and its surrogate files when trained) and only its :class:`BuildingRecord` kept. ``configs``: each
-    building's configuration (:func:`pipeline.builder.houses.house_config`).
+    """Every building's per-building work on ``runner`` (:func:`house_task` for houses from real
+    characteristics, :func:`ingest_task` for EULP buildings), each writing its files into ``out`` and
+    returning only its :class:`BuildingRecord`, while the site's signals are read here in a thread.
+    ``configs``: each building's configuration (:func:`pipeline.builder.houses.house_config`).
 
     Returns the signals and the records by building name; records the wall seconds of the signals and of
     the houses in ``timings`` (``site_signals``, ``houses``)."""
@@ -222,36 +246,16 @@ def buildings_written(out: Path, config: BuildConfig, configs: Mapping[str, Buil
 
     progress.stage("site signals")
     with ThreadPoolExecutor(max_workers=1, thread_name_prefix="site_signals") as pool:
-        pending = pool.submit(site_signals, config)  # read while the houses simulate: serial time hidden
+        pending = pool.submit(site_signals_once, config)  # read while the houses simulate: serial time hidden
         pending.add_done_callback(done)
-
-        def keep_house(name: str, work: HouseWork) -> BuildingRecord:
-            signals = pending.result()
-            summary = work.simulation.summary
-            record = building_record(out, config, name, ids[name], house_table(config, work.simulation, signals.solar),
-                                     summary["heating_system"], summary, signals.weather)
-            if work.surrogate is not None:
-                record.keep_surrogate(out, name, work.surrogate)
-            return record
-
-        def keep_table(name: str, frame: pd.DataFrame) -> BuildingRecord:
-            signals = pending.result()
-            return building_record(out, config, name, ids[name], frame, eulp_heating_system(config, ids[name]),
-                                   {}, signals.weather)
-
-        if config.inputs.characteristics is not None:
-            progress.stage("house", len(ids))
-            records = runner.map("house", house_work, {n: (configs[n], i, n) for n, i in ids.items()},
-                                 keep=keep_house)
+        houses = config.inputs.characteristics is not None
+        step = "house" if houses else "ingest"
+        progress.stage(step, len(ids))
+        records = runner.map(step, house_task if houses else ingest_task,
+                             {n: (configs[n], i, n, out) for n, i in ids.items()})
+        if houses:
             timings["houses"] = time.perf_counter() - started
-            progress.end("house")
-        else:
-            signals = pending.result()
-            progress.stage("ingest", len(ids))
-            records = runner.map("ingest", ingest_building,
-                                 {n: (config, i, signals.solar, signals.outdoor) for n, i in ids.items()},
-                                 keep=keep_table)
-            progress.end("ingest")
+        progress.end(step)
         return pending.result(), records
 
 

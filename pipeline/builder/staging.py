@@ -12,6 +12,7 @@ import os
 import re
 import shutil
 import signal
+import stat
 import threading
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -155,6 +156,18 @@ def write_new_file(path: Path, text: str | bytes) -> None:
     handle = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_NOFOLLOW", 0), 0o644)
     with os.fdopen(handle, "wb" if isinstance(text, bytes) else "w") as stream:
         stream.write(text)
+
+
+def write_same_file(path: Path, data: str | bytes) -> None:
+    """:func:`write_new_file`, or nothing when ``path`` is already a regular file (not a link) holding exactly
+    ``data``: a per-building task run again (its worker lost after writing) writes the same bytes; any other
+    file there is an error."""
+    try:
+        write_new_file(path, data)
+    except FileExistsError:
+        raw = data.encode() if isinstance(data, str) else data
+        if not (stat.S_ISREG(os.lstat(path).st_mode) and path.read_bytes() == raw):
+            raise
 
 
 def is_build(folder: Path, name: str) -> bool:

@@ -5,6 +5,7 @@ compose the readers of :mod:`pipeline.ingest` (files are read there, not here).
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -82,6 +83,22 @@ def site_signals(config: BuildConfig) -> Signals:
     pricing = citylearn_pricing(read_tariff(i.tariff), index)
     carbon = read_carbon_intensity(i.fuel_mix, index, timezone=config.timezone)
     return Signals(weather, pricing, carbon, solar, frame["outdoor_dry_bulb_temperature_c"].astype(float))
+
+
+_SIGNALS: dict[str, Signals] = {}
+_SIGNALS_LOCK = threading.Lock()
+
+
+def site_signals_once(config: BuildConfig) -> Signals:
+    """:func:`site_signals`, computed once per process for a site (weather, period, tariff, fuel mix, PV,
+    forecasts): every house task of a worker, and the build process itself, share one copy; concurrent
+    callers wait for the first one's."""
+    key = config.model_dump_json(include={"inputs", "period", "pv", "forecast", "seed", "timezone"})
+    with _SIGNALS_LOCK:
+        if key not in _SIGNALS:
+            _SIGNALS.clear()  # one site at a time: a process serves one build
+            _SIGNALS[key] = site_signals(config)
+        return _SIGNALS[key]
 
 
 def ingest_building(config: BuildConfig, bldg_id: int, solar: pd.Series,

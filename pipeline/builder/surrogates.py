@@ -22,7 +22,7 @@ from pipeline.builder.manifest import (
     package_version,
     sha256_file,
 )
-from pipeline.builder.staging import write_new_file
+from pipeline.builder.staging import write_same_file
 from pipeline.builder.steps import eulp_metadata_row
 from pipeline.config import RECIPE_KEYS, BuildConfig
 from pipeline.errors import InputError
@@ -486,7 +486,7 @@ def write_surrogate_files(out: Path, files: Mapping[str, bytes]) -> dict:
     for relative, data in files.items():
         path = out / relative
         path.parent.mkdir(parents=True, exist_ok=True)
-        write_new_file(path, json.dumps(block, indent=2) if relative == dynamics_name else data)
+        write_same_file(path, json.dumps(block, indent=2) if relative == dynamics_name else data)
     return block
 
 

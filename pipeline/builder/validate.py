@@ -37,9 +37,9 @@ ORACLE_BOUNDS = {"cost": ("cost", "$", 2), "emissions": ("emissions", "kg CO2", 
 CHUNK_BUILDINGS = 64
 #: building-steps (buildings x time steps) up to which the build runs the oracle: cost and emissions (one LP
 #: per building, split over the chunks) ...
-ORACLE_BUILDING_STEPS = 200_000
+ORACLE_BUILDING_STEPS = 80_000
 #: ... and the district peak (one joint LP), only for a district of one chunk
-PEAK_ORACLE_BUILDING_STEPS = 100_000
+PEAK_ORACLE_BUILDING_STEPS = 50_000
 #: buildings whose load and temperature figures the report draws (the first ones of the district)
 FIGURE_BUILDINGS = 24
 
