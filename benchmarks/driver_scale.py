@@ -24,6 +24,7 @@ stage seconds of ``timings.json``. Output (``--json``): those numbers with the C
 from __future__ import annotations
 
 import argparse
+import functools
 import hashlib
 import json
 import os
@@ -102,14 +103,16 @@ def standin_house(template: str, config, bldg_id: int, name: str):
 
 
 class StandInRunner:
-    """A runner that sends the ``house`` step to :func:`standin_house` and everything else to ``inner``."""
+    """A runner that gives the ``house`` step's tasks (:func:`pipeline.builder.driver.house_task`)
+    :func:`standin_house` as their house work, and runs everything on ``inner``."""
 
     def __init__(self, inner, template: Path):
         self.inner, self.template = inner, str(template)
 
     def map(self, step, fn, calls, keep=keep_all):
         if step == "house":
-            fn, calls = standin_house, {label: (self.template, *args) for label, args in calls.items()}
+            work = functools.partial(standin_house, self.template)
+            calls = {label: (*args, work) for label, args in calls.items()}
         return self.inner.map(step, fn, calls, keep)
 
 

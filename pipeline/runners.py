@@ -142,10 +142,10 @@ class DaskRunner:
     Each result is fetched into this process as soon as its task ends (:func:`gather_as_done`), so a worker
     lost later costs only the task it was running: the scheduler runs that again on another worker (up to
     distributed's ``allowed-failures``, 3 by default). Tasks are submitted impure and must be idempotent: the
-    build's per-building work renames a cache entry into place whole and writes nothing into the district;
-    a paper task writes its result file atomically. A remote worker reads the inputs and the cache at the paths
-    the configuration names, and writes a paper's result files under its output folder: shared storage
-    (docs/build.md, the multi-node recipe)."""
+    build's per-building work renames a cache entry into place whole and writes its building's files into
+    the district's staging folder atomically or as the same bytes again; a paper task writes its result file
+    atomically. A remote worker reads the inputs and the cache at the paths the configuration names, and
+    writes under the output folder: shared storage (docs/build.md, the multi-node recipe)."""
 
     def __init__(self, address: str | None = None, workers: int = 2):
         self.address, self.workers = address, workers
