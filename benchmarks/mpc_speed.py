@@ -3,7 +3,9 @@
 
     .venv/bin/python benchmarks/mpc_speed.py [--repeats 3] [--cases storage-perfect,storage-predicted,hp-surrogate]
 
-Cases: ``storage-<forecast>``: the storage LP's MPC (:func:`pipeline.optimal.mpc.mpc`, 24-step horizon, cost) on
+Cases: ``storage-100``: the storage LP's MPC (cost, perfect forecasts) on 100 buildings: citylearn_challenge_2022_phase_all's
+17 buildings repeated to 100 (:func:`env_scale.write_city`, each copy its own battery), issue 48's scale case;
+``storage-<forecast>``: the storage LP's MPC (:func:`pipeline.optimal.mpc.mpc`, 24-step horizon, cost) on
 CityLearn's citylearn_challenge_2022_phase_1 (5 buildings, battery + PV, upstream v2.1.2) with each forecast
 (day-ahead profiles and the PV fit learned on rows 0..311); ``hp-surrogate``: CEM MPC through the LSTM
 (:func:`pipeline.optimal.surrogate.surrogate_mpc`, 6-step horizon, 32 samples x 3 rounds) on the paper's
@@ -34,7 +36,9 @@ UPSTREAM = ROOT.parent / "shared" / "data" / "citylearn" / "upstream"
 STORAGE = UPSTREAM / "v2.1.2" / "citylearn_challenge_2022_phase_1" / "schema.json"
 HEAT_PUMP = UPSTREAM / "v2.4.2" / "citylearn_challenge_2023_phase_1" / "schema.json"
 TEST, TRAIN = (312, 719), (0, 311)
-CASES = ("storage-perfect", "storage-persistence", "storage-day_ahead", "storage-predicted", "hp-surrogate")
+CASES = ("storage-perfect", "storage-persistence", "storage-day_ahead", "storage-predicted", "hp-surrogate",
+         "storage-100")
+ALL = UPSTREAM / "v2.1.2" / "citylearn_challenge_2022_phase_all" / "schema.json"
 DEFAULT_CASES = ("storage-perfect", "storage-predicted", "hp-surrogate")
 
 
@@ -46,6 +50,21 @@ def storage_run(forecast: str) -> tuple[float, str]:
     began = time.perf_counter()
     run = mpc(env, "cost", horizon=24, forecast=forecast, train=TRAIN)
     return time.perf_counter() - began, f"cost {run.objectives['cost']:.2f} $, {run.solves} LP solves"
+
+
+def storage_100_run() -> tuple[float, str]:
+    """One storage MPC episode of 100 buildings (perfect forecasts): (seconds, what it reached)."""
+    import tempfile
+
+    from env_scale import write_city
+
+    from pipeline.optimal.mpc import mpc
+
+    with tempfile.TemporaryDirectory() as folder:
+        env = CityLearnEnv(district(write_city(100, Path(folder), source=ALL.parent), start=TEST[0], end=TEST[1]))
+        began = time.perf_counter()
+        run = mpc(env, "cost", horizon=24, forecast="perfect", train=TRAIN)
+        return time.perf_counter() - began, f"cost {run.objectives['cost']:.2f} $, {run.solves} LP solves"
 
 
 def heat_pump_run() -> tuple[float, str]:
@@ -73,13 +92,18 @@ def cpu_family() -> str:
 
 
 def time_case(name: str, repeats: int) -> None:
-    schema = HEAT_PUMP if name == "hp-surrogate" else STORAGE
+    schema = {"hp-surrogate": HEAT_PUMP, "storage-100": ALL}.get(name, STORAGE)
     if not schema.exists():
         print(f"{name:20s} skipped: {schema} is absent")
         return
     runs, what = [], ""
     for _ in range(repeats):
-        seconds, what = heat_pump_run() if name == "hp-surrogate" else storage_run(name.split("-", 1)[1])
+        if name == "hp-surrogate":
+            seconds, what = heat_pump_run()
+        elif name == "storage-100":
+            seconds, what = storage_100_run()
+        else:
+            seconds, what = storage_run(name.split("-", 1)[1])
         runs.append(seconds)
     print(f"{name:20s} {statistics.median(runs):7.2f} s median of {repeats} (min {min(runs):.2f}, max "
           f"{max(runs):.2f}); 408 steps; {what}", flush=True)

@@ -47,7 +47,7 @@ from pipeline.builder.staging import (
 from pipeline.builder.validate import validate_district
 from pipeline.errors import InputError
 from pipeline.select import describe_selection
-from surrogates.evaluate import replay_test_rmse
+from surrogates.evaluate import replay_far_off, replay_test_rmse
 from surrogates.export import load_surrogate
 from surrogates.ilv import read_ilv, table_digest
 from surrogates.sources.csv import read_ilv_table
@@ -308,16 +308,10 @@ def check_verified(folder: Path, force: bool) -> list[str]:
     return problems
 
 
-#: a model is refused when its replayed held-out closed-loop RMSE exceeds this many times the RMSE its metrics
-#: claim, plus :data:`REPLAY_MARGIN_C`: far above what it recorded (the environment's float64 runtime and the
-#: trainer's torch float32 agree to about 1e-4 degC; the margin covers a model trained in bfloat16)
-REPLAY_FACTOR, REPLAY_MARGIN_C = 1.5, 0.1
-
-
 def check_model_behaviour(files: ModelFiles, block: dict, table_path: Path, *, force: bool) -> dict | None:
     """Replay the model closed loop on the held-out test runs its metrics record, on the house's own ILV table
     (:func:`surrogates.evaluate.replay_test_rmse`); refuse (one line) a model whose error is far above the
-    RMSE it claims (:data:`REPLAY_FACTOR`, :data:`REPLAY_MARGIN_C`) unless ``force``. Returns the replay's
+    RMSE it claims (:func:`surrogates.evaluate.replay_far_off`) unless ``force``. Returns the replay's
     record (None: nothing to replay, a model without metrics or a district without the table, installed only
     with ``force``)."""
     try:
@@ -329,7 +323,7 @@ def check_model_behaviour(files: ModelFiles, block: dict, table_path: Path, *, f
     if not table_path.is_file():
         return None
     rmse, hours = replay_test_rmse(files.pth, block, read_ilv_table(table_path), test)
-    if rmse > REPLAY_FACTOR * claimed + REPLAY_MARGIN_C and not force:
+    if replay_far_off(rmse, claimed) and not force:
         raise InputError(f"the model replayed on the house's held-out runs is off by {rmse:.3g} degC (closed-loop "
                          f"RMSE over {hours} h); its metrics claim {claimed:.3g} degC: not installed (--force to "
                          "install anyway)", file=files.pth, column="test.closed_loop_rmse_c")

@@ -5,6 +5,7 @@ through :mod:`surrogates`, the judge (cached on its own) and the files written i
 from __future__ import annotations
 
 import calendar
+import io
 import json
 import re
 import sys
@@ -31,6 +32,7 @@ from pipeline.ingest.weather import check_weather
 from pipeline.progress import epochs, report
 from surrogates.config import TrainConfig, recipe, season_months
 from surrogates.energyplus.ilv_runs import ILVConfig, partial_runs_for
+from surrogates.evaluate import replay_far_off, replay_test_rmse
 from surrogates.export import train_and_export
 from surrogates.ilv import read_ilv, table_digest, validate_ilv
 from surrogates.judge import JudgeConfig, judge_surrogate, verdict
@@ -332,6 +334,29 @@ def parses(files: Mapping[str, bytes], names: tuple[str, ...]) -> bool:
         return False
 
 
+def replay_off_record(files: Mapping[str, bytes], name: str) -> str | None:
+    """Replay a cached model closed loop on the held-out test runs its metrics record, on the entry's own
+    training table (:func:`surrogates.evaluate.replay_test_rmse`): None when it behaves as recorded, else why
+    not (far above its recorded RMSE, :func:`surrogates.evaluate.replay_far_off`; or not replayable). The
+    checksums of an entry say it was not damaged, the replay that its model is the one its metrics describe."""
+    try:
+        metrics = json.loads(files[f"surrogates/{name}.metrics.json"])
+        claimed = float(metrics["test"]["closed_loop_rmse_c"])
+        test = metrics["training"]["splits"]["test"]
+        block = json.loads(files[f"surrogates/{name}.dynamics.json"])
+        table = pd.read_parquet(io.BytesIO(files[ilv_file(name)]))
+        with tempfile.TemporaryDirectory(prefix="districtgen_replay_") as folder:
+            pth = Path(folder) / f"{name}.pth"
+            pth.write_bytes(files[f"{name}.pth"])
+            rmse, hours = replay_test_rmse(pth, block, table, test)
+    except (KeyError, TypeError, ValueError, OSError, InputError) as error:
+        return f"its model cannot be replayed on its held-out runs ({str(error).splitlines()[0][:200]})"
+    if replay_far_off(rmse, claimed):
+        return (f"its model replays at {rmse:.3g} degC closed-loop RMSE on its held-out runs ({hours} h), its "
+                f"metrics claim {claimed:.3g} degC")
+    return None
+
+
 def surrogate_files(config: BuildConfig, bldg_id: int, name: str, table: pd.DataFrame | None = None,
                     weather: pd.Series | None = None) -> SurrogateFiles:
     """A building's surrogate files: the trained model from the surrogate cache (:mod:`pipeline.builder.cache`)
@@ -346,10 +371,15 @@ def surrogate_files(config: BuildConfig, bldg_id: int, name: str, table: pd.Data
     cache = FileCache(cache_root(config.cache_dir) / "surrogates")
     files = cache.get(key, owns=surrogate_owns(name))
     hit = complete_entry(files, name)
+    off = replay_off_record(files, name) if hit else None
+    if off is not None:
+        warnings.warn(f"surrogate cache entry {cache.folder / key} of {name}: {off}: retrained", RuntimeWarning,
+                      stacklevel=2)
+        hit = False
     if hit:
         report(name, "surrogate from the cache")
     else:
-        if files is not None:
+        if files is not None and off is None:
             warnings.warn(f"surrogate cache entry {cache.folder / key} of {name} does not parse: rebuilt",
                           RuntimeWarning, stacklevel=2)
         if table is None:

@@ -348,3 +348,29 @@ def test_a_self_consistent_entry_whose_dynamics_do_not_parse_is_rebuilt(one_buil
     assert district_digest(second) == district_digest(first)
     third = build_district_local(one_building, tmp_path / "c")
     assert _cache_use(third) == {"key": key, "hit": True}
+
+
+def test_an_entry_whose_model_is_not_the_one_its_metrics_describe_is_retrained(one_building, tmp_path):
+    """A cache entry with every checksum right but a model whose output is shifted by tens of degC (its metrics
+    still claiming the good fit): the build replays it on its held-out runs, names the entry and the error,
+    trains again; the district is the one the intact entry gives."""
+    import io
+
+    import torch
+
+    first = build_district_local(one_building, tmp_path / "a")
+    key = _cache_use(first)["key"]
+    cache = FileCache(one_building.cache_dir / "surrogates")
+    files = cache.get(key)
+    checkpoint = torch.load(io.BytesIO(files["Building_1.pth"]), weights_only=False)
+    checkpoint["model_state_dict"]["l_linear.bias"] += 5.0
+    buffer = io.BytesIO()
+    torch.save(checkpoint, buffer)
+    files["Building_1.pth"] = buffer.getvalue()
+    shutil.rmtree(cache.folder / key)
+    cache.put(key, files)  # every sha256 right
+    with pytest.warns(RuntimeWarning, match=rf"surrogate cache entry .*{key} of Building_1: its model replays at "
+                                            r"[0-9.]+ degC .* its metrics claim [0-9.]+ degC: retrained"):
+        second = build_district_local(one_building, tmp_path / "b")
+    assert _cache_use(second) == {"key": key, "hit": False}
+    assert district_digest(second) == district_digest(first)
