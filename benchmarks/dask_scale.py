@@ -9,7 +9,10 @@ absolute input paths: real ResStock houses simulated in EnergyPlus on Austin 201
 as ``make run`` does. For every worker count W, a fresh ``dask scheduler`` and W ``dask worker --nthreads 1
 --no-nanny`` processes are started on 127.0.0.1 (as on separate machines), then ``districtgen build CONFIG
 --dask tcp://127.0.0.1:PORT --cache-dir EMPTY --quiet`` runs in its own process: a cold build (every house
-simulated and trained), timed end to end (the Prefect API server's start included).
+simulated and trained), timed end to end (the Prefect API server's start included). ``--kill-after S``:
+S seconds into each build one worker is killed (SIGKILL, mid-task) and a replacement worker started; the
+run then records ``killed_at_s`` and ``in_process_sha256``, the digest of an in-process build
+(``--no-prefect``) of the same configuration from the cache the Dask build filled.
 
 Output (``--json``)::
 
@@ -39,6 +42,7 @@ import signal
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 import tomllib
 from datetime import date
@@ -112,8 +116,36 @@ def start_cluster(workers: int, scratch: Path, env: dict) -> tuple[str, subproce
     return address, scheduler, pool
 
 
-def one_build(toml: Path, workers: int, scratch: Path, keep: Path | None = None) -> dict:
-    """One cold build of ``toml`` on a fresh cluster of ``workers`` worker processes."""
+def kill_and_replace(pool: list[subprocess.Popen], address: str, env: dict, after_s: float,
+                     done: threading.Event, record: dict) -> None:
+    """``after_s`` seconds into the build (unless it is ``done``), SIGKILL the first worker (mid-task: the
+    scheduler reruns its task elsewhere) and start a replacement worker process; ``record`` says when."""
+    if done.wait(after_s):
+        return
+    victim = pool[0]
+    victim.kill()
+    _, _, usage = os.wait4(victim.pid, 0)
+    victim.returncode = -9
+    record["killed_at_s"], record["killed_worker_cpu_s"] = after_s, round(cpu_seconds(usage), 2)
+    pool.append(subprocess.Popen([str(DASK), "worker", address, "--nthreads", "1", "--no-nanny", "--no-dashboard",
+                                  "--name", "w-replacement"], stdout=subprocess.DEVNULL,
+                                 stderr=subprocess.DEVNULL, env=env, cwd=ROOT))
+
+
+def in_process_digest(toml: Path, scratch: Path, env: dict) -> str:
+    """The district digest of ``districtgen build --no-prefect`` (in process) of ``toml`` from the cache the
+    Dask build filled."""
+    out = scratch / "in_process"
+    shutil.rmtree(out, ignore_errors=True)
+    subprocess.run([sys.executable, "-m", "pipeline.cli", "build", str(toml), "-o", str(out), "--cache-dir",
+                    str(scratch / "cache"), "--no-prefect", "--quiet"], cwd=ROOT, env=env, check=True)
+    return district_digest(out / toml.stem)
+
+
+def one_build(toml: Path, workers: int, scratch: Path, keep: Path | None = None,
+              kill_after_s: float | None = None) -> dict:
+    """One cold build of ``toml`` on a fresh cluster of ``workers`` worker processes; with ``kill_after_s``
+    one worker is killed then and replaced, and the district is compared with an in-process build's."""
     out, cache = scratch / "out", scratch / "cache"
     shutil.rmtree(out, ignore_errors=True)
     shutil.rmtree(cache, ignore_errors=True)
@@ -121,7 +153,12 @@ def one_build(toml: Path, workers: int, scratch: Path, keep: Path | None = None)
            "PREFECT_LOGGING_LEVEL": "WARNING", "PREFECT_HOME": str(scratch / "prefect")}
     env.pop("PREFECT_API_URL", None)
     address, scheduler, pool = start_cluster(workers, scratch, env)
+    killed: dict = {}
+    done = threading.Event()
     try:
+        if kill_after_s is not None:
+            threading.Thread(target=kill_and_replace, args=(pool, address, env, kill_after_s, done, killed),
+                             daemon=True).start()
         started = time.perf_counter()
         build = subprocess.Popen([sys.executable, "-m", "pipeline.cli", "build", str(toml), "-o", str(out),
                                   "--cache-dir", str(cache), "--dask", address, "--quiet"], cwd=ROOT, env=env,
@@ -131,7 +168,8 @@ def one_build(toml: Path, workers: int, scratch: Path, keep: Path | None = None)
         build.returncode = os.waitstatus_to_exitcode(status)
         wall = time.perf_counter() - started
     finally:
-        worker_cpu = sum(stop(p) for p in pool)
+        done.set()
+        worker_cpu = sum(stop(p) for p in pool if p.returncode is None) + killed.get("killed_worker_cpu_s", 0.0)
         scheduler_cpu = stop(scheduler)
     if build.returncode != 0:
         raise SystemExit(f"build with {workers} workers failed (exit {build.returncode}):\n{stderr[-3000:]}")
@@ -140,7 +178,9 @@ def one_build(toml: Path, workers: int, scratch: Path, keep: Path | None = None)
     if keep is not None:
         shutil.copytree(folder, keep / f"workers{workers}", dirs_exist_ok=True)
     driver = cpu_seconds(usage)
-    return {"workers": workers, "wall_s": round(wall, 2),
+    if kill_after_s is not None:
+        killed["in_process_sha256"] = in_process_digest(toml, scratch, env)
+    return {"workers": workers, "wall_s": round(wall, 2), **killed,
             "cpu_s": {"driver": round(driver, 2), "workers": round(worker_cpu, 2), "scheduler": round(scheduler_cpu, 2),
                       "total": round(driver + worker_cpu + scheduler_cpu, 2)},
             "driver_peak_rss_mb": timings.get("build_process_peak_rss_mb"), "steps_s": timings["stages_s"],
@@ -155,6 +195,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--workers", type=int, nargs="+", default=[1, 2])
     parser.add_argument("--json", type=Path, default=None)
     parser.add_argument("--keep", type=Path, default=None, help="copy each run's district into this folder")
+    parser.add_argument("--kill-after", type=float, default=None, metavar="S",
+                        help="kill one worker S seconds into each build and start a replacement; then build "
+                             "in process from the filled cache and compare the districts")
     args = parser.parse_args(argv)
 
     from surrogates.precision import capability
@@ -166,7 +209,7 @@ def main(argv: list[str] | None = None) -> int:
         before = os.getloadavg()
         runs = []
         for workers in args.workers:
-            runs.append(one_build(toml, workers, scratch, args.keep))
+            runs.append(one_build(toml, workers, scratch, args.keep, args.kill_after))
             print(json.dumps(runs[-1]), flush=True)
         after = os.getloadavg()
     base = next((r for r in runs if r["workers"] == 1), None)
@@ -175,7 +218,7 @@ def main(argv: list[str] | None = None) -> int:
     result = {"houses": args.houses, "start": args.start.isoformat(), "end": args.end.isoformat(),
               "cpu": capability().describe(), "load_average": [list(before), list(after)], "runs": runs,
               "efficiency": efficiency}
-    digests = {r["artifacts_sha256"] for r in runs}
+    digests = {r["artifacts_sha256"] for r in runs} | {r["in_process_sha256"] for r in runs if "in_process_sha256" in r}
     print(f"efficiency {efficiency}; the same district from every worker count: {len(digests) == 1}")
     if args.json is not None:
         args.json.write_text(json.dumps(result, indent=2))

@@ -51,6 +51,8 @@ from pipeline.realism import hour_of_day_profile, median_profile, percentile_ban
 
 PERCENTILES = (10, 50, 90)
 TOLERANCE = 0.25
+#: statistic -> below this real median the season has none of it (not compared): kWh in the month
+NEGLIGIBLE = {"cooling_kwh": 10.0, "heating_kwh": 10.0}
 
 
 def folder_house_months(folder: Path) -> list[HouseMonth]:
@@ -117,6 +119,12 @@ def distribution_table(built: list[HouseMonth], real: list[HouseMonth]) -> tuple
     for key, (label, decimals) in STATISTICS.items():
         ours, theirs = percentiles([b.stats[key] for b in built]), percentiles([r.stats[key] for r in real])
         if not np.isfinite(theirs).all() or not np.isfinite(ours).all():
+            continue
+        if theirs[1] < NEGLIGIBLE.get(key, -np.inf):
+            lines.append("| " + " | ".join([label, *(f"{v:,.{decimals}f}" for v in theirs),
+                                            *(f"{v:,.{decimals}f}" for v in ours), "-",
+                                            "not compared (real median below "
+                                            f"{NEGLIGIBLE[key]:g} kWh)"]) + " |")
             continue
         ratios = ours / np.where(theirs == 0, np.nan, theirs)
         within = bool(np.all(np.abs(ratios - 1.0) <= TOLERANCE))

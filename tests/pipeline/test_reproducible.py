@@ -129,3 +129,41 @@ def test_surrogate_builds_are_byte_identical_with_fresh_caches(tmp_path):
     manifest = json.loads(first["manifest.json"])
     assert len(manifest["surrogate_cache"]["Building_1"]["key"]) == 64
     assert set(manifest["inputs"]) >= {"weather", "tariff", "fuel_mix", "ilv/900001", "ilv/900002"}
+
+
+def _busy(seconds: float) -> None:
+    """Spin the CPU for ``seconds`` (a process beside the build)."""
+    import time
+
+    end = time.monotonic() + seconds
+    while time.monotonic() < end:
+        pass
+
+
+@pytest.mark.slow  # two trainings (one epoch each) with `auto` precision, the second beside two busy processes
+def test_auto_precision_gives_one_district_on_a_busy_cpu(tmp_path, monkeypatch):
+    """``precision = "auto"`` is decided once per machine and recorded (DISTRICTGEN_CACHE_DIR/precision.json):
+    a second build from an empty surrogate cache, trained while two processes keep both cores busy (where a
+    fresh speed probe could choose otherwise), uses the recorded decision and gives the same district."""
+    import multiprocessing
+
+    from pipeline.builder.manifest import district_digest
+
+    monkeypatch.setenv("DISTRICTGEN_CACHE_DIR", str(tmp_path / "machine"))
+    path = short_config_file(tmp_path, source="csv", ilv=small_ilv_tables(tmp_path / "ilv"))
+    config = read_build_config(path)
+    config = config.model_copy(update={"surrogate": config.surrogate.model_copy(update={"precision": "auto"})})
+    quiet = build_district_local(config.model_copy(update={"cache_dir": tmp_path / "cache1"}), tmp_path / "out1")
+    context = multiprocessing.get_context("spawn")
+    burners = [context.Process(target=_busy, args=(600.0,), daemon=True) for _ in range(2)]
+    for burner in burners:
+        burner.start()
+    try:
+        busy = build_district_local(config.model_copy(update={"cache_dir": tmp_path / "cache2"}), tmp_path / "out2")
+    finally:
+        for burner in burners:
+            burner.terminate()
+    records = [json.loads((folder / TIMINGS).read_text())["precision"] for folder in (quiet, busy)]
+    assert records[0]["precision"] == records[1]["precision"]
+    assert json.loads((busy / TIMINGS).read_text())["surrogates"]["Building_1"]["hit"] is False  # trained again
+    assert district_digest(busy) == district_digest(quiet)
