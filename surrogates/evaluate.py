@@ -155,17 +155,6 @@ def bank_rollout(pth: str | os.PathLike, block: dict, table: pd.DataFrame, segme
     return pd.concat(frames, ignore_index=True)
 
 
-#: a model is far off its record when its replayed held-out closed-loop RMSE exceeds this many times the RMSE
-#: its metrics claim, plus :data:`REPLAY_MARGIN_C` (the environment's float64 runtime and the trainer's torch
-#: float32 agree to about 1e-4 degC; the margin covers a model trained in bfloat16)
-REPLAY_FACTOR, REPLAY_MARGIN_C = 1.5, 0.1
-
-
-def replay_far_off(rmse: float, claimed: float) -> bool:
-    """Whether a replayed closed-loop RMSE [degC] is far above the ``claimed`` one (:data:`REPLAY_FACTOR`)."""
-    return not rmse <= REPLAY_FACTOR * claimed + REPLAY_MARGIN_C
-
-
 def replay_test_rmse(pth: str | os.PathLike, block: dict, table: pd.DataFrame,
                      test: Sequence[Mapping[str, int]]) -> tuple[float, int]:
     """Closed-loop RMSE [degC] and hours of an exported model on the held-out test segments its metrics record

@@ -47,9 +47,10 @@ from pipeline.builder.staging import (
 from pipeline.builder.validate import validate_district
 from pipeline.errors import InputError
 from pipeline.select import describe_selection
-from surrogates.evaluate import replay_far_off, replay_test_rmse
+from surrogates.evaluate import replay_test_rmse
 from surrogates.export import load_surrogate
 from surrogates.ilv import read_ilv, table_digest
+from surrogates.plausibility import replay_far_off
 from surrogates.sources.csv import read_ilv_table
 
 
@@ -311,7 +312,7 @@ def check_verified(folder: Path, force: bool) -> list[str]:
 def check_model_behaviour(files: ModelFiles, block: dict, table_path: Path, *, force: bool) -> dict | None:
     """Replay the model closed loop on the held-out test runs its metrics record, on the house's own ILV table
     (:func:`surrogates.evaluate.replay_test_rmse`); refuse (one line) a model whose error is far above the
-    RMSE it claims (:func:`surrogates.evaluate.replay_far_off`) unless ``force``. Returns the replay's
+    RMSE it claims (:func:`surrogates.plausibility.replay_far_off`) unless ``force``. Returns the replay's
     record (None: nothing to replay, a model without metrics or a district without the table, installed only
     with ``force``)."""
     try:

@@ -32,10 +32,11 @@ from pipeline.ingest.weather import check_weather
 from pipeline.progress import epochs, report
 from surrogates.config import TrainConfig, recipe, season_months
 from surrogates.energyplus.ilv_runs import ILVConfig, partial_runs_for
-from surrogates.evaluate import replay_far_off, replay_test_rmse
+from surrogates.evaluate import replay_test_rmse
 from surrogates.export import train_and_export
 from surrogates.ilv import read_ilv, table_digest, validate_ilv
 from surrogates.judge import JudgeConfig, judge_surrogate, verdict
+from surrogates.plausibility import replay_far_off
 from surrogates.precision import Choice
 from surrogates.sources.energyplus import energyplus_ilv_table
 from surrogates.sources.fmu import simulate_ilv_fmu
@@ -337,7 +338,7 @@ def parses(files: Mapping[str, bytes], names: tuple[str, ...]) -> bool:
 def replay_off_record(files: Mapping[str, bytes], name: str) -> str | None:
     """Replay a cached model closed loop on the held-out test runs its metrics record, on the entry's own
     training table (:func:`surrogates.evaluate.replay_test_rmse`): None when it behaves as recorded, else why
-    not (far above its recorded RMSE, :func:`surrogates.evaluate.replay_far_off`; or not replayable). The
+    not (far above its recorded RMSE, :func:`surrogates.plausibility.replay_far_off`; or not replayable). The
     checksums of an entry say it was not damaged, the replay that its model is the one its metrics describe."""
     try:
         metrics = json.loads(files[f"surrogates/{name}.metrics.json"])
