@@ -10,7 +10,8 @@ as ``make run`` does. For every worker count W, a fresh ``dask scheduler`` and W
 --no-nanny`` processes are started on 127.0.0.1 (as on separate machines), then ``districtgen build CONFIG
 --dask tcp://127.0.0.1:PORT --cache-dir EMPTY --quiet`` runs in its own process: a cold build (every house
 simulated and trained), timed end to end (the Prefect API server's start included). ``--kill-after S``:
-S seconds into each build one worker is killed (SIGKILL, mid-task) and a replacement worker started; the
+S seconds into each build of 2+ workers one worker is killed (SIGKILL, mid-task) and a replacement worker
+started (the efficiency then counts the task run again); the
 run then records ``killed_at_s`` and ``in_process_sha256``, the digest of an in-process build
 (``--no-prefect``) of the same configuration from the cache the Dask build filled.
 
@@ -209,7 +210,7 @@ def main(argv: list[str] | None = None) -> int:
         before = os.getloadavg()
         runs = []
         for workers in args.workers:
-            runs.append(one_build(toml, workers, scratch, args.keep, args.kill_after))
+            runs.append(one_build(toml, workers, scratch, args.keep, args.kill_after if workers > 1 else None))
             print(json.dumps(runs[-1]), flush=True)
         after = os.getloadavg()
     base = next((r for r in runs if r["workers"] == 1), None)
