@@ -11,7 +11,7 @@ import time
 from pathlib import Path
 
 from pipeline.builder.staging import process_alive
-from pipeline.runners import ProcessRunner
+from pipeline.runners import InProcessRunner, ProcessRunner
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -36,13 +36,30 @@ def test_workers_run_the_calls_in_order(tmp_path):
     assert ProcessRunner(2).map("t", write_pid_and_sleep, calls) == {"t0": "t0", "t1": "t1", "t2": "t2"}
 
 
+def test_keep_sees_each_result_here_as_it_arrives_and_only_its_return_is_held(tmp_path):
+    """``keep(label, result)`` runs in the calling process, once per result, in the order results finish (the
+    0.0 s task before the 2 s one on two workers), and the map returns what ``keep`` returned, in call order."""
+    seen = []
+
+    def keep(label: str, result: str) -> tuple[str, int]:
+        seen.append((label, os.getpid()))
+        return label, len(result)
+
+    calls = {"slow": (str(tmp_path), "slow", 2.0), "quick": (str(tmp_path), "quick", 0.0)}
+    assert ProcessRunner(2).map("t", write_pid_and_sleep, calls, keep=keep) == {"slow": ("slow", 4),
+                                                                                 "quick": ("quick", 5)}
+    assert seen == [("quick", os.getpid()), ("slow", os.getpid())]
+    assert InProcessRunner().map("t", write_pid_and_sleep, calls, keep=keep) == {"slow": ("slow", 4),
+                                                                                 "quick": ("quick", 5)}
+
+
 def test_workers_leave_when_their_parent_is_killed(tmp_path):
     """SIGKILL to the process that owns the pool (its workers are mid-task, 120 s each): they are gone
     within seconds instead of running their tasks to the end."""
     script = textwrap.dedent(f"""
         import sys
         sys.path.insert(0, {str(ROOT)!r})
-        from pipeline.runners import ProcessRunner
+        from pipeline.runners import InProcessRunner, ProcessRunner
         from tests.pipeline.test_runners import write_pid_and_sleep
         if __name__ == "__main__":
             calls = {{name: ({str(tmp_path)!r}, name, 120.0) for name in ("a", "b")}}
