@@ -259,19 +259,24 @@ def simulated_house_months(config_path: Path, district: Path | None, schedule_se
     from pipeline.ingest.stock import read_characteristics_row
 
     config = read_build_config(config_path)
-    start, end = config.period.start, config.period.end
     out = []
     for name, bldg_id in _district_houses(config, district):
         row = read_characteristics_row(config.inputs.characteristics, bldg_id)
-        loads, house = _ideal_loads(config, row, ((start.month, start.day), (end.month, end.day)), start.year,
-                                    schedule_seed)
-        frame = pd.DataFrame({"month": loads.index.month, "hour": loads.index.hour + 1,
-                              "non_shiftable_load": loads["non_shiftable_load_kwh"].to_numpy(),
-                              "dhw_demand": loads["dhw_demand_kwh"].to_numpy(),
-                              "cooling_demand": loads["cooling_demand_kwh"].to_numpy(),
-                              "heating_demand": loads["heating_demand_kwh"].to_numpy()})
-        out += split_months(name, frame, house.floor_area_m2)
+        out += simulated_house(config, name, row, schedule_seed)
     return out
+
+
+def simulated_house(config, name: str, row: dict, schedule_seed: int = 0) -> list[HouseMonth]:
+    """One house's ideal-loads pass over ``config``'s period (:func:`_ideal_loads`), split into months."""
+    start, end = config.period.start, config.period.end
+    loads, house = _ideal_loads(config, row, ((start.month, start.day), (end.month, end.day)), start.year,
+                                schedule_seed)
+    frame = pd.DataFrame({"month": loads.index.month, "hour": loads.index.hour + 1,
+                          "non_shiftable_load": loads["non_shiftable_load_kwh"].to_numpy(),
+                          "dhw_demand": loads["dhw_demand_kwh"].to_numpy(),
+                          "cooling_demand": loads["cooling_demand_kwh"].to_numpy(),
+                          "heating_demand": loads["heating_demand_kwh"].to_numpy()})
+    return split_months(name, frame, house.floor_area_m2)
 
 
 def _stock_kwh(column: str):

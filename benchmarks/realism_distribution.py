@@ -28,7 +28,6 @@ from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
@@ -78,23 +77,15 @@ def district_houses(config_path: Path) -> list[tuple[str, int, int]]:
 
 
 def simulate_one(config_path: Path, name: str, bldg_id: int, schedule_seed: int) -> list[HouseMonth]:
-    """One house's ideal-loads pass over the configuration's period (:func:`realism._ideal_loads`)."""
-    from realism import _ideal_loads
+    """One house's ideal-loads pass over the configuration's period (:func:`realism.simulated_house`)."""
+    from realism import simulated_house
 
     from pipeline.config import read_build_config
     from pipeline.ingest.stock import read_characteristics_row
 
     config = read_build_config(config_path)
-    start, end = config.period.start, config.period.end
-    row = read_characteristics_row(config.inputs.characteristics, bldg_id)
-    loads, house = _ideal_loads(config, row, ((start.month, start.day), (end.month, end.day)), start.year,
-                                schedule_seed)
-    frame = pd.DataFrame({"month": loads.index.month, "hour": loads.index.hour + 1,
-                          "non_shiftable_load": loads["non_shiftable_load_kwh"].to_numpy(),
-                          "dhw_demand": loads["dhw_demand_kwh"].to_numpy(),
-                          "cooling_demand": loads["cooling_demand_kwh"].to_numpy(),
-                          "heating_demand": loads["heating_demand_kwh"].to_numpy()})
-    return split_months(name, frame, house.floor_area_m2)
+    return simulated_house(config, name, read_characteristics_row(config.inputs.characteristics, bldg_id),
+                           schedule_seed)
 
 
 def simulated(config_path: Path, workers: int) -> list[HouseMonth]:
