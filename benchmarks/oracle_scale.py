@@ -37,7 +37,7 @@ from mpc_speed import cpu_family  # noqa: E402  (this folder is on the path when
 from oracle_speed import cpu_name  # noqa: E402
 
 from citylearn_env import CityLearnEnv  # noqa: E402  (after the path set-up: runs from a checkout)
-from pipeline.optimal.optimum import district, optimal  # noqa: E402
+from pipeline.optimal.optimum import CERTIFY_SECONDS, district, optimal  # noqa: E402
 from pipeline.optimal.oracle import solve_plant  # noqa: E402
 from pipeline.optimal.plant import Plant, plant_from_env  # noqa: E402
 from pipeline.runners import InProcessRunner, ProcessRunner  # noqa: E402
@@ -81,7 +81,7 @@ def gaps() -> None:
         schema = UPSTREAM / f"citylearn_challenge_2022_{label}" / "schema.json"
         for rows in ((0, 719), (312, 719)):
             began = time.perf_counter()
-            result = optimal(schema, "cost", *rows, quiet=True)
+            result = optimal(schema, "cost", *rows, quiet=True, certify=CERTIFY_SECONDS)
             seconds = time.perf_counter() - began
             print(f"2022 {label} rows {rows[0]}..{rows[1]}: best plan (env) {result.value:.6g} $, certified bound "
                   f"{result.bound:.6g} $, gap {result.gap * 100:.3f} %; plan vs env "

@@ -31,6 +31,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--compat", action="store_true", help="plan and replay in the CityLearn 2.1 preset")
     parser.add_argument("--no-check", action="store_true", help="skip the replay of the schedule in the env")
     parser.add_argument("--workers", type=int, default=1, help="processes solving buildings in parallel")
+    parser.add_argument("--certify", type=float, metavar="SECONDS",
+                        help="seconds per building for tightening the certified lower bound with each step's "
+                             "battery power range as a choice (default CERTIFY_SECONDS, 30; 0: the linear relaxation's bound)")
     parser.add_argument("--mpc", action="store_true",
                         help="also run receding-horizon MPC and print it beside the oracle; -o writes its actions")
     parser.add_argument("--horizon", type=int, default=24, help="with --mpc: steps planned ahead (default 24)")
@@ -83,10 +86,12 @@ def check_mpc_options(args: argparse.Namespace) -> None:
 
 def optimal_command(args: argparse.Namespace) -> int:
     from pipeline.errors import InputError
-    from pipeline.optimal.optimum import optimal
+    from pipeline.optimal.optimum import CERTIFY_SECONDS, optimal
 
     if args.workers < 1:
         raise InputError("--workers N needs N >= 1", column="--workers")
+    if args.certify is not None and not 0 <= args.certify < float("inf"):
+        raise InputError(f"--certify SECONDS needs a finite number >= 0, got {args.certify}", column="--certify")
     if not args.mpc and (args.horizon != 24 or args.forecast != "perfect" or args.train is not None):
         raise InputError("--horizon, --forecast and --train apply to --mpc only", column="--mpc")
     check_mpc_options(args)
@@ -97,7 +102,8 @@ def optimal_command(args: argparse.Namespace) -> int:
     try:
         optimal(args.schema, parse_objective(args.objective), start=args.start, end=args.end, out=args.output,
                 settings="citylearn-2.1" if args.compat else None, normalise=args.normalise,
-                check=not args.no_check, workers=args.workers, control=control)
+                check=not args.no_check, workers=args.workers, control=control,
+                certify=CERTIFY_SECONDS if args.certify is None else args.certify)
     except SolveError as error:  # a status HiGHS reports: one line, exit 1 (the input passed every check)
         print(f"districtgen: error: {args.schema}: the oracle's linear program was not solved: {error}",
               file=sys.stderr)

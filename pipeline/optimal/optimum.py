@@ -33,6 +33,9 @@ from pipeline.optimal.replay import Replay, replay
 
 #: a plan counts as worse than no control when its objective is above no control's by more than this [relative]
 WORSE = 1e-9
+#: seconds per building group ``districtgen optimal`` spends tightening the certified bound by default
+#: (:mod:`pipeline.optimal.certify`)
+CERTIFY_SECONDS = 30.0
 UNITS = {"cost": "$", "emissions": "kg", "consumption": "kWh", "average_daily_peak": "kW"}
 
 
@@ -159,7 +162,8 @@ def preset_name(settings: Any = None) -> str:
 def optimal(schema: str | Path | Mapping[str, Any] | DistrictConfig, objective: str | Mapping[str, float] = "cost",
             start: int | None = None, end: int | None = None, out: str | Path | None = None, *,
             settings: Any = None, seed: int = 0, normalise: bool = False, check: bool = True, track: str = "soc",
-            workers: int = 1, quiet: bool = False, control: Mapping[str, Any] | None = None) -> Result:
+            workers: int = 1, quiet: bool = False, control: Mapping[str, Any] | None = None,
+            certify: float = 0.0) -> Result:
     """The best perfect-foresight plan of ``schema``'s storage, and a certified lower bound, for ``objective`` (a name of
     :data:`pipeline.optimal.objectives.OBJECTIVES` or ``{name: weight}``; ``normalise`` divides the weights
     by the no-control values) over the data rows ``start`` .. ``end``.
@@ -170,14 +174,15 @@ def optimal(schema: str | Path | Mapping[str, Any] | DistrictConfig, objective: 
     open loop (``"energy"``; :mod:`pipeline.optimal.replay`); ``workers``: processes solving buildings in
     parallel; ``quiet``: print nothing; ``control``: run MPC too (keywords of :func:`pipeline.optimal.mpc.mpc`:
     ``horizon``, ``forecast``, ``train``; the weights as the oracle's) and write its actions to ``out`` instead of
-    the schedule. Returns a :class:`Result` (its ``value``, ``bound``, ``gap``, ``summary()``, ``mpc``).
+    the schedule; ``certify``: seconds per building for tightening the bound (:mod:`pipeline.optimal.certify`;
+    0: the relaxation's own; ``districtgen optimal`` gives :data:`CERTIFY_SECONDS`). Returns a :class:`Result` (its ``value``, ``bound``, ``gap``, ``summary()``, ``mpc``).
     """
     if out is not None:
         output_file(out, column="--output")  # refused before the solve: a link at it, a built district
     config = district(schema, start=start, end=end, settings=settings)
     env = CityLearnEnv(config, settings=settings)
     env.reset(seed=seed)
-    solution = oracle(env, objective, normalise=normalise, workers=workers)
+    solution = oracle(env, objective, normalise=normalise, workers=workers, certify=certify)
     checked = replay(env, solution.schedule, seed=seed, track=track) if check else None
     used = {k: w for k, w in solution.weights.items() if w}
     found = obj.weighted(checked.objectives if checked is not None else solution.objectives, used)

@@ -49,6 +49,7 @@ import numpy as np
 from pipeline.optimal import checks, relax
 from pipeline.optimal import lockstep as steps_lockstep
 from pipeline.optimal import objectives as obj
+from pipeline.optimal.certify import block_bound
 from pipeline.optimal.lp import build
 from pipeline.optimal.plant import Plant, battery_path, path_error, plant_from_env, trust
 from pipeline.optimal.polish import POLISH_SOLVES, polish
@@ -139,23 +140,24 @@ class Group:
 
 
 def oracle(env, objective: str | Mapping[str, float] = "cost", *, normalise: bool = False,
-           workers: int = 1, runner: Any = None, bound: bool = True) -> Oracle:
+           workers: int = 1, runner: Any = None, bound: bool = True, certify: float = 0.0) -> Oracle:
     """The oracle of ``env``'s current episode (call ``env.reset(seed=...)`` first: the outage signal of that
     reset is the one planned for). ``objective``: a name of :data:`objectives.OBJECTIVES` or weights;
     ``normalise``: divide the weights by the no-control values (a sum of ratios); ``workers``: processes
     solving buildings in parallel (objectives without the peak only); ``runner``: a
     :class:`pipeline.runners.Runner` mapping the per-building groups instead (e.g. the build's); ``bound``:
-    solve the relaxations for the certified lower bound too. Weights outside the range of
-    :func:`pipeline.optimal.checks.check_weights` are refused."""
+    solve the relaxations for the certified lower bound too; ``certify``: seconds per building group for
+    tightening that bound with the power-range choice (:mod:`pipeline.optimal.certify`; 0: the relaxation's own
+    bound). Weights outside the range of :func:`pipeline.optimal.checks.check_weights` are refused."""
     checks.check_weights(obj.weights_of(objective))
     return solve_plant(plant_from_env(env), objective, normalise=normalise, workers=workers, runner=runner,
-                       bound=bound)
+                       bound=bound, certify=certify)
 
 
 def solve_plant(plant: Plant, objective: str | Mapping[str, float] = "cost", *, normalise: bool = False,
                 workers: int = 1, solver: str = "choose", solves: int = MAX_ITERATIONS, joint: bool = False,
                 bound: bool = True, runner: Any = None, polishes: int = POLISH_SOLVES,
-                lockstep: bool | None = None) -> Oracle:
+                lockstep: bool | None = None, certify: float = 0.0) -> Oracle:
     """The oracle of ``plant`` (see :func:`oracle`; ``solver``: HiGHS's solver option; ``solves``: at most
     this many LP solves per building group; ``joint``: one LP for the district even when the buildings do not
     interact -- fewer, larger solves, for short horizons; ``bound``: also solve the relaxation of every group
@@ -164,7 +166,7 @@ def solve_plant(plant: Plant, objective: str | Mapping[str, float] = "cost", *, 
     the polish per group (:mod:`pipeline.optimal.polish`; 0: none; a district LP of several storages is not
     polished); ``lockstep``: for the peak alone, merge batteries that are scaled copies
     (:mod:`pipeline.optimal.lockstep`; None: when the district LP would have more than :data:`LOCKSTEP_SIZE`
-    storage-steps)). A problem that is not meaningful (a no-control value <= 0 to normalise by, a negative import
+    storage-steps); ``certify``: see :func:`oracle`). A problem that is not meaningful (a no-control value <= 0 to normalise by, a negative import
     coefficient, an efficiency or retention the LP cannot divide by: :mod:`pipeline.optimal.checks`) is one
     :class:`pipeline.errors.InputError`."""
     began = time.perf_counter()
@@ -190,7 +192,8 @@ def solve_plant(plant: Plant, objective: str | Mapping[str, float] = "cost", *, 
             merged = plants[0] = aggregated
     if merged is None and (joint or weights[obj.PEAK] > 0) and len(plant.storages) > 1:
         polishes = 0  # a district LP: each polish solve costs as much as a plan solve (month x 17: ~20 s)
-    solved = _run_groups(plants, (solving, solver, solves, bound and not together, polishes), runner, workers)
+    settings = (solving, solver, solves, bound and not together, polishes, certify)
+    solved = _run_groups(plants, settings, runner, workers)
     if together and bound:
         lower, seconds = group_bound(aggregated, solving, solver)
         solved[0] = dataclasses.replace(solved[0], bound=lower, solve_seconds=solved[0].solve_seconds + seconds)
@@ -225,7 +228,7 @@ def lp_scale(plant: Plant, weights: Mapping[str, float]) -> float:
 
 
 def _run_groups(plants: Sequence[Plant], settings: tuple, runner: Any, workers: int) -> list[Group]:
-    """:func:`solve_groups` of ``plants`` with ``settings`` (weights, solver, solves, bound, polishes): one call
+    """:func:`solve_groups` of ``plants`` with ``settings`` (weights, solver, solves, bound, polishes, certify): one call
     per group on ``runner`` (labelled by the group's first building), else chunks on ``workers`` spawned
     processes, else here."""
     if runner is not None:
@@ -255,24 +258,30 @@ def exact(plant: Plant) -> bool:
 
 
 def solve_groups(plants: Sequence[Plant], weights: Mapping[str, float], solver: str = "choose",
-                 solves: int = MAX_ITERATIONS, bound: bool = True, polishes: int = POLISH_SOLVES) -> list[Group]:
+                 solves: int = MAX_ITERATIONS, bound: bool = True, polishes: int = POLISH_SOLVES,
+                 certify: float = 0.0) -> list[Group]:
     """Solve the building groups ``plants`` one after the other, each first solve starting from the previous
-    group's first basis (used only when the LP has the same shape), and (``bound``) each group's relaxation.
+    group's first basis (used only when the LP has the same shape), and (``bound``) each group's relaxation
+    (tightened for ``certify`` seconds, :mod:`pipeline.optimal.certify`).
     The bases are dropped from the result (HiGHS objects do not cross process boundaries)."""
     out: list[Group] = []
     for plant in plants:
         group = solve_group(plant, weights, solver, start=out[-1].first_basis if out else None, limit=solves,
                             polishes=polishes)
         if bound:
-            value, seconds = group_bound(plant, weights, solver)
+            value, seconds = group_bound(plant, weights, solver, certify)
             group = dataclasses.replace(group, bound=value, solve_seconds=group.solve_seconds + seconds)
         out.append(group)
     return [dataclasses.replace(g, first_basis=None) for g in out]
 
 
-def group_bound(plant: Plant, weights: Mapping[str, float], solver: str = "choose") -> tuple[float, float]:
-    """(certified lower bound, HiGHS seconds) of ``plant``'s objective: the optimum of its relaxation
-    (:mod:`pipeline.optimal.relax`), which no schedule the environment can execute beats."""
+def group_bound(plant: Plant, weights: Mapping[str, float], solver: str = "choose",
+                certify: float = 0.0) -> tuple[float, float]:
+    """(certified lower bound, seconds) of ``plant``'s objective: the optimum of its relaxation
+    (:mod:`pipeline.optimal.relax`), which no schedule the environment can execute beats; with ``certify`` > 0
+    raised by the blocks' power-range choice within that many seconds (:func:`pipeline.optimal.certify.block_bound`)."""
+    if certify > 0:
+        return block_bound(plant, weights, certify)
     lp = build(relax.relaxed_plant(plant), weights, relaxed=True)
     try:
         solution = solve(lp, solver=solver)

@@ -61,23 +61,29 @@ def _efficiency(curve: devices.Curve, x: np.ndarray, extrapolate: bool) -> np.nd
     return devices.interpolate_curve(x, one, extrapolate_first_segment=extrapolate)
 
 
-def efficiency_lines(curve: devices.Curve, xmax: float, extrapolate: bool = False) -> tuple[np.ndarray, np.ndarray]:
+def round_trip(curve: devices.Curve, x: np.ndarray, extrapolate: bool = False) -> np.ndarray:
+    """Round-trip efficiency [-] of one battery's power-efficiency curve at x = |energy| / nominal power."""
+    return _efficiency(curve, np.asarray(x, dtype=float), extrapolate)
+
+
+def efficiency_lines(curve: devices.Curve, xmax: float, extrapolate: bool = False,
+                     xmin: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     """Lines bounding a battery's stored and removed energy per unit of nominal power, for x = |energy| / P in
-    [0, ``xmax``]: ``store`` (K, 2) (slope, intercept) with x sqrt(eff(x)) <= min_k(intercept + slope x), and
-    ``remove`` (J, 2) with x / sqrt(eff(x)) >= max_j(intercept + slope x).
+    [``xmin``, ``xmax``]: ``store`` (K, 2) (slope, intercept) with x sqrt(eff(x)) <= min_k(intercept + slope
+    x), and ``remove`` (J, 2) with x / sqrt(eff(x)) >= max_j(intercept + slope x).
 
     The lines are the hull of the function sampled at the curve's points and :data:`HULL_SAMPLES` points per
     piece, moved out by the largest miss on a grid of :data:`CHECK_POINTS` points plus the most the function can
     bend between two grid points (max |f''| h^2 / 8, from the piece's linear efficiency u + v x), so that they
     hold at every x, not only at the samples."""
-    xs = np.unique(np.clip(np.concatenate([[0.0, xmax], curve.xs[0]]), 0.0, xmax))
-    grid = np.unique(np.concatenate([np.linspace(0.0, xmax, CHECK_POINTS), xs]))
+    xs = np.unique(np.clip(np.concatenate([[xmin, xmax], curve.xs[0]]), xmin, xmax))
+    grid = np.unique(np.concatenate([np.linspace(xmin, xmax, CHECK_POINTS), xs]))
     pieces = zip(xs[:-1], xs[1:], strict=True)
     samples = np.unique(np.concatenate([np.linspace(a, b, HULL_SAMPLES + 1) for a, b in pieces] + [xs]))
     eff_grid, eff_samples = _efficiency(curve, grid, extrapolate), _efficiency(curve, samples, extrapolate)
     if eff_grid.min() <= 0:
         raise ValueError("a battery's power-efficiency curve reaches 0 on [0, its largest power]")
-    bend = np.array(_bend(curve, xs, extrapolate)) * (xmax / (CHECK_POINTS - 1)) ** 2 / 8.0
+    bend = np.array(_bend(curve, xs, extrapolate)) * ((xmax - xmin) / (CHECK_POINTS - 1)) ** 2 / 8.0
     store = _merged(upper_hull(samples, samples * np.sqrt(eff_samples)))
     miss = grid * np.sqrt(eff_grid) - (store[:, :1] * grid + store[:, 1:]).min(axis=0)
     store[:, 1] += max(float(miss.max()), 0.0) + bend[0] + 1e-12
@@ -112,6 +118,20 @@ def _bend(curve: devices.Curve, xs: np.ndarray, extrapolate: bool) -> tuple[floa
     phi = np.abs(v) * (4 * np.abs(u) + 3 * np.abs(v) * top) / (4 * low ** 1.5)
     psi = np.abs(v) * (np.abs(u) + np.abs(v) * top / 4) / low ** 2.5
     return float(phi.max(initial=0.0)), float(psi.max(initial=0.0))
+
+
+def power_regions(curve: devices.Curve, xmax: float, extrapolate: bool = False) -> np.ndarray:
+    """Edges (K + 1,) of the power ranges x = |energy| / P in [0, ``xmax``] that a tighter relaxation treats as
+    a discrete choice per step (:mod:`pipeline.optimal.certify`): the curve's points below the first power of
+    its best efficiency, and the middle of every piece where the efficiency rises (where x sqrt(eff) bends
+    upward, so that one chord over it is loose). Above that power the curve no longer rises to a better
+    efficiency and one range keeps it. Just [0, ``xmax``] (no choice) for a curve that never rises."""
+    xs = np.unique(np.clip(np.concatenate([[0.0, xmax], curve.xs[0]]), 0.0, xmax))
+    eff = _efficiency(curve, xs, extrapolate)
+    top = float(xs[int(np.argmax(eff >= eff.max() - 1e-12))])
+    rising = np.flatnonzero(np.diff(eff) > 1e-12)
+    inner = np.concatenate([xs[(xs > 0.0) & (xs < top)], (xs[rising] + xs[rising + 1]) / 2])
+    return np.unique(np.concatenate([[0.0, xmax], inner[inner < top]]))
 
 
 def best_efficiency(curve: devices.Curve, xmax: float, extrapolate: bool = False) -> float:

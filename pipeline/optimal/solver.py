@@ -55,13 +55,15 @@ class SolveError(RuntimeError):
 class Solution:
     """``x``: the optimal column values; ``objective``: cost . x without the penalties, plus the constant;
     ``seconds``: wall time of HiGHS (loading the model and solving); ``iterations``: simplex + IPM iterations;
-    ``basis``: (columns, rows, HiGHS's final basis), a warm start for an LP of that shape."""
+    ``basis``: (columns, rows, HiGHS's final basis), a warm start for an LP of that shape; ``row_dual``: the
+    rows' dual values (HiGHS's sign convention: cost - A^T row_dual = the columns' reduced costs)."""
 
     x: np.ndarray
     objective: float
     seconds: float
     iterations: int
     basis: Any = None
+    row_dual: np.ndarray | None = None
 
 
 def solve(lp: LinearProgram, *, basis: Any = None, solver: str = "choose", time_limit: float = float("inf"),
@@ -72,22 +74,8 @@ def solve(lp: LinearProgram, *, basis: Any = None, solver: str = "choose", time_
     further HiGHS options by name (e.g. ``{"simplex_dual_edge_weight_strategy": 1}``)."""
     import highspy  # lazy: the optimal package's only dependency beyond the environment
 
-    h = new_highs(highspy)
-    h.setOptionValue("solver", solver)
-    h.setOptionValue("threads", int(threads))
-    for name, value in (options or {}).items():
-        h.setOptionValue(name, value)
-    if np.isfinite(time_limit):
-        h.setOptionValue("time_limit", float(time_limit))
+    h, began = _loaded(highspy, lp, {"solver": solver, "threads": int(threads), **(options or {})}, time_limit)
     n, m = int(lp.cost.size), int(lp.row_lower.size)
-    began = time.perf_counter()
-    loaded = h.passModel(n, m, int(lp.value.size), int(highspy.MatrixFormat.kRowwise.value),
-                int(highspy.ObjSense.kMinimize.value), 0.0, lp.cost, lp.lower, lp.upper, lp.row_lower, lp.row_upper,
-                lp.start.astype(np.int32), lp.index.astype(np.int32), lp.value,
-                np.zeros(n, dtype=np.int32))  # every column continuous
-    if loaded != highspy.HighsStatus.kOk:
-        raise SolveError(f"HiGHS refused the model ({n} columns, {m} rows: a coefficient or bound beyond its "
-                         f"limits): {loaded}")
     if basis is not None and basis[:2] == (n, m):
         h.setBasis(basis[2])
     h.run()
@@ -99,4 +87,45 @@ def solve(lp: LinearProgram, *, basis: Any = None, solver: str = "choose", time_
     info = h.getInfo()
     return Solution(x=x, objective=float(lp.objective @ x + lp.constant), seconds=seconds,
                     iterations=int(info.simplex_iteration_count + max(info.ipm_iteration_count, 0)),
-                    basis=(n, m, h.getBasis()))
+                    basis=(n, m, h.getBasis()), row_dual=np.asarray(h.getSolution().row_dual, dtype=float))
+
+
+def mip_bound(lp: LinearProgram, integer: np.ndarray, *, time_limit: float = float("inf"),
+              gap: float = 1e-5) -> tuple[float, float]:
+    """(dual bound, seconds) of ``lp`` with the columns ``integer`` (bool (n,)) integral: HiGHS's branch and
+    bound runs until its relative gap is below ``gap`` or ``time_limit`` [s] passes; the dual bound (no integral
+    solution is below it) is valid either way. ``lp.cost`` must equal ``lp.objective`` (no penalties)."""
+    import highspy
+
+    options = {"threads": 1, "mip_rel_gap": float(gap)}
+    h, began = _loaded(highspy, lp, options, time_limit, np.where(integer, 1, 0).astype(np.int32))
+    h.run()
+    status = h.getModelStatus()
+    if status not in (highspy.HighsModelStatus.kOptimal, highspy.HighsModelStatus.kTimeLimit):
+        raise SolveError(f"HiGHS: {h.modelStatusToString(status)} ({lp.cost.size} columns, mixed-integer)")
+    bound = float(h.getInfo().mip_dual_bound)
+    if not np.isfinite(bound):
+        raise SolveError(f"HiGHS: no dual bound within {time_limit} s ({lp.cost.size} columns, mixed-integer)")
+    return bound + lp.constant, time.perf_counter() - began
+
+
+def _loaded(highspy, lp: LinearProgram, options: Mapping[str, Any], time_limit: float,
+            integrality: np.ndarray | None = None):
+    """(a silent Highs holding ``lp`` with ``options``, the time it began): every column continuous unless
+    ``integrality`` (n,) (1 = integer) is given."""
+    h = new_highs(highspy)
+    for name, value in options.items():
+        h.setOptionValue(name, value)
+    if np.isfinite(time_limit):
+        h.setOptionValue("time_limit", float(time_limit))
+    n, m = int(lp.cost.size), int(lp.row_lower.size)
+    began = time.perf_counter()
+    kinds = np.zeros(n, dtype=np.int32) if integrality is None else integrality
+    loaded = h.passModel(n, m, int(lp.value.size), int(highspy.MatrixFormat.kRowwise.value),
+                int(highspy.ObjSense.kMinimize.value), 0.0, lp.cost, lp.lower, lp.upper, lp.row_lower, lp.row_upper,
+                lp.start.astype(np.int32), lp.index.astype(np.int32), lp.value, kinds)
+    accepted = (highspy.HighsStatus.kOk,) if integrality is None else (highspy.HighsStatus.kOk, highspy.HighsStatus.kWarning)
+    if loaded not in accepted:  # a mixed-integer model warns of tiny coefficients HiGHS then ignores
+        raise SolveError(f"HiGHS refused the model ({n} columns, {m} rows: a coefficient or bound beyond its "
+                         f"limits): {loaded}")
+    return h, began

@@ -34,11 +34,13 @@ def test_optimal_prints_the_bound_and_writes_the_schedule(schema, tmp_path, caps
 
 
 def test_weighted_objectives_and_bad_options_are_one_line(schema, capsys):
-    assert main(["optimal", str(schema), "--objective", "cost=1", "emissions=0.5", "--no-check"]) == 0
+    assert main(["optimal", str(schema), "--objective", "cost=1", "emissions=0.5", "--no-check", "--certify", "0"]) == 0
     assert "1 cost + 0.5 emissions" in capsys.readouterr().out
     for argv, says in ((["--objective", "comfort"], "unknown objective 'comfort'"),
                        (["--objective", "cost=-1"], "must be a finite number >= 0"),
-                       (["--start", "50", "--end", "10"], "must lie inside the simulation range")):
+                       (["--start", "50", "--end", "10"], "must lie inside the simulation range"),
+                       (["--certify", "-1"], "--certify SECONDS needs a finite number >= 0"),
+                       (["--certify", "nan"], "--certify SECONDS needs a finite number >= 0")):
         assert main(["optimal", str(schema), *argv]) == 2
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and says in err[0], err
@@ -51,7 +53,7 @@ def test_mpc_through_the_cli_on_upstream_data(tmp_path, capsys):
     need_shared(schema)
     out = tmp_path / "mpc.csv"
     argv = ["optimal", str(schema), "--start", "312", "--end", "359", "--mpc", "--horizon", "12", "--forecast",
-            "day_ahead", "--train", "0", "311", "-o", str(out)]
+            "day_ahead", "--train", "0", "311", "-o", str(out), "--certify", "0"]
     assert main(argv) == 0
     text = capsys.readouterr().out
     line = next(x for x in text.splitlines() if x.strip().startswith("cost") and "oracle" in x)

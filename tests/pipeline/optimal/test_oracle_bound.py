@@ -14,12 +14,15 @@ import pytest
 
 from citylearn_env import CityLearnEnv, devices
 from pipeline.controllers import run_episode
+from pipeline.optimal import certify
+from pipeline.optimal.lp import build
 from pipeline.optimal.objectives import weights_of
 from pipeline.optimal.optimum import district, optimal
 from pipeline.optimal.oracle import group_bound, oracle, solve_plant
 from pipeline.optimal.plant import plant_from_env
-from pipeline.optimal.relax import efficiency_lines, upper_hull
+from pipeline.optimal.relax import efficiency_lines, power_regions, relaxed_plant, upper_hull
 from pipeline.optimal.replay import replay
+from pipeline.optimal.solver import solve
 from pipeline.runners import InProcessRunner
 from tests.conftest import SHARED, need_shared
 
@@ -125,11 +128,59 @@ def test_plan_is_within_a_tenth_of_a_percent_of_a_dynamic_program():
 @pytest.mark.parametrize("rows", [(312, 719), (0, 719)])
 def test_bound_is_below_the_replayed_plan_and_near_it(rows):
     need_shared(PHASE_1)
-    result = optimal(PHASE_1, "cost", *rows, quiet=True)
+    result = optimal(PHASE_1, "cost", *rows, quiet=True, certify=0.0)  # the linear relaxation's bound
     assert not result.oracle.exact  # batteries: a bound, not a minimum
     assert result.bound < result.value < result.oracle.baseline["cost"]
     assert result.gap < 0.025
     assert "certified lower bound" in result.summary() and "minimum" not in result.summary()
+
+
+def test_power_range_choice_tightens_the_bound_below_the_dynamic_program():
+    # the same 48 steps: with every step's charge and discharge power range a choice (pipeline.optimal.certify)
+    # the bound rises above the linear relaxation's, yet stays below the cost of the DP's executed schedule (the
+    # DP knows nothing of either); the gap to the plan falls under the issue's 0.5 %
+    need_shared(PHASE_1)
+    env = one_building((312, 359))
+    run_episode(env, lambda _: np.zeros(1), 0)
+    net = np.asarray(env.district.building_record.net_electricity_consumption[0, :env.episode_length], float)
+    price = np.asarray(env.data("electricity_pricing")[0], float)
+    dp = env_cost(env, dynamic_program(env, net, price))
+    env.reset(seed=0)
+    linear = oracle(env, "cost")
+    tight = oracle(env, "cost", certify=60.0)
+    assert linear.bound < tight.bound <= min(dp, tight.value)
+    assert (tight.value - tight.bound) / tight.bound <= 0.005
+
+
+def test_blocks_with_the_relaxation_duals_sum_to_the_relaxation():
+    # Lagrangian decoupling priced by the LP's own duals: the blocks' LP optima add up to the LP's (duality),
+    # so a block solved with the power-range choice can only raise the bound
+    need_shared(PHASE_1)
+    env = one_building((312, 407))
+    plant = plant_from_env(env)
+    lp = build(relaxed_plant(plant), weights_of("cost"), relaxed=True)
+    solution = solve(lp)
+    blocks = certify._Blocks(lp, solution.row_dual)
+    assert blocks.count == 4
+    total = sum(certify._lp_value(blocks.program(b)) for b in range(blocks.count)) + lp.constant
+    assert total == pytest.approx(solution.objective, rel=1e-7)
+
+
+def test_power_regions_split_where_the_curve_rises():
+    # the default curve rises from 0.83 at 0.3 to 0.9 at 0.7: ranges [0, 0.3], [0.3, 0.5] (the rising piece's
+    # middle), [0.5, top]; a curve that only falls offers no choice; the lines of a range hold on it
+    curve = devices.Curve.from_points([((0.0, 0.83), (0.3, 0.83), (0.7, 0.9), (0.8, 0.9), (1.0, 0.85))])
+    assert power_regions(curve, 1.0) == pytest.approx([0.0, 0.3, 0.5, 1.0])
+    falling = devices.Curve.from_points([((0.0, 0.95), (1.0, 0.9))])
+    assert power_regions(falling, 1.0) == pytest.approx([0.0, 1.0])
+    store, remove = efficiency_lines(curve, 0.5, xmin=0.3)
+    x = np.linspace(0.3, 0.5, 200_001)
+    eff = np.interp(x, curve.xs[0], curve.ys[0])
+    assert np.all(x * np.sqrt(eff) <= (store[:, :1] * x + store[:, 1:]).min(axis=0))
+    assert np.all(x / np.sqrt(eff) >= (remove[:, :1] * x + remove[:, 1:]).max(axis=0))
+    # tighter than the whole range's chord at the rising piece's middle (0.4)
+    whole = efficiency_lines(curve, 1.0)[0]
+    assert (store[:, 0] * 0.4 + store[:, 1]).min() < (whole[:, 0] * 0.4 + whole[:, 1]).min() - 1e-3
 
 
 def test_tank_only_lp_is_exact():
