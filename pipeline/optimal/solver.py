@@ -97,7 +97,9 @@ def mip_bound(lp: LinearProgram, integer: np.ndarray, *, time_limit: float = flo
     solution is below it) is valid either way. ``lp.cost`` must equal ``lp.objective`` (no penalties)."""
     import highspy
 
-    options = {"threads": 1, "mip_rel_gap": float(gap)}
+    # presolve off: on these small block programs it costs more than it saves (2.5x slower with it, 10 blocks
+    # of 2022 phase 1, Intel Xeon family 6 model 207)
+    options = {"threads": 1, "mip_rel_gap": float(gap), "presolve": "off"}
     h, began = _loaded(highspy, lp, options, time_limit, np.where(integer, 1, 0).astype(np.int32))
     h.run()
     status = h.getModelStatus()
