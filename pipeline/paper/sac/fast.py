@@ -155,9 +155,11 @@ class FastSAC(LeanSAC):
         self.h1, self.h2 = e(2 * batch, hidden), e(2 * batch, hidden)  # actor activations on [s; s']
         self.out_t = e(2 * act_dim, 2 * batch)  # actor outputs (mean, log-std), transposed
         self.g1, self.g2, self.q_t = e(4, batch, hidden), e(4, batch, hidden), e(4, 1, batch)  # stacked critics
-        self.g1pi, self.g2pi, self.qpi_t = e(2, batch, hidden), e(2, batch, hidden), e(2, 1, batch)  # on a~pi
+        # the critics on a~pi(s) reuse the target critics' activations (dead once their Q is read), and the
+        # actor's backward one critic's gradients: a smaller working set (caches)
+        self.g1pi, self.g2pi, self.qpi_t = self.g1[:2], self.g2[:2], e(2, 1, batch)
         self.dg1, self.dg2 = e(2, batch, hidden), e(2, batch, hidden)  # dL/d(critic activations)
-        self.dh1, self.dh2 = e(batch, hidden), e(batch, hidden)  # dL/d(actor activations)
+        self.dh1, self.dh2 = self.dg1[0], self.dg2[0]  # dL/d(actor activations)
         self.da_t = e(2, act_dim, batch)  # dQ_k/da, transposed
         self.rows = {name: f(batch, act_dim) for name in ("action", "std", "om", "inside")}
         self.rows["next_logp"] = f(batch)

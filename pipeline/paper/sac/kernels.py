@@ -260,22 +260,40 @@ def _mask(g, a):  # pragma: no cover - compiled by numba
     for k in range(g.shape[0]):
         for n in range(g.shape[1]):
             for h in range(g.shape[2]):
-                if not a[k, n, h] > _F0:
-                    g[k, n, h] = _F0
+                g[k, n, h] = g[k, n, h] if a[k, n, h] > _F0 else _F0
+
+
+def _masked_row(d, w_t, mask, row):  # pragma: no cover - compiled by numba
+    """row (H,) = d (J,) @ w_t (J, H) where mask > 0, else 0: one pass for J = 1 (the critics) and J = 2 (the
+    actor of one action)."""
+    hidden, rank = row.shape[0], d.shape[0]
+    if rank == 1:
+        for h in range(hidden):
+            row[h] = d[0] * w_t[0, h] if mask[h] > _F0 else _F0
+    elif rank == 2:
+        for h in range(hidden):
+            row[h] = d[0] * w_t[0, h] + d[1] * w_t[1, h] if mask[h] > _F0 else _F0
+    else:
+        for h in range(hidden):
+            row[h] = d[0] * w_t[0, h]
+        for j in range(1, rank):
+            for h in range(hidden):
+                row[h] += d[j] * w_t[j, h]
+        for h in range(hidden):
+            row[h] = row[h] if mask[h] > _F0 else _F0
 
 
 def _outer_mask(d, w_t, a, out, col_sum):  # pragma: no cover - compiled by numba
-    """out (K, N, H) = (d (K, N, J) @ w_t (K, J, H)) where a > 0, else 0; col_sum (K, 1, H) = sum over N."""
+    """out (K, N, H) = (d (K, N, J) @ w_t (K, J, H)) where a > 0, else 0; col_sum (K, 1, H) = sum over N
+    (a second pass: loops over few arrays are the ones the compiler vectorises)."""
     for k in range(out.shape[0]):
-        col_sum[k, 0, :] = _F0
+        sums = col_sum[k, 0]
+        sums[:] = _F0
         for n in range(out.shape[1]):
-            for h in range(out.shape[2]):
-                s = d[k, n, 0] * w_t[k, 0, h]
-                for j in range(1, d.shape[2]):
-                    s += d[k, n, j] * w_t[k, j, h]
-                v = s if a[k, n, h] > _F0 else _F0
-                out[k, n, h] = v
-                col_sum[k, 0, h] += v
+            row = out[k, n]
+            _masked_row(d[k, n], w_t[k], a[k, n], row)
+            for h in range(row.shape[0]):
+                sums[h] += row[h]
 
 
 def _fill_inputs(obs, action, next_obs, x, z, zpi):  # pragma: no cover - compiled by numba
@@ -375,6 +393,7 @@ def _compiled() -> dict | None:
         except ImportError:  # pragma: no cover - numba is optional
             _COMPILED = {}
         else:
-            globals()["_draw"] = njit(cache=True, nogil=True, inline="always")(_draw)
-            _COMPILED = {name: njit(cache=True, nogil=True)(fn) for name, fn in _KERNELS.items()}
+            for name in ("_draw", "_masked_row"):  # helpers, inlined into the kernels
+                globals()[name] = njit(cache=True, nogil=True, error_model="numpy", inline="always")(globals()[name])
+            _COMPILED = {name: njit(cache=True, nogil=True, error_model="numpy")(fn) for name, fn in _KERNELS.items()}
     return _COMPILED or None
