@@ -2,8 +2,10 @@
 
 :class:`FastSAC` runs exactly the update of :class:`pipeline.paper.sac.lean.LeanSAC` (the same parameters, random
 draws, losses and Adam steps; :mod:`pipeline.paper.sac.train` lists the stable-baselines3 defaults reproduced)
-without autograd: every gradient is written out below, so one update is ~25 matrix products and a few dozen
-element-wise operations instead of a recorded graph. With ``bf16=True`` (where
+without autograd: every gradient is written out below, so one update is ~25 matrix products, two fused Adam
+steps and a dozen one-pass element-wise loops (:mod:`pipeline.paper.sac.kernels`: numba where installed, else
+torch operations) instead of a recorded graph; parameters live in merged float32 tensors (no copies), and every
+buffer and view is made once. With ``bf16=True`` (where
 :func:`pipeline.paper.sac.train.sac_precision` chooses bfloat16) the matrix products take bfloat16 operands, while
 parameters, Adam state, losses and every element-wise step stay float32; weights are rounded to bfloat16 once
 per update, not per product.
