@@ -1,6 +1,6 @@
 """How close the torch workloads run to this CPU's float32 limit, and what bfloat16 and threads change.
 
-    .venv/bin/python benchmarks/precision_limits.py sac [--obs 10 --act 1 --repeats 7 --threads 1 2 --bf16]
+    .venv/bin/python benchmarks/precision_limits.py sac [--obs 10 --act 1 --repeats 7 --threads 1 2 --bf16 --clock cpu]
     .venv/bin/python benchmarks/precision_limits.py surrogate [--repeats 3 --table ILV.parquet]
 
 ``sac``: one SAC update (SB3 defaults, batch 256, [256, 256] networks) of the ``fast`` and ``torch`` back ends
@@ -21,18 +21,25 @@ import argparse
 import statistics
 import subprocess
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import torch
 
-from surrogates.precision import capability, matmul_probe, median_times
+from surrogates.precision import capability, matmul_probe
+
+#: --clock: wall seconds, or this process's CPU seconds (all its threads: with one thread, the time the work
+#: took on a CPU shared with other processes, not the time it waited for one)
+CLOCKS: dict[str, Callable[[], float]] = {"wall": time.perf_counter, "cpu": time.process_time}
 
 BATCH, HIDDEN = 256, 256
 
 
 def sac_products(obs: int, act: int, batch: int = BATCH, hidden: int = HIDDEN) -> list[tuple[int, int, int, int]]:
     """The matrix products of one ``fast`` SAC update as (members, m, k, n), in the order and orientation the
-    update runs them (pipeline/paper/sac/fast.py ``train_step``; thin products transposed, see ``_thin``)."""
+    update runs them (pipeline/paper/sac/fast.py ``train_step``; thin products transposed, see
+    ``FastSAC._critics_forward``; the rank-2A product into the actor's last hidden layer runs element-wise in
+    ``kernels.outer_mask``, its 0.26 MFLOP counted here all the same)."""
     z, x = obs + act + 1, obs + 1
     return [
         # actor on s and s' (2B rows); its output layer transposed
@@ -55,19 +62,22 @@ def sac_update_flops(obs: int, act: int) -> float:
     return float(sum(2 * b * m * k * n for b, m, k, n in sac_products(obs, act)))
 
 
-def time_products(products, dtype: torch.dtype, repeats: int, rounds: int = 20) -> float:
+def time_products(products, dtype: torch.dtype, repeats: int, rounds: int = 20,
+                  clock: Callable[[], float] = time.perf_counter) -> float:
     """Median seconds of one pass over ``products`` ((batch, m, k, n) each; operands made once): the probe
-    and the alternating median timing of :mod:`surrogates.precision`, ``rounds`` passes per timing."""
+    of :mod:`surrogates.precision`, one warm-up, then ``repeats`` timings of ``rounds`` passes on ``clock``."""
     probe = matmul_probe("products", tuple(products))
-
-    def passes() -> None:
+    probe.run(dtype)
+    times = []
+    for _ in range(repeats):
+        started = clock()
         for _ in range(rounds):
             probe.run(dtype)
+        times.append((clock() - started) / rounds)
+    return statistics.median(times)
 
-    return median_times({"products": passes}, repeats, budget_s=float("inf"))["products"] / rounds
 
-
-def sac(obs: int, act: int, repeats: int, updates: int, threads: list[int], bf16: bool) -> None:
+def sac(obs: int, act: int, repeats: int, updates: int, threads: list[int], bf16: bool, clock: str = "wall") -> None:
     from pipeline.paper.sac.fast import FastSAC
     from pipeline.paper.sac.lean import LeanSAC
     from pipeline.paper.sac.train import flushed_subnormals
@@ -79,14 +89,15 @@ def sac(obs: int, act: int, repeats: int, updates: int, threads: list[int], bf16
     if capability().native_bf16 or bf16:  # emulated bfloat16 only when asked: each update takes seconds
         variants += [("fast", FastSAC, True), ("torch", LeanSAC, True)]
     flops = sac_update_flops(obs, act)
+    now = CLOCKS[clock]
     rows = []
     with flushed_subnormals():
         for n in threads:
             torch.set_num_threads(n)
-            peak = time_products([(1, BATCH, HIDDEN, HIDDEN)], torch.float32, repeats, rounds=200)
+            peak = time_products([(1, BATCH, HIDDEN, HIDDEN)], torch.float32, repeats, rounds=200, clock=now)
             peak_rate = 2 * BATCH * HIDDEN * HIDDEN / peak
             limit = flops / peak_rate
-            alone = time_products(sac_products(obs, act), torch.float32, repeats)
+            alone = time_products(sac_products(obs, act), torch.float32, repeats, clock=now)
             agents = {(name, bf16): cls(obs, act, seed=0, bf16=bf16, threads=n) for name, cls, bf16 in variants}
             times: dict[tuple[str, bool], list[float]] = {k: [] for k in agents}
             for agent in agents.values():  # warm-up
@@ -95,10 +106,10 @@ def sac(obs: int, act: int, repeats: int, updates: int, threads: list[int], bf16
             for _ in range(repeats):
                 for key, agent in agents.items():
                     count = updates if capability().native_bf16 or not key[1] else 1
-                    started = time.perf_counter()
+                    started = now()
                     for _ in range(count):
                         agent.train_step(*batch)
-                    times[key].append((time.perf_counter() - started) / count)
+                    times[key].append((now() - started) / count)
             rows.append(f"| the limit: all FLOPs at the (256 x 256) x (256 x 256) float32 rate | {n} | "
                         f"{limit * 1e3:.2f} | {peak_rate / 1e9:.1f} | 100 % |")
             rows.append(f"| the update's float32 products alone | {n} | {alone * 1e3:.2f} | "
@@ -107,7 +118,7 @@ def sac(obs: int, act: int, repeats: int, updates: int, threads: list[int], bf16
                 t = statistics.median(values)
                 rows.append(f"| {name}, {'bfloat16' if bf16 else 'float32'} | {n} | {t * 1e3:.2f} | "
                             f"{flops / t / 1e9:.1f} | {100 * limit / t:.0f} % |")
-    print(f"CPU: {capability().describe()}; {uptime()}")
+    print(f"CPU: {capability().describe()}; {uptime()}; clock: {clock}")
     print(f"SAC update, {obs} observations, {act} action(s), batch {BATCH}: {flops / 1e6:.0f} MFLOP of products\n")
     print("| variant | threads | ms per update (median) | GFLOP/s | limit / time |\n|---|---|---|---|---|")
     print("\n".join(rows))
@@ -188,13 +199,15 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=7)
     parser.add_argument("--updates", type=int, default=20)
     parser.add_argument("--threads", type=int, nargs="+", default=[1, 2])
+    parser.add_argument("--clock", choices=tuple(CLOCKS), default="wall",
+                        help="sac: time on the wall clock or in CPU seconds of this process (see CLOCKS)")
     parser.add_argument("--bf16", action="store_true", help="sac: bfloat16 variants also where bfloat16 is "
                                                              "emulated (one update per round)")
     parser.add_argument("--table", type=Path, default=Path("tests/fixtures/synthetic_district/ilv/900001.parquet"),
                         help="ILV table of the surrogate workload (default: a full-year synthetic house)")
     args = parser.parse_args()
     if args.workload == "sac":
-        sac(args.obs, args.act, args.repeats, args.updates, args.threads, args.bf16)
+        sac(args.obs, args.act, args.repeats, args.updates, args.threads, args.bf16, args.clock)
     else:
         surrogate(args.repeats, args.table)
 

@@ -131,3 +131,22 @@ def test_bfloat16_relu_through_int16_view_equals_torch():
     grad = torch.randn(values.shape, generator=torch.Generator().manual_seed(2)).to(torch.bfloat16)
     reference = torch.ops.aten.threshold_backward(grad, expected, 0)
     assert torch.equal(relu_backward(grad.clone(), ours), reference)
+
+
+def test_numba_kernels_equal_torch_kernels():
+    """The fused element-wise steps (numba, where installed) and their torch operations give the same
+    updates to float32 rounding: both back ends' parameters after five updates, and every gradient."""
+    pytest.importorskip("numba")
+    fused, plain = FastSAC(OBS, ACT, seed=4, numba=True), FastSAC(OBS, ACT, seed=4, numba=False)
+    assert type(fused.kernels).__name__ == "NumbaKernels" and type(plain.kernels).__name__ == "TorchKernels"
+    batch = _batch(9)
+    for _ in range(5):
+        fused.train_step(*batch)
+        plain.train_step(*batch)
+        for a, b in zip(fused.actor_adam.last_grads + fused.critic_adam.last_grads,
+                        plain.actor_adam.last_grads + plain.critic_adam.last_grads, strict=True):
+            if b.abs().max() > 0:
+                assert _relative(b, a) < 1e-5
+    for p, q in zip(fused.actor + fused.critic + fused.critic_target, plain.actor + plain.critic + plain.critic_target,
+                    strict=True):
+        assert float((p - q).abs().max()) < 1e-5

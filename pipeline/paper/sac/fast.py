@@ -2,8 +2,10 @@
 
 :class:`FastSAC` runs exactly the update of :class:`pipeline.paper.sac.lean.LeanSAC` (the same parameters, random
 draws, losses and Adam steps; :mod:`pipeline.paper.sac.train` lists the stable-baselines3 defaults reproduced)
-without autograd: every gradient is written out below, so one update is ~25 matrix products and a few dozen
-element-wise operations instead of a recorded graph. With ``bf16=True`` (where
+without autograd: every gradient is written out below, so one update is ~25 matrix products, two fused Adam
+steps and a dozen one-pass element-wise loops (:mod:`pipeline.paper.sac.kernels`: numba where installed, else
+torch operations) instead of a recorded graph; parameters live in merged float32 tensors (no copies), and every
+buffer and view is made once. With ``bf16=True`` (where
 :func:`pipeline.paper.sac.train.sac_precision` chooses bfloat16) the matrix products take bfloat16 operands, while
 parameters, Adam state, losses and every element-wise step stay float32; weights are rounded to bfloat16 once
 per update, not per product.
@@ -23,58 +25,30 @@ Gradients, for the losses of ``LeanSAC.train_step`` (per row b; sums run over th
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
 
-from pipeline.paper.sac.lean import (
-    GAMMA,
-    LEARNING_RATE,
-    LOG_STD_MAX,
-    LOG_STD_MIN,
-    SQUASH_EPSILON,
-    TAU,
-    LeanSAC,
-    squashed_gaussian,
-)
+from pipeline.paper.sac.kernels import kernels, relu_, relu_backward
+from pipeline.paper.sac.lean import BATCH_SIZE, HIDDEN, LEARNING_RATE, LOG_STD_MAX, LOG_STD_MIN, TAU, LeanSAC
+
+__all__ = ["FastSAC", "FusedAdam", "ScalarAdam", "relu_", "relu_backward"]
 
 #: torch.optim.Adam's defaults (SB3 leaves them)
 BETA1, BETA2, ADAM_EPS = 0.9, 0.999, 1e-8
 
 
-def relu_(x):
-    """ReLU in place. A bfloat16 tensor is clamped through its int16 view: a set sign bit makes the int16
-    negative, so clamping at 0 zeroes exactly the negative values (and -0.0) without the float conversion
-    torch's bfloat16 element-wise kernels make (~4x faster here)."""
-    import torch  # torch: the CLI imports this module; torch loads on first use
-
-    if x.dtype == torch.bfloat16:
-        x.view(torch.int16).clamp_min_(0)
-        return x
-    return x.relu_()
-
-
-def relu_backward(grad, activation):
-    """``grad`` where the ReLU output ``activation`` (>= 0) is positive, else 0. A bfloat16 ``grad`` is
-    overwritten: an in-place integer product of its int16 view with ``min(bits, 1)`` of the activation's
-    (1 exactly where the activation is positive)."""
-    import torch  # torch: the CLI imports this module; torch loads on first use
-
-    if grad.dtype == torch.bfloat16:
-        grad.view(torch.int16).mul_(activation.view(torch.int16).clamp_max(1))
-        return grad
-    return torch.ops.aten.threshold_backward(grad, activation, 0)
-
-
 class FusedAdam:
     """torch's Adam with its defaults on float32 tensors, as one fused kernel per step: torch.optim.Adam
     (fused=True) without its per-call bookkeeping. ``step(grads)`` takes the gradients in parameter order
-    (kept as ``last_grads`` for inspection)."""
+    (``last_grads`` shows the last ones; with ``merged_first``, the first parameter is a first layer's weight
+    with its bias as last row, and ``last_grads`` shows its gradient split back into weight and bias)."""
 
-    def __init__(self, params, lr: float = LEARNING_RATE):
+    def __init__(self, params, lr: float = LEARNING_RATE, *, merged_first: bool = False):
         import torch  # torch: the CLI imports this module; torch loads on first use
 
-        self.torch, self.params, self.lr = torch, list(params), lr
+        self.torch, self.params, self.lr, self.merged_first = torch, list(params), lr, merged_first
         self.exp_avg = [torch.zeros_like(p) for p in self.params]
         self.exp_avg_sq = [torch.zeros_like(p) for p in self.params]
         self.count = torch.zeros((), dtype=torch.float32)
@@ -82,10 +56,17 @@ class FusedAdam:
     def step(self, grads) -> None:
         torch = self.torch
         self.count.add_(1)
-        self.last_grads = grads = [g.float().contiguous() for g in grads]
+        self.grads = grads = [g.float().contiguous() for g in grads]
         torch._fused_adam_(self.params, grads, self.exp_avg, self.exp_avg_sq, [], [self.count] * len(grads),
                            lr=self.lr, beta1=BETA1, beta2=BETA2, weight_decay=0.0, eps=ADAM_EPS, amsgrad=False,
                            maximize=False)
+
+    @property
+    def last_grads(self) -> list:
+        """The last step's gradients, the merged first layer's split into weight and bias rows."""
+        if not self.merged_first:
+            return self.grads
+        return [self.grads[0][..., :-1, :], self.grads[0][..., -1:, :], *self.grads[1:]]
 
 
 class ScalarAdam:
@@ -104,54 +85,122 @@ class ScalarAdam:
         return self.value
 
 
-class FastSAC(LeanSAC):
-    """:class:`LeanSAC` with hand-written gradients (see the module docstring); same constructor."""
 
-    def __init__(self, obs_dim: int, act_dim: int, *, seed: int = 0, bf16: bool = False, threads: int = 1):
+
+class FastSAC(LeanSAC):
+    """:class:`LeanSAC` with hand-written gradients (see the module docstring); same constructor, plus
+    ``numba``: fuse the element-wise steps with numba where it is installed (:mod:`pipeline.paper.sac.kernels`;
+    False: torch operations, the same results to float32 rounding)."""
+
+    def __init__(self, obs_dim: int, act_dim: int, *, seed: int = 0, bf16: bool = False, threads: int = 1,
+                 numba: bool = True):
         super().__init__(obs_dim, act_dim, seed=seed, bf16=bf16, threads=threads)
         torch = self.torch
         self.dtype = torch.bfloat16 if bf16 else torch.float32
+        self.kernels = kernels(prefer_numba=numba)
+        # float32 parameters re-homed, values unchanged: each first layer's weight and bias as one (in + 1, H)
+        # matrix (inputs carry a trailing column of ones: one product, and the bias gradient comes out of the
+        # weight gradient's), and the target critics (members 0, 1) stacked with the critics (2, 3), so both
+        # run as one batched product per layer. actor, critic and critic_target are views into these.
+        self.actor_params = _merged_first(self.actor)
+        self.stack = [torch.cat([t, c]) for t, c in zip(_merged_first(self.critic_target),
+                                                          _merged_first(self.critic), strict=True)]
+        self.actor = _split_first(self.actor_params)
+        self.critic = _split_first([p[2:] for p in self.stack])
+        self.critic_target = _split_first([p[:2] for p in self.stack])
         self.numpy_actor = [p.numpy() for p in self.actor]  # views: Adam's in-place updates show through
-        # bfloat16 copies of the target critics (members 0, 1) and the critics (members 2, 3) in one stack, so
-        # the target and current critics run as one batched product per layer. The first layer's weight and
-        # bias share one (in + 1, H) matrix (`*_first`), the inputs carrying a trailing column of ones: one
-        # product instead of a product plus a broadcast bias, and the bias gradient comes out of the weight
-        # gradient's product.
-        self.stack_first, self.stack_lp = _low_precision([torch.cat([t, c]) for t, c in zip(
-            self.critic_target, self.critic, strict=True)], self.dtype)
-        self.target_lp = [p[:2] for p in self.stack_lp]
-        self.critic_lp = [p[2:] for p in self.stack_lp]
-        self.critic_first = self.stack_first[2:]
-        self.actor_first, self.actor_lp = _low_precision(self.actor, self.dtype)
+        self.actor_adam = FusedAdam(self.actor_params, merged_first=True)
+        self.critic_params, self.target_params = [p[2:] for p in self.stack], [p[:2] for p in self.stack]
+        self.critic_adam = FusedAdam(self.critic_params, merged_first=True)
+        self.ent_adam = ScalarAdam(float(self.log_ent_coef))
+        # the products' operands: the float32 parameters themselves, or bfloat16 copies refreshed after each
+        # Adam step (rounded once per update, not per product)
+        self.actor_lp = self._low_precision(self.actor_params)
+        self.stack_lp = self._low_precision(self.stack)
+        self.critic_lp, self.target_lp = [p[2:] for p in self.stack_lp], [p[:2] for p in self.stack_lp]
+        self._buffers(obs_dim, act_dim)
 
     def _make_optimizers(self) -> None:
-        """No autograd: parameters are plain tensors, stepped by one fused Adam call per network and a float
-        Adam for the entropy coefficient."""
+        """No autograd: parameters are plain tensors, stepped by one fused Adam call per network (made in
+        ``__init__`` once the parameters are re-homed) and a float Adam for the entropy coefficient."""
         for p in (*self.actor, *self.critic, self.log_ent_coef):
             p.requires_grad_(False)
-        self.actor_adam, self.critic_adam = FusedAdam(self.actor), FusedAdam(self.critic)
-        self.ent_adam = ScalarAdam(float(self.log_ent_coef))
 
-    # ------------------------------------------------------------------ low-precision copies of the weights
-    def _cast_actor(self) -> None:
-        self.torch._foreach_copy_(self.actor_lp, self.actor)
+    def _low_precision(self, params: list) -> list:
+        """``params`` themselves in float32, else their copies in the products' dtype."""
+        return params if self.dtype == self.torch.float32 else [p.to(self.dtype) for p in params]
 
-    def _cast_critic(self) -> None:
-        self.torch._foreach_copy_(self.critic_lp, self.critic)
+    def _refresh(self, low: list, params: list) -> None:
+        """Copy ``params`` into their low-precision copies ``low`` (nothing in float32, where they are the
+        same tensors)."""
+        if self.dtype != self.torch.float32:
+            self.torch._foreach_copy_(low, params)
 
-    def _cast_target(self) -> None:
-        self.torch._foreach_copy_(self.target_lp, self.critic_target)
+    def _buffers(self, obs_dim: int, act_dim: int, batch: int = BATCH_SIZE) -> None:
+        """Every intermediate of an update, allocated once (products write into them with ``out=``), and
+        every view the update takes of them and of the parameters, taken once: ``lp`` tensors are in the
+        products' dtype, the rest float32. K = 2 critics, Z = D + A + 1."""
+        torch, lp, f32 = self.torch, self.dtype, self.torch.float32
+        hidden, z_dim = HIDDEN, obs_dim + act_dim + 1
+        e, f = functools.partial(torch.empty, dtype=lp), functools.partial(torch.empty, dtype=f32)
+
+        def ones_column(*shape):
+            t = torch.zeros(shape, dtype=lp)
+            t[..., -1] = 1.0
+            return t
+
+        self.batch = batch
+        # inputs: x (2B, D + 1) = [s; s'] | 1 for the actor; z (4, B, Z) = (s', a') for the target critics and
+        # (s, a) for the critics | 1; zpi (B, Z) = (s, a~pi(s)) | 1
+        self.x, self.z, self.zpi = ones_column(2 * batch, obs_dim + 1), ones_column(4, batch, z_dim), \
+            ones_column(batch, z_dim)
+        self.h1, self.h2 = e(2 * batch, hidden), e(2 * batch, hidden)  # actor activations on [s; s']
+        self.out_t = e(2 * act_dim, 2 * batch)  # actor outputs (mean, log-std), transposed
+        self.g1, self.g2, self.q_t = e(4, batch, hidden), e(4, batch, hidden), e(4, 1, batch)  # stacked critics
+        # the critics on a~pi(s) reuse the target critics' activations (dead once their Q is read), and the
+        # actor's backward one critic's gradients: a smaller working set (caches)
+        self.g1pi, self.g2pi, self.qpi_t = self.g1[:2], self.g2[:2], e(2, 1, batch)
+        self.dg1, self.dg2 = e(2, batch, hidden), e(2, batch, hidden)  # dL/d(critic activations)
+        self.dh1, self.dh2 = self.dg1[0], self.dg2[0]  # dL/d(actor activations)
+        self.da_t = e(2, act_dim, batch)  # dQ_k/da, transposed
+        self.rows = {name: f(batch, act_dim) for name in ("action", "std", "om", "inside")}
+        self.rows["next_logp"] = f(batch)
+        self.dq, self.dq_pi, self.dout = f(2, batch, 1), f(2, batch, 1), f(batch, 2 * act_dim)
+        self.dq_lp, self.dq_pi_lp, self.dout_lp = (t if lp == f32 else e(*t.shape) for t in
+                                                   (self.dq, self.dq_pi, self.dout))
+        # gradients in the parameters' order (first layer merged): products' in their dtype, sums in float32;
+        # the output layers' weight gradients computed transposed
+        self.critic_grads = [e(2, z_dim, hidden), e(2, hidden, hidden), f(2, 1, hidden), e(2, 1, hidden),
+                             f(2, 1, 1)]
+        self.actor_grads = [e(obs_dim + 1, hidden), e(hidden, hidden), f(1, hidden), e(2 * act_dim, hidden),
+                            f(1, 2 * act_dim)]
+        self.col_scratch = f(2, 1, hidden)
+        self._views()
+        self.kernels.register(self.x, self.z, self.zpi, self.h1, self.h2, self.out_t, self.g1, self.g2, self.q_t,
+                              self.g1pi, self.g2pi, self.qpi_t, self.dg1, self.dg2, self.dh1, self.dh2, self.da_t,
+                              *self.rows.values(), self.dq, self.dq_pi, self.dout, *self.critic_grads,
+                              *self.actor_grads, self.col_scratch, self.g1c, self.g2c, self.h1s, self.h2s,
+                              self.dq_lp, self.dq_pi_lp, self.dout_lp)
+
+    def _views(self) -> None:
+        """The views one update takes (of parameters, which Adam updates in place, and of buffers), taken once:
+        a view costs microseconds of dispatch, and an update takes dozens."""
+        b = self.batch
+        first, w2, b2, w3, b3 = self.actor_lp
+        self.actor_ops = (first, w2, b2, w3.t(), b3.t(), w2.t())
+        self.stack_ops = _network_views(self.stack_lp)
+        self.critic_ops = _network_views(self.critic_lp)
+        self.action_rows = self.critic_lp[0][:, self.obs_dim:self.obs_dim + self.act_dim]  # (2, A, H)
+        self.g1c, self.g2c, self.zc = self.g1[2:], self.g2[2:], self.z[2:]  # the critics' members of the stack
+        self.zpi2 = self.zpi.expand(2, -1, -1)
+        self.xs, self.h1s, self.h2s = self.x[:b], self.h1[:b], self.h2[:b]  # actor rows on s
+        self.t = {name: getattr(self, name).transpose(-2, -1) for name in (
+            "h2", "g2", "g2pi", "zc", "g1c", "dq_lp", "dg1", "xs", "h1s", "dout_lp")}
+        cg, ag = self.critic_grads, self.actor_grads
+        self.critic_step = [*cg[:3], cg[3].transpose(1, 2), cg[4]]
+        self.actor_step = [*ag[:3], ag[3].t(), ag[4]]
 
     # ------------------------------------------------------------------ networks
-    def _actor_forward(self, obs):
-        """Actor MLP on (N, D) float32 observations: (out (N, 2A) float32, saved activations)."""
-        torch = self.torch
-        _, _, w2, b2, w3, b3 = self.actor_lp
-        x = _with_ones(obs).to(self.dtype)
-        h1 = relu_(torch.mm(x, self.actor_first))
-        h2 = relu_(torch.addmm(b2, h1, w2))
-        return _thin(torch.addmm(b3.t(), w3.t(), h2.t())).float(), (x, h1, h2)
-
     def _actor_params(self, obs):
         """Mean and clamped log-std for acting (a few rows): float32 weights, where bfloat16 products of a
         single row are slower, not faster."""
@@ -172,117 +221,100 @@ class FastSAC(LeanSAC):
         noise = self.torch.randn((1, self.act_dim), generator=self.generator).numpy()[0]
         return np.tanh(out[:self.act_dim] + np.exp(log_std) * noise)
 
-    def _squash(self, out, noise):
-        """Squashed Gaussian sample from actor outputs (N, 2A) and noise (N, A): action, log-prob (N,),
-        and what the actor gradient needs."""
-        raw_log_std = out[:, self.act_dim:]
-        log_std = raw_log_std.clamp(LOG_STD_MIN, LOG_STD_MAX)
-        action, log_prob, std, one_minus_a2 = squashed_gaussian(out[:, :self.act_dim], log_std, noise)
-        inside = (raw_log_std >= LOG_STD_MIN) & (raw_log_std <= LOG_STD_MAX)
-        return action, log_prob, (std, one_minus_a2, inside)
+    def _critics_forward(self, ops: tuple, z, g1, g2, g2_t, q_t) -> None:
+        """Stacked critics (``ops`` of :func:`_network_views`) on inputs z (K, B, Z): hidden activations into
+        g1, g2 (K, B, H) (g2_t: g2's transposed view), Q transposed into q_t (K, 1, B): a product with a
+        thin right operand (1 or 2A columns: the output layers, their weight gradients, the gradient by the
+        action) runs several times slower in the BLAS than its transpose, so those run transposed
+        ((A B)^T = B^T A^T; measured on (256, 256) x (256, 1): 4-10x faster; benchmarks/README.md)."""
+        first, w2, b2, w3_t, b3, _ = ops
+        self.torch.bmm(z, first, out=g1)
+        relu_(g1)
+        self.kernels.linear_relu(g1, w2, b2, g2)
+        self.torch.baddbmm(b3, w3_t, g2_t, out=q_t)
 
-    def _critic_input(self, obs, action, members: int = 2):
-        """(s, a, 1) rows as the critics' input, repeated for ``members`` stacked critics:
-        (members, B, D + A + 1)."""
-        return _with_ones(self.torch.cat([obs, action], dim=1)).to(self.dtype).expand(members, -1, -1)
-
-    def _critic_forward(self, params, first, z):
-        """The stacked critics (``params``, first layer ``first``) on their inputs ``z`` (members, B, D + A + 1):
-        (Q (members, B, 1) float32, saved activations)."""
-        torch = self.torch
-        _, _, v2, c2, v3, c3 = params
-        g1 = relu_(torch.bmm(z, first))
-        g2 = relu_(torch.baddbmm(c2, g1, v2))
-        return _thin(torch.baddbmm(c3, v3.transpose(1, 2), g2.transpose(1, 2))).float(), (z, g1, g2)
-
-    def _critic_backward(self, dq, saved, *, weights: bool):
-        """Back through both critics from dL/dQ (K, B, 1): weight gradients (``weights``) or dL/d(action)."""
-        torch = self.torch
-        z, g1, g2 = saved
-        _, _, v2, _, v3, _ = self.critic_lp
-        dq_lp = dq.to(self.dtype)
-        dg2 = relu_backward(dq_lp * v3.transpose(1, 2), g2)  # (K, B, 1) x (K, 1, H): an outer product
-        dg1 = relu_backward(torch.bmm(dg2, v2.transpose(1, 2)), g1)
-        if not weights:
-            action_rows = self.critic_first[:, self.obs_dim:self.obs_dim + self.act_dim]
-            return _thin(torch.bmm(action_rows, dg1.transpose(1, 2))).float().sum(0)
-        first = torch.bmm(z.transpose(1, 2), dg1)  # weight rows, then the bias row (the ones column)
-        return [first[:, :-1], first[:, -1:],
-                torch.bmm(g1.transpose(1, 2), dg2), dg2.sum(1, keepdim=True),
-                _thin(torch.bmm(dq_lp.transpose(1, 2), g2)), dq.sum(1, keepdim=True)]
-
-    def _actor_backward(self, dout, saved):
-        """Weight gradients of the actor MLP from dL/d(out) (B, 2A) float32 and the saved activations."""
-        torch = self.torch
-        x, h1, h2 = saved
-        _, _, w2, _, w3, _ = self.actor_lp
-        dout_lp = dout.to(self.dtype)
-        dh2 = relu_backward(torch.mm(dout_lp, w3.t()), h2)
-        dh1 = relu_backward(torch.mm(dh2, w2.t()), h1)
-        first = torch.mm(x.t(), dh1)
-        return [first[:-1], first[-1:], torch.mm(h1.t(), dh2), dh2.sum(0, keepdim=True),
-                _thin(torch.mm(dout_lp.t(), h2)), dout.sum(0, keepdim=True)]
+    def _critics_backward(self, dq, g1, g2, col_sum) -> None:
+        """From dL/dQ (K, B, 1) in the products' dtype back through the critics to their first hidden layer:
+        dg2, dg1 (K, B, H); the second hidden layer's bias gradient into col_sum (K, 1, H) float32."""
+        _, _, _, w3_t, _, w2_t = self.critic_ops
+        self.kernels.outer_mask(dq, w3_t, g2, self.dg2, col_sum)
+        self.torch.bmm(self.dg2, w2_t, out=self.dg1)
+        self.kernels.mask_(self.dg1, g1)
 
     # ------------------------------------------------------------------ update
     def train_step(self, obs, action, reward, next_obs, done) -> None:
         """One SB3 SAC gradient step on a batch (float32 tensors; reward and done shaped (batch, 1))."""
-        torch = self.torch
-        with torch.no_grad():
-            batch = obs.shape[0]
-            # actor on s and s' in one pass; noise drawn in LeanSAC's order (s first, then s')
-            out, saved = self._actor_forward(torch.cat([obs, next_obs]))
-            noise = torch.randn((batch, self.act_dim), generator=self.generator)
-            action_pi, log_prob, (std, one_minus_a2, inside) = self._squash(out[:batch], noise)
-            # entropy coefficient (read before its own update, as SB3 does)
-            ent_coef = math.exp(self.ent_adam.value)
-            self.log_ent_coef.fill_(self.ent_adam.step(-float((log_prob + self.target_entropy).mean())))
-            # critic target and update
-            next_noise = torch.randn((batch, self.act_dim), generator=self.generator)
-            next_action, next_log_prob, _ = self._squash(out[batch:], next_noise)
-            # target critics on (s', a') and critics on (s, a): one pass over the stacked members
-            z = torch.cat([self._critic_input(next_obs, next_action), self._critic_input(obs, action)])
-            q_all, saved_all = self._critic_forward(self.stack_lp, self.stack_first, z)
-            next_q = q_all[:2].min(dim=0).values
-            target = reward + (1.0 - done) * GAMMA * (next_q - ent_coef * next_log_prob.unsqueeze(1))
-            q, critic_saved = q_all[2:], tuple(t[2:] for t in saved_all)
-            self.critic_adam.step(self._critic_backward((q - target) / batch, critic_saved, weights=True))
-            self._cast_critic()
-            # actor update against the updated critics
-            q_pi, pi_saved = self._critic_forward(self.critic_lp, self.critic_first,
-                                                 self._critic_input(obs, action_pi))
-            lowest = (q_pi == q_pi.min(dim=0, keepdim=True).values).float()  # (K, B, 1): the minimum's member
-            d_action = self._critic_backward(lowest * (-1.0 / batch), pi_saved, weights=False)
-            d_action = d_action + (ent_coef / batch) * 2 * action_pi / (one_minus_a2 + SQUASH_EPSILON)
-            d_u = d_action * one_minus_a2
-            d_log_std = (d_u * std * noise - ent_coef / batch) * inside
-            actor_saved = tuple(t[:batch] for t in saved)
-            self.actor_adam.step(self._actor_backward(torch.cat([d_u, d_log_std], dim=1), actor_saved))
-            self._cast_actor()
-            torch._foreach_lerp_(self.critic_target, self.critic, TAU)
-            self._cast_target()
+        torch, k, t = self.torch, self.kernels, self.t
+        batch = obs.shape[0]
+        if batch != self.batch:
+            self._buffers(self.obs_dim, self.act_dim, batch)
+        # actor on s and s' in one pass (2B rows); outputs transposed (2A, 2B)
+        k.fill_inputs(obs, action, next_obs, self.x, self.z, self.zpi)
+        first, w2, b2, w3_t, b3_t, w2_t = self.actor_ops
+        torch.mm(self.x, first, out=self.h1)
+        relu_(self.h1)
+        k.linear_relu(self.h1, w2, b2, self.h2)
+        torch.addmm(b3_t, w3_t, t["h2"], out=self.out_t)
+        # noise drawn in LeanSAC's order (s first, then s'); the entropy coefficient read before its update
+        noise = torch.randn((batch, self.act_dim), generator=self.generator)
+        next_noise = torch.randn((batch, self.act_dim), generator=self.generator)
+        mean_log_prob = k.sample(self.out_t, noise, next_noise, self.target_entropy, self.rows, self.z, self.zpi)
+        ent_coef = math.exp(self.ent_adam.value)
+        self.log_ent_coef.fill_(self.ent_adam.step(-mean_log_prob))
+        # target critics on (s', a') and critics on (s, a): one pass over the four stacked members
+        self._critics_forward(self.stack_ops, self.z, self.g1, self.g2, t["g2"], self.q_t)
+        grads = self.critic_grads
+        k.critic_dq(self.q_t, reward, done, self.rows["next_logp"], ent_coef, self.dq, grads[4])
+        _copy(self.dq, self.dq_lp)
+        self._critics_backward(self.dq_lp, self.g1c, self.g2c, grads[2])
+        torch.bmm(t["zc"], self.dg1, out=grads[0])
+        torch.bmm(t["g1c"], self.dg2, out=grads[1])
+        torch.bmm(t["dq_lp"], self.g2c, out=grads[3])
+        self.critic_adam.step(self.critic_step)
+        self._refresh(self.critic_lp, self.critic_params)
+        # actor update against the updated critics: dQ/da of the minimum member, back through both critics
+        self._critics_forward(self.critic_ops, self.zpi2, self.g1pi, self.g2pi, t["g2pi"], self.qpi_t)
+        k.lowest(self.qpi_t, self.dq_pi)
+        _copy(self.dq_pi, self.dq_pi_lp)
+        self._critics_backward(self.dq_pi_lp, self.g1pi, self.g2pi, self.col_scratch)
+        torch.bmm(self.action_rows, t["dg1"], out=self.da_t)
+        grads = self.actor_grads
+        k.actor_dout(self.da_t, ent_coef, noise, self.rows, self.dout, grads[4])
+        _copy(self.dout, self.dout_lp)
+        # actor backward on the s rows of the forward pass
+        k.outer_mask(self.dout_lp, w3_t, self.h2s, self.dh2, grads[2])
+        torch.mm(self.dh2, w2_t, out=self.dh1)
+        k.mask_(self.dh1, self.h1s)
+        torch.mm(t["xs"], self.dh1, out=grads[0])
+        torch.mm(t["h1s"], self.dh2, out=grads[1])
+        torch.mm(t["dout_lp"], self.h2s, out=grads[3])
+        self.actor_adam.step(self.actor_step)
+        self._refresh(self.actor_lp, self.actor_params)
+        torch._foreach_lerp_(self.target_params, self.critic_params, TAU)
+        self._refresh(self.target_lp, self.target_params)
 
 
-def _thin(product):
-    """The transpose (a view) of a product computed transposed. A product with a thin right operand (1 or
-    2A columns: the output layers, their weight gradients, the gradient by the action) runs several times
-    slower in the BLAS than its transpose (a few rows times a wide matrix): ``(A B)^T = B^T A^T``, so those
-    are computed as ``B^T A^T`` and read through this view (measured on ``(256, 256) x (256, 1)``: 4-10x
-    faster; benchmarks/README.md)."""
-    return product.transpose(-2, -1)
+def _copy(source, target) -> None:
+    """``source`` into ``target`` unless they are one tensor (float32, where the low-precision copy is it)."""
+    if target is not source:
+        target.copy_(source)
 
 
-def _with_ones(x):
-    """``x`` (..., N, F) with a trailing column of ones: (..., N, F + 1)."""
+def _network_views(params: list) -> tuple:
+    """What a stacked critic's products take of [first, w2, b2, w3, b3] (K leading): (first, w2, b2, w3^T,
+    b3, w2^T)."""
+    first, w2, b2, w3, b3 = params
+    return first, w2, b2, w3.transpose(1, 2), b3, w2.transpose(1, 2)
+
+
+def _merged_first(params: list) -> list:
+    """An MLP's [w1 (.., in, H), b1 (.., 1, H), w2, b2, w3, b3] as [first (.., in + 1, H), w2, b2, w3, b3]:
+    the first layer's weight with its bias as the last row."""
     import torch  # torch: the CLI imports this module; torch loads on first use
 
-    return torch.cat([x, x.new_ones((*x.shape[:-1], 1))], dim=-1)
+    return [torch.cat([p.detach() for p in params[:2]], dim=-2), *(p.detach() for p in params[2:])]
 
 
-def _low_precision(params, dtype):
-    """``dtype`` copies of an MLP's float32 parameters [w1 (.., in, H), b1 (.., 1, H), w2, b2, w3, b3]:
-    ``first``, the first layer's weight with its bias as a last row (.., in + 1, H), and six tensors shaped
-    like ``params`` (the first two are views into ``first``), to refresh with ``torch._foreach_copy_``."""
-    import torch  # torch: the CLI imports this module; torch loads on first use
-
-    first = torch.cat(params[:2], dim=-2).to(dtype)
-    return first, [first[..., :-1, :], first[..., -1:, :], *(p.to(dtype) for p in params[2:])]
+def _split_first(params: list) -> list:
+    """:func:`_merged_first` undone as views: [w1, b1, w2, b2, w3, b3]."""
+    return [params[0][..., :-1, :], params[0][..., -1:, :], *params[1:]]

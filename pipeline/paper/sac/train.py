@@ -9,7 +9,7 @@ actions. Four interchangeable back ends run that same algorithm with those same 
   machinery (the two critics as one batched ensemble, no critic weight gradients in the actor step, one
   fused Adam per network);
 * ``fast`` (the default) -- :class:`pipeline.paper.sac.fast.FastSAC`: the same update with hand-written
-  gradients (checked against autograd's to 1e-6 in float32), no autograd graph;
+  gradients (checked against autograd's to 1e-5 in float32), no autograd graph;
 * ``torch-bf16`` -- ``torch`` asked to run in bfloat16 (the same as ``--sac torch --precision bfloat16``).
 
 ``torch`` and ``fast`` run in the precision :func:`sac_precision` chooses (:mod:`surrogates.precision`):
