@@ -33,7 +33,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--workers", type=int, default=1, help="processes solving buildings in parallel")
     parser.add_argument("--certify", type=float, metavar="SECONDS",
                         help="seconds per building for tightening the certified lower bound with each step's "
-                             "battery power range as a choice (default CERTIFY_SECONDS, 30; 0: the linear relaxation's bound)")
+                             "battery power range as a choice (default CERTIFY_SECONDS, 60; 0: the linear relaxation's bound)")
     parser.add_argument("--mpc", action="store_true",
                         help="also run receding-horizon MPC and print it beside the oracle; -o writes its actions")
     parser.add_argument("--horizon", type=int, default=24, help="with --mpc: steps planned ahead (default 24)")

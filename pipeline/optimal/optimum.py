@@ -35,7 +35,7 @@ from pipeline.optimal.replay import Replay, replay
 WORSE = 1e-9
 #: seconds per building group ``districtgen optimal`` spends tightening the certified bound by default
 #: (:mod:`pipeline.optimal.certify`)
-CERTIFY_SECONDS = 30.0
+CERTIFY_SECONDS = 60.0
 UNITS = {"cost": "$", "emissions": "kg", "consumption": "kWh", "average_daily_peak": "kW"}
 
 
