@@ -19,11 +19,12 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import fields, replace
+from functools import partial
 from types import MappingProxyType
 
 import numpy as np
 
-from citylearn_env import devices, ev, washing_machine
+from citylearn_env import device_kernels, devices, ev, washing_machine
 from citylearn_env.actions import Actions
 from citylearn_env.config import DistrictConfig
 from citylearn_env.dataset import NAME_ALIASES
@@ -87,11 +88,14 @@ class District:
     """Parameters, data series and the recorded episode of a district; :meth:`step` advances it.
 
     ``settings`` chooses upstream behaviour (:mod:`citylearn_env.settings`). Buildings with LSTM dynamics get
-    a :class:`citylearn_env.thermal.ThermalModel`, owned and stepped here.
+    a :class:`citylearn_env.thermal.ThermalModel`, owned and stepped here. ``backend``: "auto" (the compiled
+    battery and storage kernels of :mod:`citylearn_env.device_kernels` when numba is installed, else the numpy
+    functions of :mod:`citylearn_env.devices`; the same numbers either way), "numba" or "numpy".
     """
 
-    def __init__(self, config: DistrictConfig, *, settings: Behaviour = CORRECTED):
+    def __init__(self, config: DistrictConfig, *, settings: Behaviour = CORRECTED, backend: str = "auto"):
         self.config, self.settings = config, settings
+        self.use_backend(backend)
         b = config.buildings
         self.n = len(b)
         self.names = config.building_names
@@ -122,6 +126,20 @@ class District:
         self.occupants = OccupantModel(occupants, self.n) if occupants else None
 
     # ------------------------------------------------------------------ construction
+    def use_backend(self, backend: str) -> None:
+        """Step the end uses and batteries with the compiled kernels ("numba", or "auto" with numba installed)
+        or the numpy reference functions ("numpy"); the numbers are the same."""
+        if backend not in ("auto", "numba", "numpy"):
+            raise ValueError(f"backend must be 'auto', 'numba' or 'numpy', not {backend!r}")
+        kernels = device_kernels.get_kernels() if backend != "numpy" else None
+        if backend == "numba" and kernels is None:
+            raise ImportError("backend='numba' needs the numba package")
+        self.backend = "numba" if kernels is not None else "numpy"
+        self._serve_end_use = (partial(device_kernels.serve_end_use, kernels) if kernels is not None
+                               else devices.serve_end_use)
+        self._battery_charge = (partial(device_kernels.battery_charge, kernels) if kernels is not None
+                                else devices.battery_charge)
+
     def _end_use_params(self, k: str) -> EndUseParams:
         b = self.config.buildings
         slots = END_USE_SLOTS[k]
@@ -394,42 +412,26 @@ class District:
 
     def _end_use(self, u: EndUseState, t: int, demand: np.ndarray, action: np.ndarray,
                  supply: Callable[[], np.ndarray]) -> np.ndarray:
-        """Serve one end use with its device and storage; return the electricity booked (B,).
-
-        Where the storage action is negative the storage discharges first and the device serves the rest;
-        otherwise the device serves the demand and the storage charges with the device's remaining power.
-        Both cases need one storage call: the discharge request does not depend on the device.
-        """
+        """Serve one end use with its device and storage (:func:`citylearn_env.devices.serve_end_use`), record
+        it; return the electricity booked (B,)."""
         p, r = u.params, u.record
         cop = u.cop[:, t]
         again = t == 0 and self.settings.first_step_booked_three_times
         reset_booked = r.electricity_consumption[:, 0].copy() if again else None
         nominal = p.nominal_power - reset_booked if again else p.nominal_power
-        s0 = supply()
-        q_dev, booked = devices.device_output(demand, nominal, cop, s0)
-        if p.has_storage:
-            tank = p.tank
-            request = action * self._storage_scale[p.name]
-            discharge = action < 0
-            s1 = s0 if s0 is self.inf else np.where(s0 == np.inf, np.inf, s0 - booked)
-            charge = np.minimum(np.minimum(s1, nominal - booked) * cop, request)
-            ask = np.where(discharge, np.maximum(-demand, request), np.minimum(charge, tank.max_input_power))
-            ask = np.maximum(ask, -tank.max_output_power)
-            soc, bal = devices.storage_charge(r.storage_soc[:, _previous(t)], ask, tank.capacity,
-                                              tank.loss_coefficient, tank.one_way_efficiency)
-            from_storage = -np.minimum(bal, 0.0)
-            if discharge.any():
-                q_dev, booked = devices.device_output(demand - from_storage, nominal, cop, s0)
-            to_storage = np.maximum(bal, 0.0)
-            booked = booked + to_storage / cop
-            r.storage_soc[:, t] = soc
-            r.storage_energy_balance[:, t] = bal
-            r.storage_electricity_consumption[:, t] = bal / cop
-            r.energy_from_storage[:, t] = from_storage
-            r.energy_from_device_to_storage[:, t] = to_storage
-        r.energy_from_device[:, t] = q_dev
+        tank = p.tank if p.has_storage else None
+        step = self._serve_end_use(demand, nominal, cop, supply(), action, self._storage_scale[p.name],
+                                   r.storage_soc[:, _previous(t)], tank)
+        booked = step.booked
+        if tank is not None:
+            r.storage_soc[:, t] = step.soc
+            r.storage_energy_balance[:, t] = step.balance
+            r.storage_electricity_consumption[:, t] = step.balance / cop
+            r.energy_from_storage[:, t] = step.from_storage
+            r.energy_from_device_to_storage[:, t] = step.to_storage
+        r.energy_from_device[:, t] = step.from_device
         if again:  # CityLearn 2.5 books row 0 at reset, at the first call and once more at its update
-            booked = reset_booked + booked + (q_dev + r.storage_energy_balance[:, 0]) / cop
+            booked = reset_booked + booked + (step.from_device + r.storage_energy_balance[:, 0]) / cop
         r.electricity_consumption[:, t] = booked
         return booked
 
@@ -438,7 +440,7 @@ class District:
         r = self.battery_record
         p = _previous(t)
         request = np.minimum(action * self._battery_scale, supply)
-        soc, bal, eff, cap = devices.battery_charge(
+        soc, bal, eff, cap = self._battery_charge(
             request, r.soc[:, p], self.zeros, self.battery, r.efficiency[:, p], r.capacity[:, p],
             extrapolate_first_segment=self.settings.battery_curve_extrapolates_first_segment,
             efficiency_from_request=self.settings.battery_efficiency_from_request)
