@@ -20,7 +20,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from citylearn_env.devices import BatteryParams, EndUseStep
+from citylearn_env import devices
+from citylearn_env.devices import BatteryParams
 from citylearn_env.state import TankParams
 
 _KERNELS: DeviceKernels | bool | None = None
@@ -74,73 +75,71 @@ def _device(demand, nominal_power, cop, supply):  # pragma: no cover - compiled 
 
 
 def _serve_end_use(demand, nominal_power, cop, supply, action, scale, soc_prev, capacity, loss, one_way,
-                   max_input, max_output, has_tank):  # pragma: no cover - compiled by numba
+                   max_input, max_output, has_tank, q_dev, booked, soc, balance, from_storage,
+                   to_storage):  # pragma: no cover - compiled by numba
     """:func:`citylearn_env.devices.serve_end_use` over (B,) arrays (the tank's parameters unpacked; with
-    ``has_tank`` False they are not read): new (B,) arrays (from_device, booked, soc, balance, from_storage,
-    to_storage)."""
+    ``has_tank`` False neither they nor the tank outputs are touched), written into the (B,) outputs
+    ``q_dev`` (from_device), ``booked``, ``soc``, ``balance``, ``from_storage`` and ``to_storage``. An output
+    may be the same memory as ``soc_prev`` (each building's inputs are read before its outputs are written)."""
     n = demand.shape[0]
-    q_dev, booked = np.empty(n), np.empty(n)
-    soc, balance, from_storage, to_storage = np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n)
     discharging = False
     for b in range(n):
-        q_dev[b], booked[b] = _device(demand[b], nominal_power[b], cop[b], supply[b])
-        if not has_tank:
-            continue
-        request = action[b] * scale[b]
-        room = math.inf if supply[b] == math.inf else supply[b] - booked[b]
-        if action[b] < 0:
-            discharging = True
-            ask = _max(-demand[b], request)
-        else:
-            ask = _min(_min(_min(room, nominal_power[b] - booked[b]) * cop[b], request), max_input[b])
-        ask = _max(ask, -max_output[b])
-        soc[b], balance[b] = _store(soc_prev[b], ask, capacity[b], loss[b], one_way[b])
-        from_storage[b] = -_min(balance[b], 0.0)
-        to_storage[b] = _max(balance[b], 0.0)
+        d, p, k, s0 = demand[b], nominal_power[b], cop[b], supply[b]
+        q, e = _device(d, p, k, s0)
+        if has_tank:
+            a = action[b]
+            request = a * scale[b]
+            room = math.inf if s0 == math.inf else s0 - e
+            if a < 0:
+                discharging = True
+                ask = _max(-d, request)
+            else:
+                ask = _min(_min(_min(room, p - e) * k, request), max_input[b])
+            ask = _max(ask, -max_output[b])
+            new_soc, bal = _store(soc_prev[b], ask, capacity[b], loss[b], one_way[b])
+            soc[b], balance[b] = new_soc, bal
+            from_storage[b] = -_min(bal, 0.0)
+            to_storage[b] = _max(bal, 0.0)
+        q_dev[b], booked[b] = q, e
     if has_tank:
         for b in range(n):
             if discharging:  # as the numpy function: every building's device again once any tank discharges
                 q_dev[b], booked[b] = _device(demand[b] - from_storage[b], nominal_power[b], cop[b], supply[b])
             booked[b] = booked[b] + to_storage[b] / cop[b]
-    return q_dev, booked, soc, balance, from_storage, to_storage
 
 
 def _battery_charge(energy, soc_prev, booked, efficiency_prev, capacity_prev, capacity, nominal,
                     inverse_nominal, loss, capacity_loss, depth_of_discharge, cp_xs, cp_ys, cp_slopes,
-                    pe_xs, pe_ys, pe_slopes, extrapolate_first_segment,
-                    efficiency_from_request):  # pragma: no cover - compiled by numba
+                    pe_xs, pe_ys, pe_slopes, extrapolate_first_segment, efficiency_from_request,
+                    soc, balance, efficiency, degraded):  # pragma: no cover - compiled by numba
     """:func:`citylearn_env.devices.battery_charge` (with :func:`~citylearn_env.devices.battery_limit`) over
     (B,) arrays; the capacity-power (``cp_*``) and power-efficiency (``pe_*``) curves as the (B, K) points and
-    slopes of :class:`~citylearn_env.devices.Curve`. Returns new (B,) arrays (soc, balance, efficiency,
-    capacity)."""
-    n = energy.shape[0]
-    soc = np.empty(n)
-    balance = np.empty(n)
-    efficiency = np.empty(n)
-    degraded = np.empty(n)
-    for b in range(n):
-        c, p, e_req = capacity[b], nominal[b], energy[b]
+    slopes of :class:`~citylearn_env.devices.Curve`. Writes the (B,) outputs ``soc``, ``balance``,
+    ``efficiency`` and ``degraded`` (capacity), which may be the same memory as the previous step's inputs
+    (each building's inputs are read before its outputs are written)."""
+    for b in range(energy.shape[0]):
+        c, p, e_req, s_prev, lo = capacity[b], nominal[b], energy[b], soc_prev[b], loss[b]
+        eff_prev, cap_prev = efficiency_prev[b], capacity_prev[b]
         # battery_limit
-        e0 = _max(0.0, soc_prev[b] * c * (1.0 - loss[b]))
+        e0 = _max(0.0, s_prev * c * (1.0 - lo))
         soc0 = e0 / _max(c, 1e-6)
         p_max = p * _interpolate(soc0, cp_xs, cp_ys, cp_slopes, b, extrapolate_first_segment)
         if e_req >= 0:
-            e = _min(_min(p_max, p - booked[b]), _min(capacity_prev[b] - e0, e_req))
+            e = _min(_min(p_max, p - booked[b]), _min(cap_prev - e0, e_req))
         else:
-            floor = -_max((soc_prev[b] - (1.0 - depth_of_discharge[b])) * c * math.sqrt(efficiency_prev[b]), 0.0)
+            floor = -_max((s_prev - (1.0 - depth_of_discharge[b])) * c * math.sqrt(eff_prev), 0.0)
             e = _max(_max(-p_max, floor), e_req)
         # the step's efficiency, the storage, the capacity fade
         basis = abs(e)
         if efficiency_from_request:
-            soc0r = _max(0.0, soc_prev[b] * (1.0 - loss[b]))
+            soc0r = _max(0.0, s_prev * (1.0 - lo))
             p_max_r = p * _interpolate(soc0r, cp_xs, cp_ys, cp_slopes, b, extrapolate_first_segment)
             basis = _min(abs(e_req), p_max_r)
         eff = _interpolate(basis * inverse_nominal[b], pe_xs, pe_ys, pe_slopes, b, extrapolate_first_segment)
-        s, bal = _store(soc_prev[b], e, c, loss[b], math.sqrt(eff))
-        fade = capacity_loss[b] * c * abs(bal) / (2.0 * capacity_prev[b]) if capacity_prev[b] > 0 else 0.0
-        soc[b], balance[b], efficiency[b] = s, bal, eff
-        degraded[b] = _max(capacity_prev[b] - fade, 0.0)
-    return soc, balance, efficiency, degraded
+        new_soc, bal = _store(s_prev, e, c, lo, math.sqrt(eff))
+        fade = capacity_loss[b] * c * abs(bal) / (2.0 * cap_prev) if cap_prev > 0 else 0.0
+        soc[b], balance[b], efficiency[b] = new_soc, bal, eff
+        degraded[b] = _max(cap_prev - fade, 0.0)
 
 
 #: helpers the kernels resolve as module globals when numba compiles them: swapped for jitted, inlined ones
@@ -171,28 +170,45 @@ def get_kernels() -> DeviceKernels | None:
     return _KERNELS or None
 
 
-def battery_charge(kernels: DeviceKernels, energy: np.ndarray, soc_prev: np.ndarray, booked: np.ndarray,
-                   battery: BatteryParams, efficiency_prev: np.ndarray, capacity_prev: np.ndarray, *,
-                   extrapolate_first_segment: bool = False, efficiency_from_request: bool = False
-                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """:func:`citylearn_env.devices.battery_charge` (same arguments, same results) through the compiled
-    kernel: (soc [-], balance [kWh], round-trip efficiency [-], degraded capacity [kWh]), (B,) each."""
+def battery_charge_into(out: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray], energy: np.ndarray,
+                        soc_prev: np.ndarray, booked: np.ndarray, battery: BatteryParams,
+                        efficiency_prev: np.ndarray, capacity_prev: np.ndarray, *, kernels: DeviceKernels | None,
+                        extrapolate_first_segment: bool = False, efficiency_from_request: bool = False) -> None:
+    """:func:`citylearn_env.devices.battery_charge` written into ``out`` = (soc [-], balance [kWh], round-trip
+    efficiency [-], degraded capacity [kWh]), (B,) arrays (e.g. record columns; they may be the inputs' own
+    memory): through the compiled kernel, or with ``kernels`` None the numpy function."""
+    if kernels is None:
+        values = devices.battery_charge(energy, soc_prev, booked, battery, efficiency_prev, capacity_prev,
+                                        extrapolate_first_segment=extrapolate_first_segment,
+                                        efficiency_from_request=efficiency_from_request)
+        for target, value in zip(out, values, strict=True):
+            target[:] = value
+        return
     cp, pe = battery.capacity_power, battery.power_efficiency
-    return kernels.battery_charge(
+    kernels.battery_charge(
         energy, soc_prev, booked, efficiency_prev, capacity_prev, battery.capacity, battery.nominal_power,
         battery.inverse_nominal_power, battery.loss_coefficient, battery.capacity_loss_coefficient,
         battery.depth_of_discharge, cp.xs, cp.ys, cp.slopes, pe.xs, pe.ys, pe.slopes,
-        bool(extrapolate_first_segment), bool(efficiency_from_request))
+        bool(extrapolate_first_segment), bool(efficiency_from_request), *out)
 
 
-def serve_end_use(kernels: DeviceKernels, demand: np.ndarray, nominal_power: np.ndarray, cop: np.ndarray,
-                  supply: np.ndarray, action: np.ndarray, scale: np.ndarray, soc_prev: np.ndarray,
-                  tank: TankParams | None) -> EndUseStep:
-    """:func:`citylearn_env.devices.serve_end_use` (same arguments, same results) through the compiled kernel."""
+def serve_end_use_into(out: tuple[np.ndarray, ...], demand: np.ndarray, nominal_power: np.ndarray,
+                       cop: np.ndarray, supply: np.ndarray, action: np.ndarray, scale: np.ndarray,
+                       soc_prev: np.ndarray, tank: TankParams | None, *, kernels: DeviceKernels | None) -> None:
+    """:func:`citylearn_env.devices.serve_end_use` written into ``out``, six (B,) arrays in
+    :class:`~citylearn_env.devices.EndUseStep` field order (the tank's four untouched when ``tank`` is None;
+    ``out`` may hold ``soc_prev``'s memory): through the compiled kernel, or with ``kernels`` None the numpy
+    function."""
+    if kernels is None:
+        step = devices.serve_end_use(demand, nominal_power, cop, supply, action, scale, soc_prev, tank)
+        for target, value in zip(out, step, strict=True):
+            if value is not None:
+                target[:] = value
+        return
     if tank is None:
-        q_dev, booked, *_ = kernels.serve_end_use(demand, nominal_power, cop, supply, action, scale, soc_prev,
-                                                  demand, demand, demand, demand, demand, False)
-        return EndUseStep(q_dev, booked)
-    return EndUseStep(*kernels.serve_end_use(demand, nominal_power, cop, supply, action, scale, soc_prev,
-                                             tank.capacity, tank.loss_coefficient, tank.one_way_efficiency,
-                                             tank.max_input_power, tank.max_output_power, True))
+        kernels.serve_end_use(demand, nominal_power, cop, supply, action, scale, soc_prev, demand, demand, demand,
+                              demand, demand, False, *out)
+        return
+    kernels.serve_end_use(demand, nominal_power, cop, supply, action, scale, soc_prev, tank.capacity,
+                          tank.loss_coefficient, tank.one_way_efficiency, tank.max_input_power,
+                          tank.max_output_power, True, *out)

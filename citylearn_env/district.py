@@ -117,6 +117,7 @@ class District:
         self.inf = np.full(self.n, np.inf)
         self.zeros = np.zeros(self.n)  # read-only stand-in: nothing booked on a battery before it runs
         self.zeros.flags.writeable = False
+        self._scratch = np.zeros((4, self.n))  # outputs a step does not keep (B,) x 4
         self.t, self.length = 0, 0
         self.ev = config.electric_vehicles if config.electric_vehicles is not None and \
             config.electric_vehicles.chargers.names else None
@@ -135,10 +136,8 @@ class District:
         if backend == "numba" and kernels is None:
             raise ImportError("backend='numba' needs the numba package")
         self.backend = "numba" if kernels is not None else "numpy"
-        self._serve_end_use = (partial(device_kernels.serve_end_use, kernels) if kernels is not None
-                               else devices.serve_end_use)
-        self._battery_charge = (partial(device_kernels.battery_charge, kernels) if kernels is not None
-                                else devices.battery_charge)
+        self._serve_end_use = partial(device_kernels.serve_end_use_into, kernels=kernels)
+        self._battery_charge = partial(device_kernels.battery_charge_into, kernels=kernels)
 
     def _end_use_params(self, k: str) -> EndUseParams:
         b = self.config.buildings
@@ -412,48 +411,42 @@ class District:
 
     def _end_use(self, u: EndUseState, t: int, demand: np.ndarray, action: np.ndarray,
                  supply: Callable[[], np.ndarray]) -> np.ndarray:
-        """Serve one end use with its device and storage (:func:`citylearn_env.devices.serve_end_use`), record
-        it; return the electricity booked (B,)."""
+        """Serve one end use with its device and storage (:func:`citylearn_env.devices.serve_end_use`) into its
+        record at ``t``; return the electricity booked (B,) (a view of the record)."""
         p, r = u.params, u.record
         cop = u.cop[:, t]
         again = t == 0 and self.settings.first_step_booked_three_times
         reset_booked = r.electricity_consumption[:, 0].copy() if again else None
         nominal = p.nominal_power - reset_booked if again else p.nominal_power
         tank = p.tank if p.has_storage else None
-        step = self._serve_end_use(demand, nominal, cop, supply(), action, self._storage_scale[p.name],
-                                   r.storage_soc[:, _previous(t)], tank)
-        booked = step.booked
+        booked = r.electricity_consumption[:, t]
+        tank_out = (r.storage_soc[:, t], r.storage_energy_balance[:, t], r.energy_from_storage[:, t],
+                    r.energy_from_device_to_storage[:, t]) if tank is not None else tuple(self._scratch)
+        self._serve_end_use((r.energy_from_device[:, t], booked, *tank_out), demand, nominal, cop, supply(),
+                            action, self._storage_scale[p.name], r.storage_soc[:, _previous(t)], tank)
         if tank is not None:
-            r.storage_soc[:, t] = step.soc
-            r.storage_energy_balance[:, t] = step.balance
-            r.storage_electricity_consumption[:, t] = step.balance / cop
-            r.energy_from_storage[:, t] = step.from_storage
-            r.energy_from_device_to_storage[:, t] = step.to_storage
-        r.energy_from_device[:, t] = step.from_device
+            np.divide(r.storage_energy_balance[:, t], cop, out=r.storage_electricity_consumption[:, t])
         if again:  # CityLearn 2.5 books row 0 at reset, at the first call and once more at its update
-            booked = reset_booked + booked + (step.from_device + r.storage_energy_balance[:, 0]) / cop
-        r.electricity_consumption[:, t] = booked
+            booked[:] = reset_booked + booked + (r.energy_from_device[:, 0] + r.storage_energy_balance[:, 0]) / cop
         return booked
 
     def _battery(self, t: int, action: np.ndarray, supply: np.ndarray, mask: np.ndarray | None) -> np.ndarray:
-        """Charge/discharge the batteries (only where ``mask``); return the electricity booked (B,)."""
+        """Charge/discharge the batteries (only where ``mask``) into the record at ``t``; return the electricity
+        booked (B,)."""
         r = self.battery_record
         p = _previous(t)
         request = np.minimum(action * self._battery_scale, supply)
-        soc, bal, eff, cap = self._battery_charge(
-            request, r.soc[:, p], self.zeros, self.battery, r.efficiency[:, p], r.capacity[:, p],
-            extrapolate_first_segment=self.settings.battery_curve_extrapolates_first_segment,
-            efficiency_from_request=self.settings.battery_efficiency_from_request)
-        if mask is not None:
-            soc = np.where(mask, soc, r.soc[:, t])
-            bal = np.where(mask, bal, r.energy_balance[:, t])
-            eff = np.where(mask, eff, r.efficiency[:, t])
-            cap = np.where(mask, cap, r.capacity[:, t])
-        r.soc[:, t] = soc
-        r.energy_balance[:, t] = bal
-        r.efficiency[:, t] = eff
-        r.capacity[:, t] = cap
-        return bal if mask is None else np.where(mask, bal, 0.0)
+        columns = (r.soc[:, t], r.energy_balance[:, t], r.efficiency[:, t], r.capacity[:, t])
+        out = columns if mask is None else tuple(self._scratch)
+        self._battery_charge(out, request, r.soc[:, p], self.zeros, self.battery, r.efficiency[:, p],
+                             r.capacity[:, p],
+                             extrapolate_first_segment=self.settings.battery_curve_extrapolates_first_segment,
+                             efficiency_from_request=self.settings.battery_efficiency_from_request)
+        if mask is None:
+            return columns[1]
+        for column, value in zip(columns, out, strict=True):
+            column[:] = np.where(mask, value, column)
+        return np.where(mask, out[1], 0.0)
 
     def _chargers(self, t: int, action: np.ndarray | None) -> np.ndarray:
         """EVs at step t: the away and connection rules, then each charger's action; returns the chargers'

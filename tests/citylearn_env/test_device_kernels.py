@@ -41,6 +41,10 @@ def _tank(rng: np.random.Generator) -> TankParams:
                       max_input_power=rng.uniform(0.0, 5.0, N), max_output_power=rng.uniform(0.0, 5.0, N))
 
 
+def _outputs(n: int, count: int) -> tuple[np.ndarray, ...]:
+    return tuple(np.full(n, -7.0) for _ in range(count))  # -7: untouched outputs stay recognisable
+
+
 @pytest.mark.parametrize("seed", range(6))
 @pytest.mark.parametrize("with_tank", [True, False])
 def test_serve_end_use_kernel_equals_numpy(kernels, seed, with_tank):
@@ -56,9 +60,27 @@ def test_serve_end_use_kernel_equals_numpy(kernels, seed, with_tank):
     tank = _tank(rng) if with_tank else None
     args = (demand, nominal, cop, supply, action, scale, soc_prev, tank)
     expected = devices.serve_end_use(*args)
-    got = device_kernels.serve_end_use(kernels, *args)
-    for field in devices.EndUseStep._fields:
-        _same(getattr(got, field), getattr(expected, field))
+    numpy_out, kernel_out = _outputs(N, 6), _outputs(N, 6)
+    device_kernels.serve_end_use_into(numpy_out, *args, kernels=None)
+    device_kernels.serve_end_use_into(kernel_out, *args, kernels=kernels)
+    for field, a, b in zip(devices.EndUseStep._fields, kernel_out, numpy_out, strict=True):
+        _same(a, b)
+        value = getattr(expected, field)
+        _same(a, value if value is not None else np.full(N, -7.0))
+
+
+def test_serve_end_use_kernel_may_write_over_the_previous_soc(kernels):
+    rng = np.random.default_rng(11)
+    tank = _tank(rng)
+    soc = rng.uniform(0.0, 1.0, N)
+    args = (rng.uniform(0.0, 6.0, N), rng.uniform(0.0, 4.0, N), rng.uniform(0.9, 6.0, N), np.full(N, np.inf),
+            rng.uniform(-1.0, 1.0, N), rng.uniform(0.0, 8.0, N))
+    expected = devices.serve_end_use(*args, soc.copy(), tank)
+    out = _outputs(N, 6)
+    out = (out[0], out[1], soc, *out[3:])  # the new SOC written where the previous one is read
+    device_kernels.serve_end_use_into(out, *args, soc, tank, kernels=kernels)
+    for field, a in zip(devices.EndUseStep._fields, out, strict=True):
+        _same(a, getattr(expected, field))
 
 
 def _battery(rng: np.random.Generator, curves: str) -> devices.BatteryParams:
@@ -97,9 +119,19 @@ def test_battery_kernel_equals_numpy(kernels, seed, curves, extrapolate, from_re
     args = (energy, soc_prev, booked, battery, efficiency_prev, capacity_prev)
     flags = {"extrapolate_first_segment": extrapolate, "efficiency_from_request": from_request}
     expected = devices.battery_charge(*args, **flags)
-    got = device_kernels.battery_charge(kernels, *args, **flags)
-    for a, b in zip(got, expected, strict=True):
-        _same(a, b)
+    numpy_out, kernel_out = _outputs(N, 4), _outputs(N, 4)
+    device_kernels.battery_charge_into(numpy_out, *args, kernels=None, **flags)
+    device_kernels.battery_charge_into(kernel_out, *args, kernels=kernels, **flags)
+    for a, b, c in zip(kernel_out, numpy_out, expected, strict=True):
+        _same(a, c)
+        _same(b, c)
+    # written over the previous step's SOC, efficiency and capacity (a record column acted on twice)
+    soc, efficiency, capacity = soc_prev.copy(), efficiency_prev.copy(), capacity_prev.copy()
+    out = (soc, np.empty(N), efficiency, capacity)
+    device_kernels.battery_charge_into(out, energy, soc, booked, battery, efficiency, capacity, kernels=kernels,
+                                       **flags)
+    for a, c in zip(out, expected, strict=True):
+        _same(a, c)
 
 
 def _episode(scenario: str, settings, backend: str) -> tuple[list[np.ndarray], np.ndarray]:
