@@ -199,13 +199,24 @@ class District:
         """The episode state of end use ``name`` (cooling, heating or dhw)."""
         return self.end_uses[END_USES.index(name)]
 
+    def _resolve_dynamic(self) -> None:
+        """Per episode, where :meth:`dynamic_value` reads its answers: the (B, T) record of each recorded
+        observation that no derived one shadows, and the (device, storage) records of each delivered energy."""
+        derived = {*DELIVERED_OBSERVATIONS, "indoor_dry_bulb_temperature_delta", *SET_POINT_DELTAS, OCCUPANT_DELTA,
+                   *OccupantModel.SET_POINTS}
+        self._recorded_series = {k: v for k, v in self.recorded.items() if k not in derived}
+        self._delivered = {name: (self.end_use(u).record.energy_from_device, self.end_use(u).record.energy_from_storage)
+                           for name, u in DELIVERED_OBSERVATIONS.items()}
+
     def dynamic_value(self, name: str, t: int) -> np.ndarray:
         """The (B,) value of dynamic observation ``name`` (:data:`citylearn_env.state.DYNAMIC`) at episode
         step ``t``: delivered energy [kWh], |T - T_set| or T - T_set [degC], or a recorded quantity."""
-        end_use = DELIVERED_OBSERVATIONS.get(name)
-        if end_use is not None:
-            r = self.end_use(end_use).record
-            return r.energy_from_device[:, t] + r.energy_from_storage[:, t]
+        series = self._recorded_series.get(name)
+        if series is not None:
+            return series[:, t]
+        records = self._delivered.get(name)
+        if records is not None:
+            return records[0][:, t] + records[1][:, t]
         if name == "indoor_dry_bulb_temperature_delta":
             setpoint = self.episode["indoor_dry_bulb_temperature_set_point"][:, t]
             return np.abs(self.building_record.indoor_dry_bulb_temperature[:, t] - setpoint)
@@ -279,6 +290,7 @@ class District:
         with_ev = self.ev is not None or self.machines is not None
         self.recorded = recorded_names({u.params.name: u.record for u in self.end_uses}, bat, self.building_record,
                                        with_ev=with_ev)
+        self._resolve_dynamic()
         if with_ev:
             self._reset_ev(start, length, drift)
         if self.thermal is not None:
@@ -352,15 +364,14 @@ class District:
         supply = self._supply(t, total)
         overrides = self.thermal.demands(t, actions, self.end_use) if self.thermal is not None else None
         battery_action = actions.electrical_storage
-        first = battery_action < 0
+        first = battery_action < 0 if in_outage else None  # during an outage a discharging battery runs first
         if in_outage and first.any():
             total += self._battery(t, battery_action, supply(), first)
         for u in self.end_uses:
             if u.params.live:
                 total += self._end_use(u, t, self._demand(u, t, overrides), actions.storage(u.params.name), supply)
-        served = np.minimum(e["non_shiftable_load"][:, t], supply())
-        self.building_record.non_shiftable_load_served[:, t] = served
-        total += served
+        record = self.building_record
+        total += np.minimum(e["non_shiftable_load"][:, t], supply(), out=record.non_shiftable_load_served[:, t])
         if in_outage:
             total += self._battery(t, battery_action, supply(), ~first)
         else:
@@ -368,9 +379,11 @@ class District:
         self._book_devices(t, actions, total)
         if t == 0 and self.settings.first_step_booked_three_times:
             total += self._first_row_again()
-        net = total - e.pv_generation[:, t]
-        self.building_record.net_electricity_consumption[:, t] = \
-            np.where(e.outage[:, t] > 0, 0.0, net) if in_outage else net
+        net = record.net_electricity_consumption[:, t]
+        if in_outage:
+            net[:] = np.where(e.outage[:, t] > 0, 0.0, total - e.pv_generation[:, t])
+        else:
+            np.subtract(total, e.pv_generation[:, t], out=net)
         if self.thermal is not None:
             self.thermal.update(t, self.dynamic_value, self.building_record.indoor_dry_bulb_temperature)
         if self.occupants is not None:
