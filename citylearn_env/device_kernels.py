@@ -142,6 +142,17 @@ def _battery_charge(energy, soc_prev, booked, efficiency_prev, capacity_prev, ca
         degraded[b] = _max(cap_prev - fade, 0.0)
 
 
+def _heat_pump_demand(action, available, nominal_power, cop, use, out):  # pragma: no cover - compiled by numba
+    """:func:`citylearn_env.devices.heat_pump_demand` over (B,) arrays, written into ``out``."""
+    for b in range(action.shape[0]):
+        if use[b]:
+            p = nominal_power[b]
+            q = _min(_max(action[b], 0.0) * p, p)
+            out[b] = (q if available[b] else 0.0) * cop[b]
+        else:
+            out[b] = math.nan
+
+
 #: helpers the kernels resolve as module globals when numba compiles them: swapped for jitted, inlined ones
 _HELPERS = ("_min", "_max", "_interpolate", "_store", "_device")
 
@@ -151,6 +162,7 @@ class DeviceKernels(NamedTuple):
 
     serve_end_use: object
     battery_charge: object
+    heat_pump_demand: object
 
 
 def get_kernels() -> DeviceKernels | None:
@@ -166,7 +178,8 @@ def get_kernels() -> DeviceKernels | None:
             for name in _HELPERS:
                 globals()[name] = njit(cache=True, nogil=True, inline="always", error_model="numpy")(globals()[name])
             jit = njit(cache=True, nogil=True, error_model="numpy")
-            _KERNELS = DeviceKernels(serve_end_use=jit(_serve_end_use), battery_charge=jit(_battery_charge))
+            _KERNELS = DeviceKernels(serve_end_use=jit(_serve_end_use), battery_charge=jit(_battery_charge),
+                                     heat_pump_demand=jit(_heat_pump_demand))
     return _KERNELS or None
 
 
@@ -212,3 +225,14 @@ def serve_end_use_into(out: tuple[np.ndarray, ...], demand: np.ndarray, nominal_
     kernels.serve_end_use(demand, nominal_power, cop, supply, action, scale, soc_prev, tank.capacity,
                           tank.loss_coefficient, tank.one_way_efficiency, tank.max_input_power,
                           tank.max_output_power, True, *out)
+
+
+def heat_pump_demand(action: np.ndarray, available: np.ndarray, nominal_power: np.ndarray, cop: np.ndarray,
+                     use: np.ndarray, *, kernels: DeviceKernels | None) -> np.ndarray:
+    """:func:`citylearn_env.devices.heat_pump_demand` (a new (B,) array [kWh], NaN where not ``use``): through
+    the compiled kernel, or with ``kernels`` None the numpy function."""
+    if kernels is None:
+        return devices.heat_pump_demand(action, available, nominal_power, cop, use)
+    out = np.empty(action.shape[0])
+    kernels.heat_pump_demand(action, available, nominal_power, cop, use, out)
+    return out

@@ -239,3 +239,13 @@ def serve_end_use(demand: np.ndarray, nominal_power: np.ndarray, cop: np.ndarray
         q_dev, booked = device_output(demand - from_storage, nominal_power, cop, supply)
     to_storage = np.maximum(balance, 0.0)
     return EndUseStep(q_dev, booked + to_storage / cop, soc, balance, from_storage, to_storage)
+
+
+def heat_pump_demand(action: np.ndarray, available: np.ndarray, nominal_power: np.ndarray, cop: np.ndarray,
+                     use: np.ndarray) -> np.ndarray:
+    """The thermal demand [kWh] a heat pump serves for a device ``action`` [-, fraction of the nominal power]:
+    ``min(max(a, 0) * P, P) * COP`` where the hvac mode makes the device ``available`` (0 where it does not),
+    NaN where the action is not used (``use`` False: the data set's demand stays). (B,) arrays; ``nominal_power``
+    P [kW electric], ``cop`` [-] at the step."""
+    q = np.minimum(np.maximum(action, 0.0) * nominal_power, nominal_power)
+    return np.where(use, np.where(available, q, 0.0) * cop, np.nan)

@@ -113,7 +113,7 @@ class District:
         #: (``settings.storage_action_scaled_by_other_tank``: DHW by the heating tank, heating by the cooling tank)
         self._storage_scale = self._storage_scales(settings.storage_action_scaled_by_other_tank)
         self.dynamics = np.array([x.has_dynamics for x in b])
-        self.thermal = ThermalModel(b, self.dynamics, settings) if self.dynamics.any() else None
+        self.thermal = ThermalModel(b, self.dynamics, settings, backend) if self.dynamics.any() else None
         self.inf = np.full(self.n, np.inf)
         self.zeros = np.zeros(self.n)  # read-only stand-in: nothing booked on a battery before it runs
         self.zeros.flags.writeable = False
@@ -138,6 +138,8 @@ class District:
         self.backend = "numba" if kernels is not None else "numpy"
         self._serve_end_use = partial(device_kernels.serve_end_use_into, kernels=kernels)
         self._battery_charge = partial(device_kernels.battery_charge_into, kernels=kernels)
+        if getattr(self, "thermal", None) is not None:
+            self.thermal.use_backend(backend)
 
     def _end_use_params(self, k: str) -> EndUseParams:
         b = self.config.buildings

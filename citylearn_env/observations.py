@@ -115,6 +115,9 @@ def is_known(district: District, name: str) -> bool:
     return name in DYNAMIC or name in DEVICE_KEYS or district.static_series(name, full_range=True) is not None
 
 
+_DYNAMIC_NAMES = frozenset(DYNAMIC)
+
+
 class StepObservations(Mapping):
     """All observations of every building at step ``t`` as name -> (B,) arrays, computed on access.
 
@@ -130,7 +133,7 @@ class StepObservations(Mapping):
         if value is not None:
             return value
         d = self._d
-        if name in DYNAMIC:
+        if name in _DYNAMIC_NAMES:
             value = d.dynamic_value(name, self._t)
         else:
             series = d.static_series(name)

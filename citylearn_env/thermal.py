@@ -21,9 +21,11 @@ Owned and stepped by :class:`citylearn_env.district.District` (CityLearn 2.1 sem
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
+from functools import partial
 
 import numpy as np
 
+from citylearn_env import device_kernels
 from citylearn_env.actions import Actions
 from citylearn_env.config import BuildingConfig
 from citylearn_env.dynamics import build_bank
@@ -54,29 +56,27 @@ def check_indoor_range(predicted_c: np.ndarray, names: Sequence[str], t: int,
     return False
 
 
-def heat_pump_demand(action: np.ndarray, available: np.ndarray, nominal_power: np.ndarray, cop: np.ndarray,
-                     use: np.ndarray) -> np.ndarray:
-    """The thermal demand [kWh] a heat pump serves for a device ``action`` [-, fraction of the nominal power]:
-    ``min(max(a, 0) * P, P) * COP`` where the hvac mode makes the device ``available`` (0 where it does not),
-    NaN where the action is not used (``use`` False: the data set's demand stays). (B,) arrays; ``nominal_power``
-    P [kW electric], ``cop`` [-] at the step."""
-    q = np.minimum(np.maximum(action, 0.0) * nominal_power, nominal_power)
-    return np.where(use, np.where(available, q, 0.0) * cop, np.nan)
-
-
 class ThermalModel:
     """The LSTM bank of a district's dynamics buildings and its coupling to their heat pumps.
 
     ``buildings``: every building of the district; ``dynamics`` (B,) bool marks those with LSTM models.
     The district passes in what the model reads of it: its data series, observed values and end uses."""
 
-    def __init__(self, buildings: Sequence[BuildingConfig], dynamics: np.ndarray, settings: Behaviour):
+    def __init__(self, buildings: Sequence[BuildingConfig], dynamics: np.ndarray, settings: Behaviour,
+                 backend: str = "auto"):
+        self.use_backend(backend)
         self.index = np.flatnonzero(dynamics)
         #: the dynamics buildings as a slice when they are all the buildings (views, not copies, each step)
         self._rows: slice | np.ndarray = slice(None) if len(self.index) == len(buildings) else self.index
         self.names = [buildings[i].name for i in self.index]
         self.bank = build_bank([buildings[i] for i in self.index], settings=settings)
         self._warm = np.zeros(len(buildings), dtype=bool)
+
+    def use_backend(self, backend: str) -> None:
+        """Compute the heat pumps' demands with the compiled kernel ("numba", or "auto" with numba installed) or
+        the numpy function ("numpy"), as :meth:`citylearn_env.district.District.use_backend`."""
+        kernels = device_kernels.get_kernels() if backend != "numpy" else None
+        self._heat_pump_demand = partial(device_kernels.heat_pump_demand, kernels=kernels)
 
     def reset(self, hvac_mode: np.ndarray, data_series: Callable[[str], np.ndarray],
               changing: tuple[str, ...] = ()) -> None:
@@ -113,8 +113,8 @@ class ThermalModel:
             if not use.any():
                 continue
             state = end_use(name)
-            out[name] = heat_pump_demand(a, self._available[name][:, t], state.params.nominal_power,
-                                         state.cop[:, t], use)
+            out[name] = self._heat_pump_demand(a, self._available[name][:, t], state.params.nominal_power,
+                                               state.cop[:, t], use)
         return out or None
 
     def warm_now(self) -> np.ndarray:

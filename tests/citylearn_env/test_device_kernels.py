@@ -166,3 +166,17 @@ def test_unknown_backend_is_refused():
     env = CityLearnEnv(golden_schema("full_random"))
     with pytest.raises(ValueError, match="backend"):
         env.district.use_backend("gpu")
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_heat_pump_demand_kernel_equals_numpy(kernels, seed):
+    rng = np.random.default_rng(seed)
+    action = rng.uniform(-0.5, 1.5, N)  # outside 0..1 too: clipped to 0..P
+    use = rng.random(N) < 0.7
+    action[~use & (rng.random(N) < 0.5)] = np.nan  # an inactive device action
+    available = (rng.integers(0, 4, (N, 3)) == 1)[:, 1]  # a strided column, as the episode's (B, T) rows
+    args = (action, available, rng.uniform(0.0, 4.0, N), rng.uniform(1.0, 6.0, N), use)
+    expected = devices.heat_pump_demand(*args)
+    _same(device_kernels.heat_pump_demand(*args, kernels=kernels), expected)
+    _same(device_kernels.heat_pump_demand(*args, kernels=None), expected)
+    assert np.isnan(expected[~use]).all() and (expected[use & ~available] == 0.0).all()
