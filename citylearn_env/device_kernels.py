@@ -1,5 +1,7 @@
-"""Compiled one-step device physics: the battery and the storage tank of :mod:`citylearn_env.devices`, one
-loop over the buildings each, for :class:`citylearn_env.district.District` when numba is installed.
+"""Compiled one-step device physics of :mod:`citylearn_env.devices`: the battery (:func:`battery_charge_into`),
+an end use's device and tank (:func:`serve_end_use_into`) and a heat pump's demand from its action
+(:func:`heat_pump_demand`), one loop over the buildings each, for :class:`citylearn_env.district.District`
+(and its :class:`~citylearn_env.thermal.ThermalModel`) when numba is installed.
 
 :mod:`citylearn_env.devices` is the reference: vectorised numpy functions, one array operation each, the
 plain install's path. A district of a few buildings spends most of a step on the fixed cost of those small
