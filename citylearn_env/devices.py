@@ -9,8 +9,12 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from citylearn_env.state import TankParams
 
 MAX_COP = 20.0
 
@@ -194,3 +198,54 @@ def battery_charge(energy: np.ndarray, soc_prev: np.ndarray, booked: np.ndarray,
     fade = np.divide(battery.capacity_loss_coefficient * battery.capacity * np.abs(balance), 2.0 * capacity_prev,
                      out=np.zeros_like(balance), where=capacity_prev > 0)
     return soc, balance, efficiency, np.maximum(capacity_prev - fade, 0.0)
+
+
+class EndUseStep(NamedTuple):
+    """What one end use did at one step, (B,) each [kWh]: the device's thermal output ``from_device`` and the
+    electricity ``booked`` (device plus storage charging), the tank's new ``soc`` [-] and its ``balance``
+    (device side: > 0 charging), the heat the tank gave (``from_storage``) and took (``to_storage``). The
+    tank fields are None when no building has a tank."""
+
+    from_device: np.ndarray
+    booked: np.ndarray
+    soc: np.ndarray | None = None
+    balance: np.ndarray | None = None
+    from_storage: np.ndarray | None = None
+    to_storage: np.ndarray | None = None
+
+
+def serve_end_use(demand: np.ndarray, nominal_power: np.ndarray, cop: np.ndarray, supply: np.ndarray,
+                  action: np.ndarray, scale: np.ndarray, soc_prev: np.ndarray, tank: TankParams | None) -> EndUseStep:
+    """Serve one end use's thermal ``demand`` [kWh] with its device (``nominal_power`` [kW electric], ``cop``
+    [-], drawing at most ``supply`` [kWh electric]) and its storage ``tank`` (None: no building has one).
+
+    The storage ``action`` [-] asks for ``action * scale`` [kWh]. Where it is negative the tank discharges first
+    (at most the demand and its output limit) and the device serves the rest; otherwise the device serves the
+    demand and the tank charges with the device's remaining power (at most its input limit). If any building
+    discharges, every building's device output is computed again from the demand left after its tank's heat.
+    """
+    q_dev, booked = device_output(demand, nominal_power, cop, supply)
+    if tank is None:
+        return EndUseStep(q_dev, booked)
+    request = action * scale
+    discharge = action < 0
+    room = np.where(supply == np.inf, np.inf, supply - booked)  # the supply left after the device [kWh]
+    charge = np.minimum(np.minimum(room, nominal_power - booked) * cop, request)
+    ask = np.where(discharge, np.maximum(-demand, request), np.minimum(charge, tank.max_input_power))
+    ask = np.maximum(ask, -tank.max_output_power)
+    soc, balance = storage_charge(soc_prev, ask, tank.capacity, tank.loss_coefficient, tank.one_way_efficiency)
+    from_storage = -np.minimum(balance, 0.0)
+    if discharge.any():
+        q_dev, booked = device_output(demand - from_storage, nominal_power, cop, supply)
+    to_storage = np.maximum(balance, 0.0)
+    return EndUseStep(q_dev, booked + to_storage / cop, soc, balance, from_storage, to_storage)
+
+
+def heat_pump_demand(action: np.ndarray, available: np.ndarray, nominal_power: np.ndarray, cop: np.ndarray,
+                     use: np.ndarray) -> np.ndarray:
+    """The thermal demand [kWh] a heat pump serves for a device ``action`` [-, fraction of the nominal power]:
+    ``min(max(a, 0) * P, P) * COP`` where the hvac mode makes the device ``available`` (0 where it does not),
+    NaN where the action is not used (``use`` False: the data set's demand stays). (B,) arrays; ``nominal_power``
+    P [kW electric], ``cop`` [-] at the step."""
+    q = np.minimum(np.maximum(action, 0.0) * nominal_power, nominal_power)
+    return np.where(use, np.where(available, q, 0.0) * cop, np.nan)

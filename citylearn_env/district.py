@@ -19,11 +19,12 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import fields, replace
+from functools import partial
 from types import MappingProxyType
 
 import numpy as np
 
-from citylearn_env import devices, ev, washing_machine
+from citylearn_env import device_kernels, devices, ev, washing_machine
 from citylearn_env.actions import Actions
 from citylearn_env.config import DistrictConfig
 from citylearn_env.dataset import NAME_ALIASES
@@ -87,11 +88,14 @@ class District:
     """Parameters, data series and the recorded episode of a district; :meth:`step` advances it.
 
     ``settings`` chooses upstream behaviour (:mod:`citylearn_env.settings`). Buildings with LSTM dynamics get
-    a :class:`citylearn_env.thermal.ThermalModel`, owned and stepped here.
+    a :class:`citylearn_env.thermal.ThermalModel`, owned and stepped here. ``backend``: "auto" (the compiled
+    battery and storage kernels of :mod:`citylearn_env.device_kernels` when numba is installed, else the numpy
+    functions of :mod:`citylearn_env.devices`; the same numbers either way), "numba" or "numpy".
     """
 
-    def __init__(self, config: DistrictConfig, *, settings: Behaviour = CORRECTED):
+    def __init__(self, config: DistrictConfig, *, settings: Behaviour = CORRECTED, backend: str = "auto"):
         self.config, self.settings = config, settings
+        self.use_backend(backend)
         b = config.buildings
         self.n = len(b)
         self.names = config.building_names
@@ -109,10 +113,11 @@ class District:
         #: (``settings.storage_action_scaled_by_other_tank``: DHW by the heating tank, heating by the cooling tank)
         self._storage_scale = self._storage_scales(settings.storage_action_scaled_by_other_tank)
         self.dynamics = np.array([x.has_dynamics for x in b])
-        self.thermal = ThermalModel(b, self.dynamics, settings) if self.dynamics.any() else None
+        self.thermal = ThermalModel(b, self.dynamics, settings, backend) if self.dynamics.any() else None
         self.inf = np.full(self.n, np.inf)
         self.zeros = np.zeros(self.n)  # read-only stand-in: nothing booked on a battery before it runs
         self.zeros.flags.writeable = False
+        self._scratch = np.zeros((4, self.n))  # outputs a step does not keep (B,) x 4
         self.t, self.length = 0, 0
         self.ev = config.electric_vehicles if config.electric_vehicles is not None and \
             config.electric_vehicles.chargers.names else None
@@ -122,6 +127,20 @@ class District:
         self.occupants = OccupantModel(occupants, self.n) if occupants else None
 
     # ------------------------------------------------------------------ construction
+    def use_backend(self, backend: str) -> None:
+        """Step the end uses and batteries with the compiled kernels ("numba", or "auto" with numba installed)
+        or the numpy reference functions ("numpy"); the numbers are the same."""
+        if backend not in ("auto", "numba", "numpy"):
+            raise ValueError(f"backend must be 'auto', 'numba' or 'numpy', not {backend!r}")
+        kernels = device_kernels.get_kernels() if backend != "numpy" else None
+        if backend == "numba" and kernels is None:
+            raise ImportError("backend='numba' needs the numba package")
+        self.backend = "numba" if kernels is not None else "numpy"
+        self._serve_end_use = partial(device_kernels.serve_end_use_into, kernels=kernels)
+        self._battery_charge = partial(device_kernels.battery_charge_into, kernels=kernels)
+        if getattr(self, "thermal", None) is not None:
+            self.thermal.use_backend(backend)
+
     def _end_use_params(self, k: str) -> EndUseParams:
         b = self.config.buildings
         slots = END_USE_SLOTS[k]
@@ -182,13 +201,24 @@ class District:
         """The episode state of end use ``name`` (cooling, heating or dhw)."""
         return self.end_uses[END_USES.index(name)]
 
+    def _resolve_dynamic(self) -> None:
+        """Per episode, where :meth:`dynamic_value` reads its answers: the (B, T) record of each recorded
+        observation that no derived one shadows, and the (device, storage) records of each delivered energy."""
+        derived = {*DELIVERED_OBSERVATIONS, "indoor_dry_bulb_temperature_delta", *SET_POINT_DELTAS, OCCUPANT_DELTA,
+                   *OccupantModel.SET_POINTS}
+        self._recorded_series = {k: v for k, v in self.recorded.items() if k not in derived}
+        self._delivered = {name: (self.end_use(u).record.energy_from_device, self.end_use(u).record.energy_from_storage)
+                           for name, u in DELIVERED_OBSERVATIONS.items()}
+
     def dynamic_value(self, name: str, t: int) -> np.ndarray:
         """The (B,) value of dynamic observation ``name`` (:data:`citylearn_env.state.DYNAMIC`) at episode
         step ``t``: delivered energy [kWh], |T - T_set| or T - T_set [degC], or a recorded quantity."""
-        end_use = DELIVERED_OBSERVATIONS.get(name)
-        if end_use is not None:
-            r = self.end_use(end_use).record
-            return r.energy_from_device[:, t] + r.energy_from_storage[:, t]
+        series = self._recorded_series.get(name)
+        if series is not None:
+            return series[:, t]
+        records = self._delivered.get(name)
+        if records is not None:
+            return records[0][:, t] + records[1][:, t]
         if name == "indoor_dry_bulb_temperature_delta":
             setpoint = self.episode["indoor_dry_bulb_temperature_set_point"][:, t]
             return np.abs(self.building_record.indoor_dry_bulb_temperature[:, t] - setpoint)
@@ -262,6 +292,7 @@ class District:
         with_ev = self.ev is not None or self.machines is not None
         self.recorded = recorded_names({u.params.name: u.record for u in self.end_uses}, bat, self.building_record,
                                        with_ev=with_ev)
+        self._resolve_dynamic()
         if with_ev:
             self._reset_ev(start, length, drift)
         if self.thermal is not None:
@@ -335,15 +366,14 @@ class District:
         supply = self._supply(t, total)
         overrides = self.thermal.demands(t, actions, self.end_use) if self.thermal is not None else None
         battery_action = actions.electrical_storage
-        first = battery_action < 0
+        first = battery_action < 0 if in_outage else None  # during an outage a discharging battery runs first
         if in_outage and first.any():
             total += self._battery(t, battery_action, supply(), first)
         for u in self.end_uses:
             if u.params.live:
                 total += self._end_use(u, t, self._demand(u, t, overrides), actions.storage(u.params.name), supply)
-        served = np.minimum(e["non_shiftable_load"][:, t], supply())
-        self.building_record.non_shiftable_load_served[:, t] = served
-        total += served
+        record = self.building_record
+        total += np.minimum(e["non_shiftable_load"][:, t], supply(), out=record.non_shiftable_load_served[:, t])
         if in_outage:
             total += self._battery(t, battery_action, supply(), ~first)
         else:
@@ -351,9 +381,11 @@ class District:
         self._book_devices(t, actions, total)
         if t == 0 and self.settings.first_step_booked_three_times:
             total += self._first_row_again()
-        net = total - e.pv_generation[:, t]
-        self.building_record.net_electricity_consumption[:, t] = \
-            np.where(e.outage[:, t] > 0, 0.0, net) if in_outage else net
+        net = record.net_electricity_consumption[:, t]
+        if in_outage:
+            net[:] = np.where(e.outage[:, t] > 0, 0.0, total - e.pv_generation[:, t])
+        else:
+            np.subtract(total, e.pv_generation[:, t], out=net)
         if self.thermal is not None:
             self.thermal.update(t, self.dynamic_value, self.building_record.indoor_dry_bulb_temperature)
         if self.occupants is not None:
@@ -394,64 +426,42 @@ class District:
 
     def _end_use(self, u: EndUseState, t: int, demand: np.ndarray, action: np.ndarray,
                  supply: Callable[[], np.ndarray]) -> np.ndarray:
-        """Serve one end use with its device and storage; return the electricity booked (B,).
-
-        Where the storage action is negative the storage discharges first and the device serves the rest;
-        otherwise the device serves the demand and the storage charges with the device's remaining power.
-        Both cases need one storage call: the discharge request does not depend on the device.
-        """
+        """Serve one end use with its device and storage (:func:`citylearn_env.devices.serve_end_use`) into its
+        record at ``t``; return the electricity booked (B,) (a view of the record)."""
         p, r = u.params, u.record
         cop = u.cop[:, t]
         again = t == 0 and self.settings.first_step_booked_three_times
         reset_booked = r.electricity_consumption[:, 0].copy() if again else None
         nominal = p.nominal_power - reset_booked if again else p.nominal_power
-        s0 = supply()
-        q_dev, booked = devices.device_output(demand, nominal, cop, s0)
-        if p.has_storage:
-            tank = p.tank
-            request = action * self._storage_scale[p.name]
-            discharge = action < 0
-            s1 = s0 if s0 is self.inf else np.where(s0 == np.inf, np.inf, s0 - booked)
-            charge = np.minimum(np.minimum(s1, nominal - booked) * cop, request)
-            ask = np.where(discharge, np.maximum(-demand, request), np.minimum(charge, tank.max_input_power))
-            ask = np.maximum(ask, -tank.max_output_power)
-            soc, bal = devices.storage_charge(r.storage_soc[:, _previous(t)], ask, tank.capacity,
-                                              tank.loss_coefficient, tank.one_way_efficiency)
-            from_storage = -np.minimum(bal, 0.0)
-            if discharge.any():
-                q_dev, booked = devices.device_output(demand - from_storage, nominal, cop, s0)
-            to_storage = np.maximum(bal, 0.0)
-            booked = booked + to_storage / cop
-            r.storage_soc[:, t] = soc
-            r.storage_energy_balance[:, t] = bal
-            r.storage_electricity_consumption[:, t] = bal / cop
-            r.energy_from_storage[:, t] = from_storage
-            r.energy_from_device_to_storage[:, t] = to_storage
-        r.energy_from_device[:, t] = q_dev
+        tank = p.tank if p.has_storage else None
+        booked = r.electricity_consumption[:, t]
+        tank_out = (r.storage_soc[:, t], r.storage_energy_balance[:, t], r.energy_from_storage[:, t],
+                    r.energy_from_device_to_storage[:, t]) if tank is not None else tuple(self._scratch)
+        self._serve_end_use((r.energy_from_device[:, t], booked, *tank_out), demand, nominal, cop, supply(),
+                            action, self._storage_scale[p.name], r.storage_soc[:, _previous(t)], tank)
+        if tank is not None:
+            np.divide(r.storage_energy_balance[:, t], cop, out=r.storage_electricity_consumption[:, t])
         if again:  # CityLearn 2.5 books row 0 at reset, at the first call and once more at its update
-            booked = reset_booked + booked + (q_dev + r.storage_energy_balance[:, 0]) / cop
-        r.electricity_consumption[:, t] = booked
+            booked[:] = reset_booked + booked + (r.energy_from_device[:, 0] + r.storage_energy_balance[:, 0]) / cop
         return booked
 
     def _battery(self, t: int, action: np.ndarray, supply: np.ndarray, mask: np.ndarray | None) -> np.ndarray:
-        """Charge/discharge the batteries (only where ``mask``); return the electricity booked (B,)."""
+        """Charge/discharge the batteries (only where ``mask``) into the record at ``t``; return the electricity
+        booked (B,)."""
         r = self.battery_record
         p = _previous(t)
         request = np.minimum(action * self._battery_scale, supply)
-        soc, bal, eff, cap = devices.battery_charge(
-            request, r.soc[:, p], self.zeros, self.battery, r.efficiency[:, p], r.capacity[:, p],
-            extrapolate_first_segment=self.settings.battery_curve_extrapolates_first_segment,
-            efficiency_from_request=self.settings.battery_efficiency_from_request)
-        if mask is not None:
-            soc = np.where(mask, soc, r.soc[:, t])
-            bal = np.where(mask, bal, r.energy_balance[:, t])
-            eff = np.where(mask, eff, r.efficiency[:, t])
-            cap = np.where(mask, cap, r.capacity[:, t])
-        r.soc[:, t] = soc
-        r.energy_balance[:, t] = bal
-        r.efficiency[:, t] = eff
-        r.capacity[:, t] = cap
-        return bal if mask is None else np.where(mask, bal, 0.0)
+        columns = (r.soc[:, t], r.energy_balance[:, t], r.efficiency[:, t], r.capacity[:, t])
+        out = columns if mask is None else tuple(self._scratch)
+        self._battery_charge(out, request, r.soc[:, p], self.zeros, self.battery, r.efficiency[:, p],
+                             r.capacity[:, p],
+                             extrapolate_first_segment=self.settings.battery_curve_extrapolates_first_segment,
+                             efficiency_from_request=self.settings.battery_efficiency_from_request)
+        if mask is None:
+            return columns[1]
+        for column, value in zip(columns, out, strict=True):
+            column[:] = np.where(mask, value, column)
+        return np.where(mask, out[1], 0.0)
 
     def _chargers(self, t: int, action: np.ndarray | None) -> np.ndarray:
         """EVs at step t: the away and connection rules, then each charger's action; returns the chargers'

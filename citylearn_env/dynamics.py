@@ -561,13 +561,15 @@ class LSTMBank:
                 bidx = np.flatnonzero(self._inst_group[inst] == g)
                 self._members.append((bidx, self._inst_slot[inst[bidx]]))
             self._modes_key = key
+            # the kernel's arguments between ``raw`` and ``out`` per group with members (the group arrays
+            # change in place only, so the tuple stays valid until the members change)
+            self._calls = [(bidx, slots, group.src, group.kind, group.period, group.lo, group.span, group.tcol,
+                            group.out_lo, group.out_span, group.buf, group.count, group.wih0t, group.wihrt,
+                            group.whht, group.bias, group.wlin, group.blin, group.h, group.c, self._f32)
+                           for group, (bidx, slots) in zip(self._groups, self._members, strict=True) if len(bidx)]
         out = np.empty(self.n_buildings)  # every building is in exactly one group and gets written
-        for group, (bidx, slots) in zip(self._groups, self._members, strict=True):
-            if len(bidx):
-                self._kernel(raw, bidx, slots, group.src, group.kind, group.period, group.lo, group.span,
-                             group.tcol, group.out_lo, group.out_span, group.buf, group.count, group.wih0t,
-                             group.wihrt, group.whht, group.bias, group.wlin, group.blin, group.h, group.c,
-                             self._f32, out, self._warm_flags)
+        for args in self._calls:
+            self._kernel(raw, *args, out, self._warm_flags)
         return out
 
 

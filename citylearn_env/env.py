@@ -167,7 +167,7 @@ class CityLearnEnv(gym.Env):
         acted on."""
         t = self.advance(action)
         value, terms = self.reward_function(self._view)
-        reward = float(np.sum(value))
+        reward = value if type(value) is float else float(np.sum(value))
         self.rewards[self._acted] = reward
         terminated = t == self.district.length - 1
         info = {"time_step": t, "reward_terms": terms}
@@ -191,10 +191,10 @@ class CityLearnEnv(gym.Env):
             raise SchemaError(f"action has {a.size} values, the action space has {self.action_layout.low.size} "
                               f"({', '.join(f'{self.building_names[b]}.{n}' for n, b in self.action_pairs)})",
                               column="action")
-        finite = np.isfinite(a)
-        if not finite.all():  # NaN of a cooling/heating device action: meet the ideal load (upstream's None)
+        finite = np.isfinite(a) if not np.isfinite(a.sum()) else None  # a finite sum: every value is finite
+        if finite is not None:  # NaN of a cooling/heating device action: meet the ideal load (upstream's None)
             finite |= np.isnan(a) & np.isin([n for n, _ in self.action_pairs], DEVICE_ACTIONS)
-        if not finite.all():
+        if finite is not None and not finite.all():
             i = int((~finite).argmax())
             name, b = self.action_pairs[i]
             raise SchemaError(f"action value {a[i]!r} is not finite", column=f"{self.building_names[b]}.{name}",

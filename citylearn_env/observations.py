@@ -115,6 +115,9 @@ def is_known(district: District, name: str) -> bool:
     return name in DYNAMIC or name in DEVICE_KEYS or district.static_series(name, full_range=True) is not None
 
 
+_DYNAMIC_NAMES = frozenset(DYNAMIC)
+
+
 class StepObservations(Mapping):
     """All observations of every building at step ``t`` as name -> (B,) arrays, computed on access.
 
@@ -130,7 +133,7 @@ class StepObservations(Mapping):
         if value is not None:
             return value
         d = self._d
-        if name in DYNAMIC:
+        if name in _DYNAMIC_NAMES:
             value = d.dynamic_value(name, self._t)
         else:
             series = d.static_series(name)
@@ -175,7 +178,11 @@ class ObservationLayout:
         self.groups = {n: (np.array(ix), np.array([self.pairs[i][1] for i in ix])) for n, ix in groups.items()}
         # set points are data, except where occupants override them during the episode
         changing = (*DYNAMIC, *(OccupantModel.SET_POINTS if district.occupants is not None else ()))
-        self.dynamic = [(n, pos, bidx) for n, (pos, bidx) in self.groups.items() if n in changing]
+        everyone = np.arange(district.n)
+        #: (name, positions, buildings) of the dynamic observations, filled each step; positions a slice when
+        #: evenly spaced, buildings None when they are every building in order (views and plain copies)
+        self.dynamic = [(n, _as_slice(pos), None if np.array_equal(bidx, everyone) else bidx)
+                        for n, (pos, bidx) in self.groups.items() if n in changing]
         by_key: dict[str, list[tuple[int, int]]] = {}
         for pos, key, _, index in self.device_pairs:
             by_key.setdefault(key, []).append((pos, index))
@@ -221,8 +228,9 @@ class ObservationLayout:
     def vector(self, static_row: np.ndarray, t: int) -> np.ndarray:
         """The flat vector of all active observations at ``t`` (static row plus dynamic values)."""
         out = static_row.copy()
+        value = self.district.dynamic_value
         for name, pos, bidx in self.dynamic:
-            out[pos] = self.district.dynamic_value(name, t)[bidx]
+            out[pos] = value(name, t) if bidx is None else value(name, t)[bidx]
         if self.device_groups:
             values = {**(charger_observations(self.district, t) if self.district.ev is not None else {}),
                       **(machine_observations(self.district, t) if self.district.machines is not None else {})}
@@ -242,6 +250,16 @@ class ObservationLayout:
         flat = hi <= lo
         lo[flat], hi[flat] = lo[flat] - 0.5, hi[flat] + 0.5
         return lo, hi
+
+
+def _as_slice(positions: np.ndarray) -> slice | np.ndarray:
+    """``positions`` (increasing) as a slice when evenly spaced, else the array itself."""
+    if len(positions) == 1:
+        return slice(int(positions[0]), int(positions[0]) + 1)
+    step = positions[1] - positions[0] if len(positions) > 1 else 0
+    if step > 0 and np.array_equal(np.diff(positions), np.full(len(positions) - 1, step)):
+        return slice(int(positions[0]), int(positions[-1]) + 1, int(step))
+    return positions
 
 
 class EpisodeRows:

@@ -176,14 +176,15 @@ class RewardFunction(Reward):
     batchable = False  # central: the district net, not a sum of building values
 
     def building_values(self, obs: Observations) -> tuple[np.ndarray, Terms]:
-        values = -np.clip(_get(obs, "net_electricity_consumption"), 0.0, None)
+        values = -np.maximum(_get(obs, "net_electricity_consumption"), 0.0)
         return values, {"grid_import": values}
 
     def __call__(self, obs: Observations) -> tuple[float | np.ndarray, Terms]:
-        value, terms = super().__call__(obs)
+        self._check()
+        values, terms = self.building_values(obs)
         if self.context.central_agent:
-            value = float(min(-_get(obs, "net_electricity_consumption").sum(), 0.0))
-        return value, terms
+            return float(min(-_get(obs, "net_electricity_consumption").sum(), 0.0)), terms
+        return values, terms
 
 
 class MARL(Reward):

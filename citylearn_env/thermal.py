@@ -21,9 +21,11 @@ Owned and stepped by :class:`citylearn_env.district.District` (CityLearn 2.1 sem
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
+from functools import partial
 
 import numpy as np
 
+from citylearn_env import device_kernels
 from citylearn_env.actions import Actions
 from citylearn_env.config import BuildingConfig
 from citylearn_env.dynamics import build_bank
@@ -38,19 +40,20 @@ INDOOR_RANGE_C = (-50.0, 80.0)
 
 
 def check_indoor_range(predicted_c: np.ndarray, names: Sequence[str], t: int,
-                       bounds_c: tuple[float, float] = INDOOR_RANGE_C) -> None:
+                       bounds_c: tuple[float, float] = INDOOR_RANGE_C) -> bool:
     """Refuse predicted indoor temperatures [degC] outside ``bounds_c`` (NaN: a model still warming up, not
     checked) with one :class:`DynamicsError` naming the first such building (``names`` aligned with
-    ``predicted_c``) and the time step ``t``."""
+    ``predicted_c``) and the time step ``t``. Returns whether every value is a number (no NaN)."""
     low, high = bounds_c
     if predicted_c.min() >= low and predicted_c.max() <= high:  # the common case; NaN falls through
-        return
+        return True
     bad = np.flatnonzero(~np.isnan(predicted_c) & ~((predicted_c >= low) & (predicted_c <= high)))
     if bad.size:
         i = int(bad[0])
         raise DynamicsError(f"the LSTM predicted an indoor temperature of {predicted_c[i]:.4g} degC at time step {t}, "
                             f"outside {low:g}..{high:g} degC: its weights or normalisation do not fit this "
                             "building; the episode stops", column=f"buildings.{names[i]}.dynamics", row=t)
+    return False
 
 
 class ThermalModel:
@@ -59,11 +62,21 @@ class ThermalModel:
     ``buildings``: every building of the district; ``dynamics`` (B,) bool marks those with LSTM models.
     The district passes in what the model reads of it: its data series, observed values and end uses."""
 
-    def __init__(self, buildings: Sequence[BuildingConfig], dynamics: np.ndarray, settings: Behaviour):
+    def __init__(self, buildings: Sequence[BuildingConfig], dynamics: np.ndarray, settings: Behaviour,
+                 backend: str = "auto"):
+        self.use_backend(backend)
         self.index = np.flatnonzero(dynamics)
+        #: the dynamics buildings as a slice when they are all the buildings (views, not copies, each step)
+        self._rows: slice | np.ndarray = slice(None) if len(self.index) == len(buildings) else self.index
         self.names = [buildings[i].name for i in self.index]
         self.bank = build_bank([buildings[i] for i in self.index], settings=settings)
         self._warm = np.zeros(len(buildings), dtype=bool)
+
+    def use_backend(self, backend: str) -> None:
+        """Compute the heat pumps' demands with the compiled kernel ("numba", or "auto" with numba installed) or
+        the numpy function ("numpy"), as :meth:`citylearn_env.district.District.use_backend`."""
+        kernels = device_kernels.get_kernels() if backend != "numpy" else None
+        self._heat_pump_demand = partial(device_kernels.heat_pump_demand, kernels=kernels)
 
     def reset(self, hvac_mode: np.ndarray, data_series: Callable[[str], np.ndarray],
               changing: tuple[str, ...] = ()) -> None:
@@ -73,6 +86,8 @@ class ThermalModel:
         step like the simulated ones."""
         self.bank.reset()
         self.hvac_mode = hvac_mode
+        #: end use -> (B, T) bool: hvac_mode makes its device available (:data:`MODES`)
+        self._available = {name: (hvac_mode == modes[0]) | (hvac_mode == modes[1]) for name, modes, _ in MODES}
         # data inputs: the dynamics buildings' rows of the episode series, stacked once as (T, n_data, k);
         # the simulated ones (delivered energy, indoor temperature) are read each step
         names = self.bank.input_names
@@ -89,20 +104,17 @@ class ThermalModel:
         """Thermal demand [kWh] the device actions ask for at step ``t``, per end use ("cooling", "heating"):
         (B,) arrays, NaN where the data set's demand stays. None when no action applies. ``end_use(name)`` is
         the episode state of an end use (nominal power [kW], COP)."""
-        hvac = self.hvac_mode[:, t]
         warm = self._warm
-        warm[:] = False
-        warm[self.index] = self.bank.warm(hvac[self.index])
+        warm[self._rows] = self.bank.warm(self.hvac_mode[self._rows, t])
         out = {}
-        for name, modes, action_name in MODES:
+        for name, _, action_name in MODES:
             a = getattr(actions, action_name)
             use = warm & np.isfinite(a)
             if not use.any():
                 continue
             state = end_use(name)
-            power = state.params.nominal_power
-            q = np.where((hvac == modes[0]) | (hvac == modes[1]), np.minimum(np.maximum(a, 0.0) * power, power), 0.0)
-            out[name] = np.where(use, q * state.cop[:, t], np.nan)
+            out[name] = self._heat_pump_demand(a, self._available[name][:, t], state.params.nominal_power,
+                                               state.cop[:, t], use)
         return out or None
 
     def warm_now(self) -> np.ndarray:
@@ -114,12 +126,14 @@ class ThermalModel:
     def update(self, t: int, observed: Callable[[str, int], np.ndarray], temperature: np.ndarray) -> None:
         """Predict the indoor temperature [degC] at step ``t`` and write it into ``temperature`` (B, T) where
         the model is warm; ``observed(name, t)`` is the (B,) value of a simulated input at t."""
-        idx = self.index
+        rows = self._rows
         raw = self._raw
         if self._data is not None:
             raw[self._data_rows] = self._data[t]
         for j, name in self._simulated:
-            raw[j] = observed(name, t)[idx]
-        predicted = self.bank.step_raw(raw, self.hvac_mode[idx, t])
-        check_indoor_range(predicted, self.names, t)
-        temperature[idx, t] = np.where(np.isnan(predicted), temperature[idx, t], predicted)
+            raw[j] = observed(name, t)[rows]
+        predicted = self.bank.step_raw(raw, self.hvac_mode[rows, t])
+        if check_indoor_range(predicted, self.names, t):  # every model predicted (no NaN)
+            temperature[rows, t] = predicted
+        else:
+            temperature[rows, t] = np.where(np.isnan(predicted), temperature[rows, t], predicted)
