@@ -3,7 +3,7 @@ simulated over a full year on a weather of (or nearest to) its own climate, trai
 judged on fresh EnergyPlus runs.
 
     .venv/bin/python benchmarks/surrogate_climates.py [raw/district.toml] [--per-climate 1] [--bldg-ids 73 68]
-        [--data /tmp/districtgen_judge]
+        [--data /tmp/districtgen_judge] [--set start=random ...]
 
 The configuration gives the stock (``inputs.characteristics``: raw/'s 100 ResStock dwellings), the
 ``[simulation]`` settings and the ``[surrogate]`` training settings; its period becomes the whole year of its
@@ -38,7 +38,7 @@ sys.path.insert(0, str(ROOT / "benchmarks"))
 
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
-from surrogate_judge import cpu_model, full_year, judge_house  # noqa: E402
+from surrogate_judge import cpu_model, full_year, judge_house, parse_settings  # noqa: E402
 
 from pipeline.builder.surrogates import ilv_config, train_config  # noqa: E402
 from pipeline.config import read_build_config  # noqa: E402
@@ -166,10 +166,13 @@ def main() -> None:
     parser.add_argument("--per-climate", type=int, default=1, help="houses of each climate (its first ones)")
     parser.add_argument("--bldg-ids", type=int, nargs="+", choices=[h[0] for h in HOUSES],
                         help="these houses of HOUSES instead")
+    parser.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE",
+                        help="TrainConfig settings over the build's recipe (a trial; the table is the recipe's)")
     parser.add_argument("--data", type=Path, default=Path(os.environ.get("TMPDIR", "/tmp")) / "districtgen_judge")
     args = parser.parse_args()
     config = full_year(read_build_config(args.config))
-    recipe = train_config(config)  # the build's: BUILD_RECIPE with the [surrogate] keys, every month
+    # the build's: BUILD_RECIPE with the [surrogate] keys, every month (and the trial's --set over it)
+    recipe = replace(train_config(config), **parse_settings(args.set))
     # the households' clocks in the weather site's own zone (None: the EPW's), not the district's
     training_ilv = replace(ilv_config(config), timezone=None)
     judge_ilv = judge_ilv_config(training_ilv, JudgeConfig())
@@ -181,7 +184,7 @@ def main() -> None:
         if row.get("in.building_america_climate_zone") != climate:
             raise ValueError(f"row {bldg_id} is {row.get('in.building_america_climate_zone')!r}, not {climate!r}")
         result = judge_house(row, weathers[weather], training_ilv, judge_ilv, recipe, args.data, set(range(1, 13)))
-        line = {"house": bldg_id, "climate": climate, "state": row.get("in.state"), "weather": weather,
+        line = {"house": bldg_id, "set": args.set, "climate": climate, "state": row.get("in.state"), "weather": weather,
                 "own_climate": weather in OWN_WEATHER.get(climate, ()),
                 "met": result["median_c"] <= MEDIAN_BOUND_C and result["worst_c"] <= WORST_BOUND_C, **result}
         rows.append(line)
