@@ -52,15 +52,16 @@ TEST_REFERENCES = (6, 7)
 
 
 def recipes() -> dict[str, TrainConfig]:
-    """Named training configurations, both with the suite's splits (``test_runs=0``: references 6-7 are scored
+    """Named training configurations, all with the suite's splits (``test_runs=0``: references 6-7 are scored
     apart): ``build`` is the build's and ``districtgen surrogate train``'s :data:`surrogates.config.BUILD_RECIPE`
     (hidden 16, 5000 warm-start updates of batch 16, 16 closed-loop epochs, from the generic model: an input of
-    the table it lacks starts with zero weights); ``default`` is ``TrainConfig()`` (hidden 32, lookback 1, updates in
-    the precision the CPU runs fastest, no day-type inputs, 6000 teacher-forced updates on 48-h sequences with a
-    temperature history perturbed after its first 6 hours, every pass holding the first sequence of each
-    training run, 32 closed-loop epochs at 5e-4 all run, 48-h chunks then the last 10 on 168-h chunks at a low
-    rate)."""
-    return {"build": replace(BUILD_RECIPE, progress=False, test_runs=0),
+    the table it lacks starts with zero weights); ``build_random`` the same from seeded random weights;
+    ``default`` is ``TrainConfig()`` (hidden 32, lookback 1, updates in the precision the CPU runs fastest, no
+    day-type inputs, 6000 teacher-forced updates on 48-h sequences with a temperature history perturbed after
+    its first 6 hours, every pass holding the first sequence of each training run, 32 closed-loop epochs at 5e-4
+    all run, 48-h chunks then the last 10 on 168-h chunks at a low rate)."""
+    build = replace(BUILD_RECIPE, progress=False, test_runs=0)
+    return {"build": build, "build_random": replace(build, start="random"),
             "default": TrainConfig(progress=False, test_runs=0)}
 
 
