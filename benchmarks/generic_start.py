@@ -14,7 +14,6 @@ single-family rows of raw/'s stock of four climate zones, none of the default di
 from __future__ import annotations
 
 import argparse
-import datetime as dt
 import sys
 from dataclasses import replace
 from pathlib import Path
@@ -23,7 +22,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
-from surrogate_judge import cached_table  # noqa: E402
+from surrogate_judge import cached_table, full_year  # noqa: E402
 
 from pipeline.builder.surrogates import ilv_config  # noqa: E402
 from pipeline.config import read_build_config  # noqa: E402
@@ -43,10 +42,8 @@ def main() -> None:
     parser.add_argument("--data", type=Path, default=Path("/tmp/districtgen_judge"))
     parser.add_argument("-o", "--out", type=Path, default=GENERIC_FILE)
     args = parser.parse_args()
-    config = read_build_config(args.config)
+    config = full_year(read_build_config(args.config))
     year = config.period.start.year
-    config = config.model_copy(update={"period": config.period.model_copy(
-        update={"start": dt.date(year, 1, 1), "end": dt.date(year, 12, 31)})})
     simulation = ilv_config(config)
     tables = []
     for bldg_id in args.rows:

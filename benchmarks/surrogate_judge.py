@@ -18,6 +18,7 @@ RMSE [degC]; then the CPU model and load average.
 from __future__ import annotations
 
 import argparse
+import datetime
 import hashlib
 import json
 import os
@@ -33,9 +34,10 @@ import pandas as pd  # noqa: E402
 import surrogates  # noqa: E402
 from pipeline.builder.cache import files_digest  # noqa: E402
 from pipeline.builder.surrogates import JUDGE_SOURCES, ilv_config, train_config  # noqa: E402
-from pipeline.config import read_build_config  # noqa: E402
+from pipeline.config import BuildConfig, read_build_config  # noqa: E402
 from pipeline.ingest.stock import read_characteristics_row  # noqa: E402
 from surrogates.config import BUILD_RECIPE, TrainConfig, season_months  # noqa: E402
+from surrogates.energyplus.ilv_runs import ILVConfig  # noqa: E402
 from surrogates.judge import JudgeConfig, judge_ilv_config, score_judge_table  # noqa: E402
 from surrogates.sources.energyplus import energyplus_ilv_table  # noqa: E402
 from surrogates.train import train_surrogate  # noqa: E402
@@ -95,19 +97,37 @@ def main() -> None:
     judge_ilv = judge_ilv_config(training_ilv, JudgeConfig(timesteps_per_hour=args.judge_timesteps))
     for number, bldg_id in enumerate(ids, 1):
         row = read_characteristics_row(config.inputs.characteristics, bldg_id)
-        table = cached_table(row, config.inputs.weather, training_ilv, args.data)
-        fresh = cached_table(row, config.inputs.weather, judge_ilv, args.data)
-        trained = train_surrogate(table, recipe)
-        s = score_judge_table(trained.model, trained.normalization, trained.inputs, trained.config.lookback, fresh)
+        result = judge_house(row, config.inputs.weather, training_ilv, judge_ilv, recipe, args.data, served)
         print(json.dumps({"house": bldg_id, "building": f"Building_{number}" if args.bldg_ids is None else None,
-                          "recipe": args.recipe, "set": args.set, "median_c": s["median_c"], "worst_c": s["worst_c"],
-                          "mean_abs_c": s["mean_abs_c"], "ideal_mean_abs_c": s["ideal_mean_abs_c"],
-                          "by_month_c": by_month(s["monthly"]),
-                          "period_median_c": period_median(s["monthly"], served), "months": list(recipe.months),
-                          "train_cpu_s": round(trained.cpu_seconds, 1), "best_epoch": trained.best_epoch,
-                          "val_closed_loop_rmse_c": trained.history[trained.best_epoch]["val_closed_loop_rmse_c"]}),
-              flush=True)
+                          "recipe": args.recipe, "set": args.set, **result}), flush=True)
     print(json.dumps({"cpu": cpu_model(), "load_average": os.getloadavg()}))
+
+
+def judge_house(row: dict, epw: Path, training_ilv: ILVConfig, judge_ilv: ILVConfig, recipe: TrainConfig,
+                data: Path, served: set[int]) -> dict:
+    """One house: its training and judge tables (simulated once, :func:`cached_table`), the recipe trained on the
+    first and scored closed loop on the second (:func:`surrogates.judge.score_judge_table`). Returns the monthly
+    closed-loop RMSE median and worst month, the mean absolute errors of the partial-load runs and of the ideal
+    replay, the calendar-month medians and the median over the ``served`` months [degC]; the training's CPU
+    seconds (its thread's own), the precision it ran in, its best epoch and that epoch's closed-loop validation
+    RMSE [degC]."""
+    table = cached_table(row, epw, training_ilv, data)
+    fresh = cached_table(row, epw, judge_ilv, data)
+    trained = train_surrogate(table, recipe)
+    s = score_judge_table(trained.model, trained.normalization, trained.inputs, trained.config.lookback, fresh)
+    return {"median_c": s["median_c"], "worst_c": s["worst_c"], "mean_abs_c": s["mean_abs_c"],
+            "ideal_mean_abs_c": s["ideal_mean_abs_c"], "by_month_c": by_month(s["monthly"]),
+            "period_median_c": period_median(s["monthly"], served), "months": list(recipe.months),
+            "train_cpu_s": round(trained.cpu_seconds, 1), "precision": trained.config.precision,
+            "best_epoch": trained.best_epoch,
+            "val_closed_loop_rmse_c": trained.history[trained.best_epoch]["val_closed_loop_rmse_c"]}
+
+
+def full_year(config: BuildConfig) -> BuildConfig:
+    """``config`` with its period the whole calendar year of its start (a full-year build)."""
+    year = config.period.start.year
+    return config.model_copy(update={"period": config.period.model_copy(
+        update={"start": datetime.date(year, 1, 1), "end": datetime.date(year, 12, 31)})})
 
 
 def period_months(config) -> set[int]:

@@ -34,7 +34,7 @@ sys.path.insert(0, str(ROOT))
 
 from benchmarks import reference_houses as rh  # noqa: E402
 from citylearn_env.settings import CITYLEARN_2_1, CORRECTED  # noqa: E402
-from surrogates.config import TrainConfig  # noqa: E402
+from surrogates.config import BUILD_RECIPE, TrainConfig  # noqa: E402
 from surrogates.evaluate import bank_rollout, monthly_rmse  # noqa: E402
 from surrogates.export import dynamics_block, save_checkpoint  # noqa: E402
 from surrogates.ilv import read_ilv  # noqa: E402
@@ -52,12 +52,17 @@ TEST_REFERENCES = (6, 7)
 
 
 def recipes() -> dict[str, TrainConfig]:
-    """Named training configurations: ``default`` is ``TrainConfig()`` (hidden 32, lookback 1, updates in the
-    precision the CPU runs fastest, no day-type inputs, 6000 teacher-forced updates on 48-h sequences with a
-    temperature history perturbed after its first 6 hours, every pass holding the first sequence of each
-    training run, 32 closed-loop epochs at 5e-4 all run, 48-h chunks then the last 10 on 168-h chunks at a low
-    rate) with the suite's splits (``test_runs=0``: references 6-7 are scored apart)."""
-    return {"default": TrainConfig(progress=False, test_runs=0)}
+    """Named training configurations, all with the suite's splits (``test_runs=0``: references 6-7 are scored
+    apart): ``build`` is the build's and ``districtgen surrogate train``'s :data:`surrogates.config.BUILD_RECIPE`
+    (hidden 16, 5000 warm-start updates of batch 16, 16 closed-loop epochs, from the generic model: an input of
+    the table it lacks starts with zero weights); ``build_random`` the same from seeded random weights;
+    ``default`` is ``TrainConfig()`` (hidden 32, lookback 1, updates in the precision the CPU runs fastest, no
+    day-type inputs, 6000 teacher-forced updates on 48-h sequences with a temperature history perturbed after
+    its first 6 hours, every pass holding the first sequence of each training run, 32 closed-loop epochs at 5e-4
+    all run, 48-h chunks then the last 10 on 168-h chunks at a low rate)."""
+    build = replace(BUILD_RECIPE, progress=False, test_runs=0)
+    return {"build": build, "build_random": replace(build, start="random"),
+            "default": TrainConfig(progress=False, test_runs=0)}
 
 
 def suite_settings(args: argparse.Namespace) -> rh.SuiteSettings:

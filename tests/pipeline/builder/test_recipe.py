@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import argparse
 from dataclasses import replace
+from datetime import date
 from pathlib import Path
 
 import pytest
@@ -35,6 +36,18 @@ def test_the_build_and_the_command_train_the_recipe():
     assert cli_settings() == trainer.BUILD_RECIPE
     assert cli_settings("--quiet", "--months", "12,1") == replace(trainer.BUILD_RECIPE, progress=False,
                                                                   months=(12, 1))
+
+
+def test_the_command_trains_what_a_full_year_build_trains():
+    """``districtgen surrogate train``'s default settings are a full-year build's (every month), down to the
+    generic start and its rate; they differ only in the progress bar and the thread count the build pins."""
+    config = read_build_config(DISTRICT)
+    whole = config.model_copy(update={"period": config.period.model_copy(
+        update={"start": date(2018, 1, 1), "end": date(2018, 12, 31)})})
+    build, command = train_config(whole), cli_settings()
+    assert build == replace(command, progress=False, threads=1)
+    assert (command.start, command.generic_learning_rate, command.months) == ("generic", 0.01, ())
+    assert command == trainer.recipe()
 
 
 def test_a_changed_recipe_changes_what_both_resolve_to(monkeypatch):

@@ -1,0 +1,200 @@
+"""Surrogates across climates: stock rows of every Building America climate zone the stock holds, each house
+simulated over a full year on a weather of (or nearest to) its own climate, trained with the build's recipe and
+judged on fresh EnergyPlus runs.
+
+    .venv/bin/python benchmarks/surrogate_climates.py [raw/district.toml] [--per-climate 1] [--bldg-ids 73 68]
+        [--data /tmp/districtgen_judge] [--set start=random ...]
+
+The configuration gives the stock (``inputs.characteristics``: raw/'s 100 ResStock dwellings), the
+``[simulation]`` settings and the ``[surrogate]`` training settings; its period becomes the whole year of its
+start (:func:`surrogate_judge.full_year`), so each house trains like a full-year build's house
+(:func:`pipeline.builder.surrogates.train_config`: the build's recipe, every month) on the build's ILV data
+(:func:`pipeline.builder.surrogates.ilv_config`, the households' clocks in the weather site's time zone) and is
+judged like a full-year build's (:func:`surrogates.judge.judge_ilv_config`: 20 timesteps/h, another seed, the
+multiplier-1 replay and two unseen partial-load runs of the year, closed loop from each run's first hour;
+:func:`surrogate_judge.judge_house` does both). Houses: :data:`HOUSES`, single-family detached and occupied,
+none of them a default-district house nor a row the generic start was trained on.
+
+Weathers (:data:`WEATHERS`): Austin TX AMY2018 (raw/, the default district's), Burlington VT AMY2018 (upstream
+CityLearn's Vermont county neighbourhood) and Albany NY 2012 (ResStock's county CSV G3600010, turned into an
+EPW on the 2018 calendar by :func:`albany_epw`). Only Hot-Humid (Austin) and Cold (Vermont, Albany) have a
+weather of their own climate; the others get the nearest available (:data:`OWN_WEATHER`).
+One JSON line per house, then a markdown table for benchmarks/README.md and the CPU and load.
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+import os
+import sys
+from dataclasses import replace
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "benchmarks"))
+
+import numpy as np  # noqa: E402
+import pandas as pd  # noqa: E402
+from surrogate_judge import cpu_model, full_year, judge_house, parse_settings  # noqa: E402
+
+from pipeline.builder.surrogates import ilv_config, train_config  # noqa: E402
+from pipeline.config import read_build_config  # noqa: E402
+from pipeline.ingest.stock import read_characteristics_row  # noqa: E402
+from pipeline.ingest.weather import EPW_HEADER_LINES, read_resstock_weather  # noqa: E402
+from surrogates.judge import MEDIAN_BOUND_C, WORST_BOUND_C, JudgeConfig, judge_ilv_config  # noqa: E402
+
+SHARED = ROOT.parent / "shared" / "data"
+if not SHARED.is_dir():  # a worktree beside the main checkout: /work/wt/<branch>
+    SHARED = Path("/work/shared/data")
+VERMONT_EPW = SHARED / "citylearn" / "upstream" / "v2.4.2" / "vt_chittenden_county_neighborhood" / "weather.epw"
+ALBANY_CSV = SHARED / "weather" / "G3600010.csv"
+
+#: the weathers by name: what each is and whether it is a climate's own (see :data:`OWN_WEATHER`)
+WEATHERS = {
+    "austin": "Austin TX (Travis County) AMY2018 EPW, IECC 2A",
+    "vermont": "Burlington VT (Chittenden County) AMY2018 EPW, IECC 6A",
+    "albany": "Albany NY (Albany County) 2012 ResStock CSV G3600010 as an EPW on the 2018 calendar, IECC 5A",
+}
+#: the Building America climate zones with weathers of their own (Hot-Humid: Austin; Cold: Vermont and Albany);
+#: the others get the nearest available in heating and cooling (:data:`HOUSES`: Hot-Dry and Mixed-Dry Austin,
+#: the one cooling-dominated weather; Mixed-Humid and Marine Albany, heating-dominated like them; Very Cold
+#: Vermont, the coldest)
+OWN_WEATHER = {"Hot-Humid": ("austin",), "Cold": ("vermont", "albany")}
+#: (bldg_id, climate zone, weather) by climate, the first of each climate first: occupied single-family
+#: detached rows, none of the default district's (8, 21, 43, 47, 61, 69) nor the generic start's
+#: (surrogates/data/generic_lstm.json); row 68 is in Albany County, so the Albany weather is its own county's
+HOUSES: tuple[tuple[int, str, str], ...] = (
+    (73, "Hot-Humid", "austin"), (90, "Hot-Humid", "austin"), (25, "Hot-Humid", "austin"),
+    (32, "Hot-Dry", "austin"), (57, "Hot-Dry", "austin"), (84, "Hot-Dry", "austin"),
+    (39, "Mixed-Dry", "austin"),
+    (94, "Mixed-Humid", "albany"), (63, "Mixed-Humid", "albany"), (28, "Mixed-Humid", "albany"),
+    (89, "Marine", "albany"), (96, "Marine", "albany"), (82, "Marine", "albany"),
+    (68, "Cold", "albany"), (64, "Cold", "vermont"), (81, "Cold", "vermont"),
+    (79, "Very Cold", "vermont"),
+)
+
+#: EPW data-row fields (0-based) :func:`albany_epw` writes
+DRY_BULB, DEW_POINT, HUMIDITY, INFRARED, GHI, DNI, DHI, WIND_DIR, WIND_SPEED, SKY, OPAQUE_SKY, SNOW, SNOW_DAYS = (
+    6, 7, 8, 12, 13, 14, 15, 20, 21, 22, 23, 30, 31)
+
+
+def dew_point_c(dry_bulb_c: np.ndarray, humidity_pct: np.ndarray) -> np.ndarray:
+    """Dew point [degC] of air at ``dry_bulb_c`` [degC] and relative humidity ``humidity_pct`` [%] (Magnus
+    formula over water, a = 17.625, b = 243.04 degC)."""
+    gamma = np.log(np.clip(humidity_pct, 1.0, 100.0) / 100.0) + 17.625 * dry_bulb_c / (243.04 + dry_bulb_c)
+    return 243.04 * gamma / (17.625 - gamma)
+
+
+def sky_cover_tenths(frame: pd.DataFrame) -> np.ndarray:
+    """Opaque sky cover [tenths] per hour from each day's diffuse fraction (daily diffuse / global horizontal
+    irradiation): 0.2 or less -> 0 (clear), 1 -> 10 (overcast), linear between; the CSV has no cloud field and
+    EnergyPlus derives the sky's infrared radiation from this cover where the EPW leaves it missing."""
+    daily = frame[["dhi_w_m2", "ghi_w_m2"]].groupby(frame.index.normalize()).transform("sum")
+    fraction = (daily["dhi_w_m2"] / daily["ghi_w_m2"].where(daily["ghi_w_m2"] > 0)).fillna(1.0).to_numpy()
+    return np.clip(np.round(10 * (fraction - 0.2) / 0.8), 0, 10).astype(int)
+
+
+def albany_epw(csv: Path, template: Path, folder: Path) -> Path:
+    """The ResStock county CSV ``csv`` (Albany 2012, a leap year) as an EPW on ``template``'s calendar (the
+    Vermont AMY2018 EPW: 8,760 hour-ending rows from Monday 1 January): 29 February dropped, the other hours in
+    order onto the template's rows; dry bulb, humidity, dew point (:func:`dew_point_c`), global, direct normal
+    and diffuse irradiance, wind speed and direction from the CSV; sky cover from its diffuse fraction
+    (:func:`sky_cover_tenths`), the horizontal infrared left missing (EnergyPlus computes it), no snow; pressure
+    and the rest from the template; the header's LOCATION Albany's and its ground temperatures the template's
+    shifted by the difference of the two annual mean air temperatures [degC]. Written once under ``folder``,
+    named by its content's hash (the ILV cache keys name the file)."""
+    frame, _ = read_resstock_weather(csv)
+    frame = frame[~((frame.index.month == 2) & (frame.index.day == 29))]
+    direction = pd.read_csv(csv, usecols=["date_time", "Wind Direction [Deg]"])
+    direction = direction[~direction["date_time"].str.startswith("2012-02-29 ")]["Wind Direction [Deg]"]
+    lines = template.read_text().splitlines()
+    header, rows = lines[:EPW_HEADER_LINES], [line.split(",") for line in lines[EPW_HEADER_LINES:]]
+    if len(rows) != len(frame) or len(direction) != len(frame):
+        raise ValueError(f"{csv}: {len(frame)} hours without 29 February, the template {len(rows)}")
+    template_mean = np.mean([float(row[DRY_BULB]) for row in rows])
+    columns = {DRY_BULB: frame["outdoor_dry_bulb_temperature_c"].to_numpy(),
+               DEW_POINT: dew_point_c(frame["outdoor_dry_bulb_temperature_c"].to_numpy(),
+                                      frame["outdoor_relative_humidity_pct"].to_numpy()),
+               HUMIDITY: frame["outdoor_relative_humidity_pct"].to_numpy(), GHI: frame["ghi_w_m2"].to_numpy(),
+               DNI: frame["dni_w_m2"].to_numpy(), DHI: frame["dhi_w_m2"].to_numpy(),
+               WIND_DIR: direction.to_numpy(), WIND_SPEED: frame["wind_speed_m_s"].to_numpy()}
+    cover = sky_cover_tenths(frame)
+    for i, row in enumerate(rows):
+        for field, values in columns.items():
+            row[field] = f"{values[i]:.2f}"
+        row[SKY] = row[OPAQUE_SKY] = str(cover[i])
+        row[INFRARED], row[SNOW], row[SNOW_DAYS] = "9999", "0", "88"
+    shift = float(frame["outdoor_dry_bulb_temperature_c"].mean()) - template_mean
+    header = [shifted_ground(line, shift) if line.upper().startswith("GROUND TEMPERATURES") else line
+              for line in header]
+    header[0] = "LOCATION,Albany County Ap,NY,USA,ResStock G3600010 2012 on 2018,725180,42.75,-73.80,-5.0,89.0"
+    header[5] = "COMMENTS 1,districtgen benchmarks/surrogate_climates.py: ResStock county weather G3600010 (2012)"
+    text = "\n".join([*header, *(",".join(row) for row in rows)]) + "\n"
+    path = folder / f"albany_G3600010_2012_on_2018_{hashlib.sha256(text.encode()).hexdigest()[:12]}.epw"
+    if not path.exists():
+        folder.mkdir(parents=True, exist_ok=True)
+        path.write_text(text)
+    return path
+
+
+def shifted_ground(line: str, shift: float) -> str:
+    """An EPW ``GROUND TEMPERATURES`` header line with every depth's 12 monthly temperatures raised by
+    ``shift`` [degC] (per depth: depth, conductivity, density, specific heat, then the 12 temperatures)."""
+    fields = line.split(",")
+    for depth in range(int(fields[1])):
+        first = 2 + 16 * depth + 4
+        fields[first:first + 12] = [f"{float(v) + shift:.2f}" for v in fields[first:first + 12]]
+    return ",".join(fields)
+
+
+def chosen(per_climate: int, bldg_ids: list[int] | None) -> list[tuple[int, str, str]]:
+    """The houses to judge: ``bldg_ids`` of :data:`HOUSES` in that order, else the first ``per_climate`` of each
+    climate, climate by climate."""
+    if bldg_ids:
+        known = {house[0]: house for house in HOUSES}
+        return [known[i] for i in bldg_ids]
+    climates = list(dict.fromkeys(climate for _, climate, _ in HOUSES))
+    return [house for climate in climates for house in [h for h in HOUSES if h[1] == climate][:per_climate]]
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("config", nargs="?", default=str(ROOT / "raw" / "district.toml"))
+    parser.add_argument("--per-climate", type=int, default=1, help="houses of each climate (its first ones)")
+    parser.add_argument("--bldg-ids", type=int, nargs="+", choices=[h[0] for h in HOUSES],
+                        help="these houses of HOUSES instead")
+    parser.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE",
+                        help="TrainConfig settings over the build's recipe (a trial; the table is the recipe's)")
+    parser.add_argument("--data", type=Path, default=Path(os.environ.get("TMPDIR", "/tmp")) / "districtgen_judge")
+    args = parser.parse_args()
+    config = full_year(read_build_config(args.config))
+    # the build's: BUILD_RECIPE with the [surrogate] keys, every month (and the trial's --set over it)
+    recipe = replace(train_config(config), **parse_settings(args.set))
+    # the households' clocks in the weather site's own zone (None: the EPW's), not the district's
+    training_ilv = replace(ilv_config(config), timezone=None)
+    judge_ilv = judge_ilv_config(training_ilv, JudgeConfig())
+    weathers = {"austin": Path(config.inputs.weather), "vermont": VERMONT_EPW,
+                "albany": albany_epw(ALBANY_CSV, VERMONT_EPW, args.data)}
+    rows = []
+    for bldg_id, climate, weather in chosen(args.per_climate, args.bldg_ids):
+        row = read_characteristics_row(config.inputs.characteristics, bldg_id)
+        if row.get("in.building_america_climate_zone") != climate:
+            raise ValueError(f"row {bldg_id} is {row.get('in.building_america_climate_zone')!r}, not {climate!r}")
+        result = judge_house(row, weathers[weather], training_ilv, judge_ilv, recipe, args.data, set(range(1, 13)))
+        line = {"house": bldg_id, "set": args.set, "climate": climate, "state": row.get("in.state"), "weather": weather,
+                "own_climate": weather in OWN_WEATHER.get(climate, ()),
+                "met": result["median_c"] <= MEDIAN_BOUND_C and result["worst_c"] <= WORST_BOUND_C, **result}
+        rows.append(line)
+        print(json.dumps(line), flush=True)
+    for line in rows:
+        print(f"| {line['house']} | {line['climate']} ({line['state']}) | {line['weather']} | "
+              f"{line['median_c']:.3f} / {line['worst_c']:.2f} | {line['ideal_mean_abs_c']:.2f} | "
+              f"{line['train_cpu_s']:.1f} | {'yes' if line['met'] else '**no**'} |")
+    print(json.dumps({"cpu": cpu_model(), "load_average": os.getloadavg(), "recipe": recipe.record()}))
+
+
+if __name__ == "__main__":
+    main()
