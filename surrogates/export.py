@@ -120,16 +120,17 @@ def load_surrogate(pth: str | os.PathLike, dynamics: dict | str | os.PathLike | 
     return model, norm, list(block.input_observation_names), block.lookback
 
 
-def train_and_export(table, out_dir: str | os.PathLike, name: str, config=None,
+def train_and_export(table, out_dir: str | os.PathLike, name: str, config: TrainConfig | None = None,
                      source: object = "<ILV table>", progress=None) -> dict:
     """Train on an ILV table, evaluate on its held-out test segments, and write ``<name>.pth``,
-    ``<name>.dynamics.json``, ``<name>.metrics.json`` and ``<name>.png`` into ``out_dir``.
+    ``<name>.dynamics.json``, ``<name>.metrics.json`` and ``<name>.png`` into ``out_dir``; ``config`` None:
+    the build's recipe (:func:`surrogates.config.recipe`), as everywhere.
 
     Returns the metrics dict (also in the JSON): ``source`` (the table's name), ``table_sha256`` (its content,
     :func:`surrogates.ilv.table_digest`: what ``surrogate install`` matches against the house's table), the
     held-out ``test`` metrics and the ``training`` summary. Bad input fails before any training or writing.
     """
-    trained = train_surrogate(table, config or TrainConfig(), source=source, progress=progress)
+    trained = train_surrogate(table, config, source=source, progress=progress)  # None: the build's recipe
     clean = validate_ilv(table, source=source)
     metrics, hours = evaluate_segments(trained.model, trained.normalization, trained.inputs,
                                        trained.config.lookback, clean, trained.splits["test"])

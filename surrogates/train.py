@@ -29,7 +29,7 @@ import torch
 from tqdm.auto import tqdm
 
 from citylearn_env.errors import InputError
-from surrogates.config import TrainConfig
+from surrogates.config import TrainConfig, recipe
 from surrogates.generic import generic_state
 from surrogates.ilv import OPTIONAL_COLUMNS, validate_ilv
 from surrogates.model import (
@@ -194,13 +194,13 @@ def check_trainable(table: pd.DataFrame, splits: dict[str, list[Segment]], confi
 def train_surrogate(table: pd.DataFrame, config: TrainConfig | None = None,
                     source: object = "<ILV table>", progress: Callable[[int, int], None] | None = None) -> Trained:
     """Validate ``table``, split it, and train one LSTM; deterministic on CPU for a given ``config.seed``
-    (default: ``TrainConfig()``), also with other trainings running in other threads of the process: every
+    (default: the build's recipe, :func:`surrogates.config.recipe`), also with other trainings running in other threads of the process: every
     draw comes from the config's seed through local generators, none from torch's global random state, and
     torch runs ``config.threads`` intra-op threads in the calling thread (:func:`torch_threads`).
 
     ``progress``: optional ``progress(done, total)`` in units of :func:`progress_units` (a tenth of the warm
     start's updates, then one per closed-loop epoch), called after each unit (progress bars)."""
-    config = config or TrainConfig()
+    config = config or recipe()
     table = validate_ilv(table, source=source)
     inputs = available_inputs(table, config.inputs)
     # the contract's optional columns (set point, non-shiftable load) are used where the table has them

@@ -253,3 +253,19 @@ def test_cli_evaluate_scores_the_months_the_model_serves(room_fmu, tmp_path, cap
     assert scored == {(): {2}, ("--months", "all"): {1, 2}, ("--months", "1"): {1}}
     assert main(["surrogate", "evaluate", str(out / "B1.pth"), str(csv), "--months", "3"]) == 2
     assert "months" in capsys.readouterr().err
+
+
+def test_without_settings_training_follows_the_builds_recipe(table, trained, monkeypatch):
+    # one recipe everywhere (issue 51): train_surrogate and train_and_export with no config train the build's
+    # recipe as it stands when called (BUILD_RECIPE swapped for the tiny one here, so the test stays fast)
+    import surrogates.config
+
+    monkeypatch.setattr(surrogates.config, "BUILD_RECIPE", TINY)
+    plain = train_surrogate(table)
+    assert replace(plain.config, precision=TINY.precision) == TINY  # "auto" is resolved when it trains
+    assert same_state(plain.model, trained.model)
+
+
+def same_state(a: torch.nn.Module, b: torch.nn.Module) -> bool:
+    """Whether two models hold bit-identical parameters."""
+    return all(torch.equal(x, y) for x, y in zip(a.state_dict().values(), b.state_dict().values(), strict=True))
