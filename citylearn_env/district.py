@@ -24,7 +24,7 @@ from types import MappingProxyType
 
 import numpy as np
 
-from citylearn_env import device_kernels, devices, ev, washing_machine
+from citylearn_env import backends, device_kernels, devices, ev, washing_machine
 from citylearn_env.actions import Actions
 from citylearn_env.config import DistrictConfig
 from citylearn_env.dataset import NAME_ALIASES
@@ -130,11 +130,7 @@ class District:
     def use_backend(self, backend: str) -> None:
         """Step the end uses and batteries with the compiled kernels ("numba", or "auto" with numba installed)
         or the numpy reference functions ("numpy"); the numbers are the same."""
-        if backend not in ("auto", "numba", "numpy"):
-            raise ValueError(f"backend must be 'auto', 'numba' or 'numpy', not {backend!r}")
-        kernels = device_kernels.get_kernels() if backend != "numpy" else None
-        if backend == "numba" and kernels is None:
-            raise ImportError("backend='numba' needs the numba package")
+        kernels = backends.compiled(backend, device_kernels.get_kernels)
         self.backend = "numba" if kernels is not None else "numpy"
         self._serve_end_use = partial(device_kernels.serve_end_use_into, kernels=kernels)
         self._battery_charge = partial(device_kernels.battery_charge_into, kernels=kernels)

@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from citylearn_env import dataset, lstm_kernels
+from citylearn_env import backends, dataset, lstm_kernels
 from citylearn_env.dataset import DynamicsBlock, split_periodic_name
 from citylearn_env.errors import SchemaError
 from citylearn_env.settings import CORRECTED, Behaviour
@@ -476,11 +476,7 @@ class LSTMBank:
 
     def _set_backend(self, backend: str) -> None:
         """The group-step kernel: numba's when ``backend`` is "numba", or "auto" and numba is installed."""
-        if backend not in ("auto", "numba", "numpy"):
-            raise ValueError(f"backend must be 'auto', 'numba' or 'numpy', not {backend!r}")
-        kernel = lstm_kernels.get_numba_kernel() if backend != "numpy" else None
-        if backend == "numba" and kernel is None:
-            raise ImportError("backend='numba' needs the numba package")
+        kernel = backends.compiled(backend, lstm_kernels.get_numba_kernel)
         self.backend = "numba" if kernel is not None else "numpy"
         self._kernel = kernel or lstm_kernels.NumpyGroupStep()
 

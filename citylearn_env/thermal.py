@@ -25,7 +25,7 @@ from functools import partial
 
 import numpy as np
 
-from citylearn_env import device_kernels
+from citylearn_env import backends, device_kernels
 from citylearn_env.actions import Actions
 from citylearn_env.config import BuildingConfig
 from citylearn_env.dynamics import build_bank
@@ -75,7 +75,7 @@ class ThermalModel:
     def use_backend(self, backend: str) -> None:
         """Compute the heat pumps' demands with the compiled kernel ("numba", or "auto" with numba installed) or
         the numpy function ("numpy"), as :meth:`citylearn_env.district.District.use_backend`."""
-        kernels = device_kernels.get_kernels() if backend != "numpy" else None
+        kernels = backends.compiled(backend, device_kernels.get_kernels)
         self._heat_pump_demand = partial(device_kernels.heat_pump_demand, kernels=kernels)
 
     def reset(self, hvac_mode: np.ndarray, data_series: Callable[[str], np.ndarray],
