@@ -16,9 +16,20 @@ multiplier-1 replay and two unseen partial-load runs of the year, closed loop fr
 none of them a default-district house nor a row the generic start was trained on.
 
 Weathers (:data:`WEATHERS`): Austin TX AMY2018 (raw/, the default district's), Burlington VT AMY2018 (upstream
-CityLearn's Vermont county neighbourhood) and Albany NY 2012 (ResStock's county CSV G3600010, turned into an
-EPW on the 2018 calendar by :func:`albany_epw`). Only Hot-Humid (Austin) and Cold (Vermont, Albany) have a
-weather of their own climate; the others get the nearest available (:data:`OWN_WEATHER`).
+CityLearn's Vermont county neighbourhood), Albany NY 2012 (ResStock's county CSV G3600010, turned into an EPW on
+the 2018 calendar by :func:`albany_epw`) and the TMY3 EPWs EnergyPlus ships (:func:`energyplus_weather`): each
+house gets a weather of its own Building America climate, the nearest station (:data:`HOUSES`), except
+Mixed-Dry and Very Cold, which have none here (:data:`OWN_WEATHER`). Mixed-Dry (39, Prescott AZ 4B) gets
+Oklahoma City: of the available weathers the only one meeting every temperature test of the Mixed-Dry definition
+(HDD65 <= 5,400, CDD50 >= 4,500, a month's mean below 45 F; ``--weather-table`` computes them,
+:func:`degree_days`); the definition's other test, under 20 in. of rain a year, no file can show (the TMY3
+precipitation fields are mostly missing) and Oklahoma City fails it (a humid 3A station), while the dry ones
+fail the winter test (Las Vegas, Fresno: no month below 45 F) or the heating one (Colorado: HDD65 over 6,000).
+Very Cold (79, Fargo ND) stays on Vermont, the coldest available. The TMY3 files are used as they are: their rows
+carry the years of their source months, but the house model's ``RunPeriod`` names 2018 and leaves "treat weather
+as actual" at No, so EnergyPlus takes the rows by month and day and the weekdays from 2018 (Monday 1 January;
+neither calendar has a 29 February), and the ILV tables read month, day and hour from its output on 2018
+(:func:`surrogates.energyplus.sqlite.read_report_variables`); no part of the runs reads the EPW's year.
 One JSON line per house, then a markdown table for benchmarks/README.md and the CPU and load.
 """
 
@@ -26,6 +37,7 @@ from __future__ import annotations
 
 import argparse
 import hashlib
+import importlib.util
 import json
 import os
 import sys
@@ -57,28 +69,70 @@ WEATHERS = {
     "austin": "Austin TX (Travis County) AMY2018 EPW, IECC 2A",
     "vermont": "Burlington VT (Chittenden County) AMY2018 EPW, IECC 6A",
     "albany": "Albany NY (Albany County) 2012 ResStock CSV G3600010 as an EPW on the 2018 calendar, IECC 5A",
+    "las_vegas": "Las Vegas NV McCarran Intl Ap TMY3 (EnergyPlus's), IECC 3B",
+    "phoenix": "Phoenix AZ Sky Harbor Intl Ap TMY3 (EnergyPlus's), IECC 2B",
+    "oklahoma_city": "Oklahoma City OK Will Rogers World Ap TMY3 (EnergyPlus's), IECC 3A",
+    "newark": "Newark NJ Intl Ap TMY3 (EnergyPlus's), IECC 4A",
+    "sterling": "Sterling VA Washington Dulles Intl Ap TMY3 (EnergyPlus's), IECC 4A",
+    "san_francisco": "San Francisco CA Intl Ap TMY3 (EnergyPlus's), IECC 3C",
+    "chicago": "Chicago IL O'Hare Intl Ap TMY3 (EnergyPlus's), IECC 5A",
 }
-#: the Building America climate zones with weathers of their own (Hot-Humid: Austin; Cold: Vermont and Albany);
-#: the others get the nearest available in heating and cooling (:data:`HOUSES`: Hot-Dry and Mixed-Dry Austin,
-#: the one cooling-dominated weather; Mixed-Humid and Marine Albany, heating-dominated like them; Very Cold
-#: Vermont, the coldest)
-OWN_WEATHER = {"Hot-Humid": ("austin",), "Cold": ("vermont", "albany")}
+#: :data:`WEATHERS` among the EPWs EnergyPlus ships (pyenergyplus/data/weather), by file name
+TMY3 = {"las_vegas": "USA_NV_Las.Vegas-McCarran.Intl.AP.723860_TMY3.epw",
+        "phoenix": "USA_AZ_Phoenix-Sky.Harbor.Intl.AP.722780_TMY3.epw",
+        "oklahoma_city": "USA_OK_Oklahoma.City-Will.Rogers.World.AP.723530_TMY3.epw",
+        "newark": "USA_NJ_Newark.Intl.AP.725020_TMY3.epw",
+        "sterling": "USA_VA_Sterling-Washington.Dulles.Intl.AP.724030_TMY3.epw",
+        "san_francisco": "USA_CA_San.Francisco.Intl.AP.724940_TMY3.epw",
+        "chicago": "USA_IL_Chicago-OHare.Intl.AP.725300_TMY3.epw"}
+#: the Building America climate zone of each weather's site (its IECC zone as the stock maps it): a house's
+#: weather is its own climate's where it is listed under the house's zone; none for Mixed-Dry and Very Cold
+OWN_WEATHER = {"Hot-Humid": ("austin",), "Hot-Dry": ("las_vegas", "phoenix"),
+               "Mixed-Humid": ("newark", "sterling", "oklahoma_city"), "Marine": ("san_francisco",),
+               "Cold": ("vermont", "albany", "chicago")}
 #: (bldg_id, climate zone, weather) by climate, the first of each climate first: occupied single-family
 #: detached rows, none of the default district's (8, 21, 43, 47, 61, 69) nor the generic start's
-#: (surrogates/data/generic_lstm.json); row 68 is in Albany County, so the Albany weather is its own county's
+#: (surrogates/data/generic_lstm.json); each on its own climate's nearest station (32 Las Vegas, 57 Phoenix,
+#: 84 Yuma -> Phoenix, 94 Islip -> Newark, 63 Lexington and 28 Manassas -> Sterling, 89 Bellingham, 96 San
+#: Jose and 82 Santa Rosa -> San Francisco, 68 Albany, 64 Lawrence -> Vermont, 81 Milwaukee -> Chicago; the
+#: Hot-Humid rows on Austin), 39 (Prescott, Mixed-Dry) on Oklahoma City and 79 (Fargo, Very Cold) on Vermont,
+#: neither their own (module docstring)
 HOUSES: tuple[tuple[int, str, str], ...] = (
     (73, "Hot-Humid", "austin"), (90, "Hot-Humid", "austin"), (25, "Hot-Humid", "austin"),
-    (32, "Hot-Dry", "austin"), (57, "Hot-Dry", "austin"), (84, "Hot-Dry", "austin"),
-    (39, "Mixed-Dry", "austin"),
-    (94, "Mixed-Humid", "albany"), (63, "Mixed-Humid", "albany"), (28, "Mixed-Humid", "albany"),
-    (89, "Marine", "albany"), (96, "Marine", "albany"), (82, "Marine", "albany"),
-    (68, "Cold", "albany"), (64, "Cold", "vermont"), (81, "Cold", "vermont"),
+    (32, "Hot-Dry", "las_vegas"), (57, "Hot-Dry", "phoenix"), (84, "Hot-Dry", "phoenix"),
+    (39, "Mixed-Dry", "oklahoma_city"),
+    (94, "Mixed-Humid", "newark"), (63, "Mixed-Humid", "sterling"), (28, "Mixed-Humid", "sterling"),
+    (89, "Marine", "san_francisco"), (96, "Marine", "san_francisco"), (82, "Marine", "san_francisco"),
+    (68, "Cold", "albany"), (64, "Cold", "vermont"), (81, "Cold", "chicago"),
     (79, "Very Cold", "vermont"),
 )
 
 #: EPW data-row fields (0-based) :func:`albany_epw` writes
 DRY_BULB, DEW_POINT, HUMIDITY, INFRARED, GHI, DNI, DHI, WIND_DIR, WIND_SPEED, SKY, OPAQUE_SKY, SNOW, SNOW_DAYS = (
     6, 7, 8, 12, 13, 14, 15, 20, 21, 22, 23, 30, 31)
+
+
+def energyplus_weather(name: str = "") -> Path:
+    """The EPW file ``name`` among those the EnergyPlus install ships (``pyenergyplus/data/weather``), or that
+    folder for no name."""
+    spec = importlib.util.find_spec("pyenergyplus")
+    if spec is None or not spec.submodule_search_locations:
+        raise SystemExit("pyenergyplus (EnergyPlus's Python API) not found: install districtgen[energyplus]")
+    return Path(next(iter(spec.submodule_search_locations))) / "data" / "weather" / name
+
+
+def degree_days(lines: list[str]) -> dict[str, float]:
+    """An EPW's (its text ``lines``) heating and cooling degree days [F day] from its daily mean dry bulb,
+    HDD65, CDD50 and CDD65, and its coldest month's mean dry bulb [F]: the temperature tests of the Building
+    America climate definitions."""
+    rows = [line.split(",") for line in lines[EPW_HEADER_LINES:] if line.strip()]
+    fahrenheit = np.array([float(row[DRY_BULB]) for row in rows]) * 1.8 + 32.0
+    months = np.array([int(row[1]) for row in rows])
+    daily = fahrenheit.reshape(-1, 24).mean(axis=1)
+    return {"hdd65": round(float(np.clip(65.0 - daily, 0, None).sum())),
+            "cdd50": round(float(np.clip(daily - 50.0, 0, None).sum())),
+            "cdd65": round(float(np.clip(daily - 65.0, 0, None).sum())),
+            "coldest_month_f": round(float(min(fahrenheit[months == m].mean() for m in set(months))), 1)}
 
 
 def dew_point_c(dry_bulb_c: np.ndarray, humidity_pct: np.ndarray) -> np.ndarray:
@@ -169,6 +223,8 @@ def main() -> None:
     parser.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE",
                         help="TrainConfig settings over the build's recipe (a trial; the table is the recipe's)")
     parser.add_argument("--data", type=Path, default=Path(os.environ.get("TMPDIR", "/tmp")) / "districtgen_judge")
+    parser.add_argument("--weather-table", action="store_true",
+                        help="print the degree days of the EPWs EnergyPlus ships and of WEATHERS, and stop")
     args = parser.parse_args()
     config = full_year(read_build_config(args.config))
     # the build's: BUILD_RECIPE with the [surrogate] keys, every month (and the trial's --set over it)
@@ -177,7 +233,12 @@ def main() -> None:
     training_ilv = replace(ilv_config(config), timezone=None)
     judge_ilv = judge_ilv_config(training_ilv, JudgeConfig())
     weathers = {"austin": Path(config.inputs.weather), "vermont": VERMONT_EPW,
-                "albany": albany_epw(ALBANY_CSV, VERMONT_EPW, args.data)}
+                "albany": albany_epw(ALBANY_CSV, VERMONT_EPW, args.data),
+                **{name: energyplus_weather(file) for name, file in TMY3.items()}}
+    if args.weather_table:
+        for path in sorted(energyplus_weather().glob("*.epw")) + [weathers[n] for n in ("austin", "vermont", "albany")]:
+            print(json.dumps({"epw": path.name, **degree_days(path.read_text().splitlines())}))
+        return
     rows = []
     for bldg_id, climate, weather in chosen(args.per_climate, args.bldg_ids):
         row = read_characteristics_row(config.inputs.characteristics, bldg_id)
