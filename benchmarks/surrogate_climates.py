@@ -3,7 +3,7 @@ simulated over a full year on a weather of (or nearest to) its own climate, trai
 judged on fresh EnergyPlus runs.
 
     .venv/bin/python benchmarks/surrogate_climates.py [raw/district.toml] [--per-climate 1] [--bldg-ids 73 68]
-        [--data /tmp/districtgen_judge] [--set start=random ...]
+        [--data /tmp/districtgen_judge] [--set start=random ...] [--weather-table]
 
 The configuration gives the stock (``inputs.characteristics``: raw/'s 100 ResStock dwellings), the
 ``[simulation]`` settings and the ``[surrogate]`` training settings; its period becomes the whole year of its
