@@ -2,6 +2,7 @@
 
     .venv/bin/python benchmarks/paper_speed.py throughput [--episodes 5 --repeats 3]
     .venv/bin/python benchmarks/paper_speed.py quality [--episodes 150 --seeds 0 1 --backends torch sbx] [--cores 2]
+        [--precision float32]
     .venv/bin/python benchmarks/paper_speed.py collection [--repeats 3]
     .venv/bin/python benchmarks/paper_speed.py revision --against REV [--episodes 2 --repeats 3]
 
@@ -121,7 +122,8 @@ def revision(against: str, episodes: int, repeats: int) -> None:
         print(f"| fast at {name} | {statistics.median(values):.0f} ({', '.join(f'{v:.0f}' for v in values)}) |")
 
 
-def quality(backends: list[str], episodes: int, seeds: list[int], threads: int | None, cores: int) -> None:
+def quality(backends: list[str], episodes: int, seeds: list[int], threads: int | None, cores: int,
+            precision: str = "auto") -> None:
     """Each back end's full benchmark run per seed, and the float32 limit of its training: the FLOPs of its
     gradient steps (:func:`precision_limits.sac_update_flops`) at the measured rate of the update's dominant
     (256 x 256) x (256 x 256) product with the threads the run used."""
@@ -141,7 +143,8 @@ def quality(backends: list[str], episodes: int, seeds: list[int], threads: int |
     for seed in seeds:
         for backend in backends:
             started = time.perf_counter()
-            options = RunOptions(sac_episodes=episodes, sac=backend, sac_threads=threads, cores=cores)
+            options = RunOptions(sac_episodes=episodes, sac=backend, sac_threads=threads, cores=cores,
+                                 precision=precision)
             r = run_benchmark(district, bench, seed=seed, options=options)
             total = time.perf_counter() - started
             torch.set_num_threads(r["sac_threads"])
@@ -171,6 +174,8 @@ def main() -> None:
     parser.add_argument("--threads", type=int, help="torch threads per training (throughput: default 1; quality: "
                                                     "default chosen as the paper does from --cores)")
     parser.add_argument("--cores", type=int, default=1, help="cores one run may use (quality)")
+    parser.add_argument("--precision", default="auto", choices=("auto", "float32", "bfloat16"),
+                        help="the SAC update's numeric mode (quality)")
     args = parser.parse_args()
     if args.part == "collection":
         collection(args.repeats)
@@ -179,7 +184,7 @@ def main() -> None:
     elif args.part == "throughput":
         throughput(args.backends, args.episodes or 5, args.repeats, args.threads or 1)
     else:
-        quality(args.backends, args.episodes or 150, args.seeds, args.threads, args.cores)
+        quality(args.backends, args.episodes or 150, args.seeds, args.threads, args.cores, args.precision)
 
 
 if __name__ == "__main__":
