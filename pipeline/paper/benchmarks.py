@@ -256,10 +256,7 @@ TRACE_STEPS = 7 * 24
 def run_benchmark(district: DistrictConfig, b: Benchmark, *, seed: int = 0, multiplier: float = 3.0,
                   options: RunOptions = RunOptions()) -> dict[str, Any]:
     """Run one benchmark; return its test-period objectives (B1; district peak) and a trace for the figures."""
-
-
     if options.rules not in RULE_SETS:
-
         raise InputError(f"unknown rule set {options.rules!r}; known: {', '.join(RULE_SETS)}", column="--rules")
     started = time.perf_counter()
     train, test = (0, TRAIN_DAYS * 24 - 1), test_period(district)
@@ -268,7 +265,6 @@ def run_benchmark(district: DistrictConfig, b: Benchmark, *, seed: int = 0, mult
                        settings=options.settings)
     policy, train_seconds, train_cpu, precision, threads = None, 0.0, 0.0, "-", 0
     if b.control == "sac":
-
         threads = options.sac_threads or sac_threads(options.cores)[0]
         trained = sac_policy(
             CityLearnEnv(benchmark_schema(district, b, train, multiplier, options.roles, season),
