@@ -8,7 +8,8 @@ in float32 (and bfloat16), at each thread count; the update's floating-point wor
 products (:func:`sac_update_flops`); the limit is that work at the measured float32 rate of the update's
 dominant (256 x 256) x (256 x 256) product, and the update's own products run back to back
 (:func:`sac_products`) show what its shapes cost before any element-wise work. All variants alternate in one
-process, ``repeats`` rounds of ``updates`` updates (one where bfloat16 is emulated); medians.
+process after a warm-up, ``repeats`` rounds of ``updates`` updates (one where bfloat16 is emulated), each round
+timing the limit's product, the products alone and every variant back to back; medians, the ratios per round.
 ``surrogate``: the default trainer (``TrainConfig()``) on an ILV table (default: the test fixture's full-year
 house): CPU seconds per phase, the LSTM's floating-point work (:func:`lstm_training_flops`) and the same ratio
 against the float32 rate of the LSTM's time-batched gate product.
@@ -18,6 +19,7 @@ Prints markdown rows, the CPU (:func:`surrogates.precision.capability`) and the 
 from __future__ import annotations
 
 import argparse
+import functools
 import statistics
 import subprocess
 import time
@@ -100,33 +102,46 @@ def sac(obs: int, act: int, repeats: int, updates: int, threads: list[int], bf16
     with flushed_subnormals():
         for n in threads:
             torch.set_num_threads(n)
-            peak = time_products([(1, BATCH, HIDDEN, HIDDEN)], torch.float32, repeats, rounds=200, clock=now)
-            peak_rate = 2 * BATCH * HIDDEN * HIDDEN / peak
-            limit = flops / peak_rate
-            alone = time_products(sac_products(obs, act), torch.float32, repeats, clock=now)
             agents = {(name, bf16): cls(obs, act, seed=0, bf16=bf16, threads=n) for name, cls, bf16 in variants}
-            times: dict[tuple[str, bool], list[float]] = {k: [] for k in agents}
-            for agent in agents.values():  # warm-up
-                for _ in range(3):
-                    agent.train_step(*batch)
+            # every round times the limit's product, the products alone and each variant back to back: this
+            # machine's speed drifts by up to 1.5x between minutes (a VM's host), so a ratio is taken per round
+            square = matmul_probe("limit", ((1, BATCH, HIDDEN, HIDDEN),))
+            products = matmul_probe("products", tuple(sac_products(obs, act)))
+            units: dict[object, Callable[[], object]] = {
+                "limit": functools.partial(square.run, torch.float32),
+                "alone": functools.partial(products.run, torch.float32)}
+            units.update({key: functools.partial(agent.train_step, *batch) for key, agent in agents.items()})
+            counts = {"limit": 200, "alone": updates}
+            counts.update({key: updates if capability().native_bf16 or not key[1] else 1 for key in agents})
+            started = time.perf_counter()
+            while time.perf_counter() - started < WARM_UP_S:  # warm-up: the first passes run slower
+                for unit in units.values():
+                    unit()
+            times: dict[object, list[float]] = {key: [] for key in units}
             for _ in range(repeats):
-                for key, agent in agents.items():
-                    count = updates if capability().native_bf16 or not key[1] else 1
-                    started = now()
-                    for _ in range(count):
-                        agent.train_step(*batch)
-                    times[key].append((now() - started) / count)
+                for key, unit in units.items():
+                    begun = now()
+                    for _ in range(counts[key]):
+                        unit()
+                    times[key].append((now() - begun) / counts[key])
+            # the limit: the update's FLOPs at the square product's rate, per round; ratios per round
+            limits = [t * flops / (2 * BATCH * HIDDEN * HIDDEN) for t in times.pop("limit")]
+            limit = statistics.median(limits)
+            ratio = {key: statistics.median(t / lim for t, lim in zip(values, limits, strict=True))
+                     for key, values in times.items()}
             rows.append(f"| the limit: all FLOPs at the (256 x 256) x (256 x 256) float32 rate | {n} | "
-                        f"{limit * 1e3:.2f} | {peak_rate / 1e9:.1f} | 100 % |")
+                        f"{limit * 1e3:.2f} | {flops / limit / 1e9:.1f} | 1.00 |")
+            alone = statistics.median(times.pop("alone"))
             rows.append(f"| the update's float32 products alone | {n} | {alone * 1e3:.2f} | "
-                        f"{flops / alone / 1e9:.1f} | {100 * limit / alone:.0f} % |")
+                        f"{flops / alone / 1e9:.1f} | {ratio['alone']:.2f} |")
             for (name, bf16), values in times.items():
                 t = statistics.median(values)
                 rows.append(f"| {name}, {'bfloat16' if bf16 else 'float32'} | {n} | {t * 1e3:.2f} | "
-                            f"{flops / t / 1e9:.1f} | {100 * limit / t:.0f} % |")
+                            f"{flops / t / 1e9:.1f} | {ratio[(name, bf16)]:.2f} |")
     print(f"CPU: {capability().describe()}; {uptime()}; clock: {clock}")
     print(f"SAC update, {obs} observations, {act} action(s), batch {BATCH}: {flops / 1e6:.0f} MFLOP of products\n")
-    print("| variant | threads | ms per update (median) | GFLOP/s | limit / time |\n|---|---|---|---|---|")
+    print("| variant | threads | ms per update (median) | GFLOP/s | time / limit (median of rounds) |\n"
+          "|---|---|---|---|---|")
     print("\n".join(rows))
 
 
