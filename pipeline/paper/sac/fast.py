@@ -85,8 +85,6 @@ class ScalarAdam:
         return self.value
 
 
-
-
 class FastSAC(LeanSAC):
     """:class:`LeanSAC` with hand-written gradients (see the module docstring); same constructor, plus
     ``numba``: fuse the element-wise steps with numba where it is installed (:mod:`pipeline.paper.sac.kernels`;
