@@ -168,7 +168,11 @@ def _choose(requested: str, probe: Probe) -> Choice:
         return Choice("float32", requested, "no native bfloat16 on this CPU")
     if requested == "auto":
         return _recorded_auto(probe)
-    speedup = measure_speedup(probe)
+    try:
+        speedup = measure_speedup(probe)
+    except RuntimeError as error:
+        raise InputError(f"precision bfloat16: {probe.name} cannot run in bfloat16 here ({_first_line(error)}); "
+                         "--precision auto or float32 runs it", column="precision") from None
     if not native or speedup < 1.0:
         how = "emulated" if not native else "native"
         warnings.warn(f"precision bfloat16 for {probe.name}: bfloat16 is {how} on {capability().cpu} and measured "
@@ -215,7 +219,10 @@ def _recorded_auto(probe: Probe) -> Choice:
         speedup = found.get("bf16_speedup")
         return Choice(found["precision"], "auto", f"recorded for this machine in {path}: {found.get('reason')}",
                       float(speedup) if isinstance(speedup, int | float) else None)
-    speedup = min(measure_speedup(probe), measure_speedup(probe))
+    try:
+        speedup = min(measure_speedup(probe), measure_speedup(probe))
+    except RuntimeError as error:  # no bfloat16 kernel for this workload in the libraries as loaded
+        return Choice("float32", "auto", f"bfloat16 cannot run {probe.name} here: {_first_line(error)}")
     if speedup >= MIN_SPEEDUP:
         choice = Choice("bfloat16", "auto", f"native and measured {speedup:.2f}x faster", speedup)
     else:
@@ -233,8 +240,14 @@ def _recorded_auto(probe: Probe) -> Choice:
     return choice
 
 
+def _first_line(error: Exception) -> str:
+    return str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__
+
+
 def measure_speedup(probe: Probe, repeats: int = 5, budget_s: float = 0.3) -> float:
-    """float32 time / bfloat16 time of ``probe.run`` (:func:`median_times`)."""
+    """float32 time / bfloat16 time of ``probe.run`` (:func:`median_times`). A library without a bfloat16
+    kernel for the workload raises RuntimeError (seen: torch takes oneDNN's bfloat16 LSTM from the CPU's flags
+    while oneDNN is held below that ISA by ``ONEDNN_MAX_CPU_ISA``)."""
     import torch  # lazy: the torch-free CLI imports this module (PRECISIONS)
 
     times = median_times({dtype: functools.partial(probe.run, dtype) for dtype in (torch.float32, torch.bfloat16)},

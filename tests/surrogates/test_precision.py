@@ -125,6 +125,24 @@ def test_bfloat16_where_emulated_warns_once_with_the_slowdown(no_native_bf16):
     assert len(calls) == ran
 
 
+def inverse_probe() -> Probe:
+    """A real workload torch runs in float32 only: its bfloat16 matrix inverse raises RuntimeError, as a
+    library without a bfloat16 kernel for a workload does."""
+    return Probe("an inverse", lambda dtype: torch.linalg.inv(torch.eye(4, dtype=dtype) * 2.0))
+
+
+def test_auto_where_bfloat16_cannot_run_is_float32_and_says_why(native_bf16):
+    choice = choose("auto", inverse_probe())
+    assert choice.precision == "float32" and choice.requested == "auto"
+    assert "bfloat16 cannot run an inverse here" in choice.reason and "BFloat16" in choice.reason
+
+
+def test_bfloat16_asked_where_it_cannot_run_is_one_clear_error(fresh_choices):
+    with pytest.raises(InputError, match=r"precision bfloat16: an inverse cannot run in bfloat16 here") as caught:
+        choose("bfloat16", inverse_probe())
+    assert "\n" not in str(caught.value) and caught.value.__cause__ is None
+
+
 def test_unknown_precision_is_one_clear_error():
     with pytest.raises(InputError, match="unknown precision 'half'.*auto, float32, bfloat16"):
         precision.check_precision("half")
