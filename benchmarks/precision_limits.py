@@ -39,6 +39,15 @@ BATCH, HIDDEN = 256, 256
 WARM_UP_S = 1.0
 
 
+def warm_up(units: list[Callable[[], object]]) -> None:
+    """Run ``units`` in turn for :data:`WARM_UP_S` seconds: the first passes of a process run up to 30 % slower
+    (measured on the Xeon family 6 model 207: 102 against 146 GFLOP/s)."""
+    started = time.perf_counter()
+    while time.perf_counter() - started < WARM_UP_S:
+        for unit in units:
+            unit()
+
+
 def sac_products(obs: int, act: int, batch: int = BATCH, hidden: int = HIDDEN) -> list[tuple[int, int, int, int]]:
     """The matrix products of one ``fast`` SAC update as (members, m, k, n), in the order and orientation the
     update runs them (pipeline/paper/sac/fast.py ``train_step``; thin products transposed, see
@@ -69,13 +78,10 @@ def sac_update_flops(obs: int, act: int) -> float:
 def time_products(products, dtype: torch.dtype, repeats: int, rounds: int = 20,
                   clock: Callable[[], float] = time.perf_counter) -> float:
     """Median seconds of one pass over ``products`` ((batch, m, k, n) each; operands made once): the probe
-    of :mod:`surrogates.precision`, warmed up for :data:`WARM_UP_S` (the first passes of a process run up to
-    30 % slower: measured on the Xeon family 6 model 207, 102 against 146 GFLOP/s), then ``repeats`` timings of
-    ``rounds`` passes on ``clock``."""
+    of :mod:`surrogates.precision`, :func:`warm_up`, then ``repeats`` timings of ``rounds`` passes on
+    ``clock``."""
     probe = matmul_probe("products", tuple(products))
-    started = time.perf_counter()
-    while time.perf_counter() - started < WARM_UP_S:
-        probe.run(dtype)
+    warm_up([functools.partial(probe.run, dtype)])
     times = []
     for _ in range(repeats):
         started = clock()
@@ -113,10 +119,7 @@ def sac(obs: int, act: int, repeats: int, updates: int, threads: list[int], bf16
             units.update({key: functools.partial(agent.train_step, *batch) for key, agent in agents.items()})
             counts = {"limit": 200, "alone": updates}
             counts.update({key: updates if capability().native_bf16 or not key[1] else 1 for key in agents})
-            started = time.perf_counter()
-            while time.perf_counter() - started < WARM_UP_S:  # warm-up: the first passes run slower
-                for unit in units.values():
-                    unit()
+            warm_up(list(units.values()))
             times: dict[object, list[float]] = {key: [] for key in units}
             for _ in range(repeats):
                 for key, unit in units.items():

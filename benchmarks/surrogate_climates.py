@@ -17,7 +17,7 @@ none of them a default-district house nor a row the generic start was trained on
 
 Weathers (:data:`WEATHERS`): Austin TX AMY2018 (raw/, the default district's), Burlington VT AMY2018 (upstream
 CityLearn's Vermont county neighbourhood), Albany NY 2012 (ResStock's county CSV G3600010, turned into an EPW on
-the 2018 calendar by :func:`albany_epw`) and the TMY3 EPWs EnergyPlus ships (:func:`energyplus_weather`): each
+the 2018 calendar by :func:`albany_epw`) and the TMY3 EPWs EnergyPlus ships (:func:`reference_houses.package_data_dir`): each
 house gets a weather of its own Building America climate, the nearest station (:data:`HOUSES`), except
 Mixed-Dry and Very Cold, which have none here (:data:`OWN_WEATHER`). Mixed-Dry (39, Prescott AZ 4B) gets
 Oklahoma City: of the available weathers the only one meeting every temperature test of the Mixed-Dry definition
@@ -37,7 +37,6 @@ from __future__ import annotations
 
 import argparse
 import hashlib
-import importlib.util
 import json
 import os
 import sys
@@ -50,6 +49,7 @@ sys.path.insert(0, str(ROOT / "benchmarks"))
 
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
+from reference_houses import package_data_dir  # noqa: E402
 from surrogate_judge import cpu_model, full_year, judge_house, parse_settings  # noqa: E402
 
 from pipeline.builder.surrogates import ilv_config, train_config  # noqa: E402
@@ -110,15 +110,6 @@ HOUSES: tuple[tuple[int, str, str], ...] = (
 #: EPW data-row fields (0-based) :func:`albany_epw` writes
 DRY_BULB, DEW_POINT, HUMIDITY, INFRARED, GHI, DNI, DHI, WIND_DIR, WIND_SPEED, SKY, OPAQUE_SKY, SNOW, SNOW_DAYS = (
     6, 7, 8, 12, 13, 14, 15, 20, 21, 22, 23, 30, 31)
-
-
-def energyplus_weather(name: str = "") -> Path:
-    """The EPW file ``name`` among those the EnergyPlus install ships (``pyenergyplus/data/weather``), or that
-    folder for no name."""
-    spec = importlib.util.find_spec("pyenergyplus")
-    if spec is None or not spec.submodule_search_locations:
-        raise SystemExit("pyenergyplus (EnergyPlus's Python API) not found: install districtgen[energyplus]")
-    return Path(next(iter(spec.submodule_search_locations))) / "data" / "weather" / name
 
 
 def degree_days(lines: list[str]) -> dict[str, float]:
@@ -234,9 +225,9 @@ def main() -> None:
     judge_ilv = judge_ilv_config(training_ilv, JudgeConfig())
     weathers = {"austin": Path(config.inputs.weather), "vermont": VERMONT_EPW,
                 "albany": albany_epw(ALBANY_CSV, VERMONT_EPW, args.data),
-                **{name: energyplus_weather(file) for name, file in TMY3.items()}}
+                **{name: package_data_dir("weather") / file for name, file in TMY3.items()}}
     if args.weather_table:
-        for path in sorted(energyplus_weather().glob("*.epw")) + [weathers[n] for n in ("austin", "vermont", "albany")]:
+        for path in sorted(package_data_dir("weather").glob("*.epw")) + [weathers[n] for n in ("austin", "vermont", "albany")]:
             print(json.dumps({"epw": path.name, **degree_days(path.read_text().splitlines())}))
         return
     rows = []
