@@ -164,6 +164,8 @@ def uptime() -> str:
 
 
 def main() -> None:
+    from surrogates.precision import PRECISIONS
+
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("part", choices=("throughput", "quality", "collection", "revision"))
     parser.add_argument("--against", default="HEAD", help="git revision of the anchor (revision)")
@@ -174,7 +176,7 @@ def main() -> None:
     parser.add_argument("--threads", type=int, help="torch threads per training (throughput: default 1; quality: "
                                                     "default chosen as the paper does from --cores)")
     parser.add_argument("--cores", type=int, default=1, help="cores one run may use (quality)")
-    parser.add_argument("--precision", default="auto", choices=("auto", "float32", "bfloat16"),
+    parser.add_argument("--precision", default="auto", choices=PRECISIONS,
                         help="the SAC update's numeric mode (quality)")
     args = parser.parse_args()
     if args.part == "collection":
