@@ -28,16 +28,18 @@ DOCS_TABLES = (("The 17 benchmarks", "results.md"), ("Against the oracle and MPC
 
 
 def sweep_table(rows: Sequence[Mapping[str, Any]]) -> str:
-    """The m-sweep table (markdown): one row per multiplier, changes against the first row (m = 1)."""
+    """The m-sweep table (markdown): one row per multiplier, changes against the first row (m = 1);
+    discomfort and consumption as mean ± std over seeds where a row has more than one (the over/under
+    columns: mean +- std over the test period's hours, of the seeds' mean)."""
     base = rows[0]
     below, above = (side.replace("cooling", "-cooling").replace("heating", "-heating")
                     for side in str(base.get("below_above", "overcooling/undercooling")).split("/"))
     lines = [f"| m | discomfort C h | {below} C (mean +- std) | {above} C (mean +- std) | "
              "consumption kWh | discomfort change | consumption change |", "|---|---|---|---|---|---|---|"]
     for r in rows:
-        lines.append(f"| {r['multiplier']:g} | {r['discomfort']:.1f} | {r['overcooling_mean']:.2f} +- "
+        lines.append(f"| {r['multiplier']:g} | {_pm(r, 'discomfort', 1)} | {r['overcooling_mean']:.2f} +- "
                      f"{r['overcooling_std']:.2f} | {r['undercooling_mean']:.2f} +- {r['undercooling_std']:.2f} | "
-                     f"{r['consumption']:.2f} | {_change(r['discomfort'], base['discomfort'])} | "
+                     f"{_pm(r, 'consumption', 2)} | {_change(r['discomfort'], base['discomfort'])} | "
                      f"{_change(r['consumption'], base['consumption'])} |")
     return "\n".join(lines) + "\n"
 
@@ -53,7 +55,7 @@ METRICS = ("cost", "emissions", "discomfort", "consumption", "average_daily_peak
 
 
 def summarise(runs: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
-    """Mean of :data:`METRICS` over ``runs`` (the seeds of one row), their sample std as ``<name>_std``,
+    """Mean of :data:`METRICS` over ``runs`` (the seeds of one row), their sample std as ``<name>_sd``,
     the number of seeds, and the first run's labels and trace."""
     first = runs[0]
     row = {k: v for k, v in first.items() if k not in METRICS}
@@ -72,8 +74,6 @@ def write_results(out: Path, runs: Sequence[Mapping[str, Any]], tasks: Sequence[
     the finished runs; returns {"results": summarised rows, "sweep", "runs": the benchmark runs, "references":
     configuration -> controller -> reference run, "regret": :func:`regret_rows`} (runs.csv holds both kinds of
     run, told apart by ``controller``)."""
-
-
     groups: dict[tuple[str, float], list] = {}
     references: dict[str, dict[str, Mapping[str, Any]]] = {}
     for task, run in zip(tasks, runs, strict=True):
