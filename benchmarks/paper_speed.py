@@ -122,14 +122,72 @@ def revision(against: str, episodes: int, repeats: int) -> None:
         print(f"| fast at {name} | {statistics.median(values):.0f} ({', '.join(f'{v:.0f}' for v in values)}) |")
 
 
+#: the float32 limit's rate is sampled every this many training steps (the host's speed drifts by minutes)
+PROBE_EVERY = 250
+
+
+class LimitProbes:
+    """The float32 rate of the limit's (256 x 256) x (256 x 256) product, sampled through a training run: every
+    :data:`PROBE_EVERY` environment steps of a wrapped training env, 4 products are timed; the probes' own
+    seconds are kept apart so they can be taken off the training time."""
+
+    def __init__(self) -> None:
+        import torch
+        from precision_limits import BATCH, HIDDEN
+
+        g = torch.Generator().manual_seed(0)
+        self.a, self.b = torch.randn(BATCH, HIDDEN, generator=g), torch.randn(HIDDEN, HIDDEN, generator=g)
+        self.flops = 2.0 * BATCH * HIDDEN * HIDDEN
+        self.rates: list[float] = []
+        self.seconds = 0.0
+
+    def sample(self) -> None:
+        import torch
+
+        started = time.perf_counter()
+        torch.mm(self.a, self.b)  # operands back into cache
+        timed = time.perf_counter()
+        for _ in range(4):
+            torch.mm(self.a, self.b)
+        ended = time.perf_counter()
+        self.rates.append(4 * self.flops / (ended - timed))
+        self.seconds += ended - started
+
+    def wrap_training(self, train_sac):
+        """``train_sac`` with its env stepping the probes and its seconds net of them."""
+        import dataclasses
+
+        import gymnasium
+
+        probes = self
+
+        class Probed(gymnasium.Wrapper):
+            steps = 0
+
+            def step(self, action):
+                Probed.steps += 1
+                if Probed.steps % PROBE_EVERY == 0:
+                    probes.sample()
+                return self.env.step(action)
+
+        def probed(env, *args, **kwargs):
+            before = probes.seconds
+            trained = train_sac(Probed(env), *args, **kwargs)
+            return dataclasses.replace(trained, seconds=trained.seconds - (probes.seconds - before),
+                                       cpu_seconds=trained.cpu_seconds - (probes.seconds - before))
+        return probed
+
+
 def quality(backends: list[str], episodes: int, seeds: list[int], threads: int | None, cores: int,
             precision: str = "auto") -> None:
     """Each back end's full benchmark run per seed, and the float32 limit of its training: the FLOPs of its
-    gradient steps (:func:`precision_limits.sac_update_flops`) at the measured rate of the update's dominant
-    (256 x 256) x (256 x 256) product with the threads the run used."""
+    gradient steps (:func:`precision_limits.sac_update_flops`) at the float32 rate of the update's dominant
+    (256 x 256) x (256 x 256) product, sampled through the training (:class:`LimitProbes`, median; the probes'
+    time is taken off the training's) with the threads the run used."""
     import torch
-    from precision_limits import BATCH, HIDDEN, sac_update_flops, time_products
+    from precision_limits import sac_update_flops
 
+    import pipeline.paper.benchmarks as benchmarks
     from citylearn_env import CityLearnEnv
     from citylearn_env.wrappers import NormalizedObservationWrapper
     from pipeline.paper.benchmarks import TRAIN_DAYS, RunOptions, benchmark_schema, run_benchmark
@@ -140,19 +198,24 @@ def quality(backends: list[str], episodes: int, seeds: list[int], threads: int |
     print(f"CPU: {capability().describe()}; {uptime()}")
     print("| back end | precision | threads | seed | episodes | B1 test cost $ | train wall s | train CPU s | "
           "total s | float32 limit s | train wall / limit |\n|---|---|---|---|---|---|---|---|---|---|---|")
+    plain = benchmarks.train_sac
     for seed in seeds:
         for backend in backends:
+            probes = LimitProbes()
+            benchmarks.train_sac = probes.wrap_training(plain)
             started = time.perf_counter()
             options = RunOptions(sac_episodes=episodes, sac=backend, sac_threads=threads, cores=cores,
                                  precision=precision)
-            r = run_benchmark(district, bench, seed=seed, options=options)
-            total = time.perf_counter() - started
+            try:
+                r = run_benchmark(district, bench, seed=seed, options=options)
+            finally:
+                benchmarks.train_sac = plain
+            total = time.perf_counter() - started - probes.seconds
             torch.set_num_threads(r["sac_threads"])
-            peak = 2 * BATCH * HIDDEN * HIDDEN / time_products([(1, BATCH, HIDDEN, HIDDEN)], torch.float32, 7, 200)
             updates = episodes * (TRAIN_DAYS * 24 - 1) - LEARNING_STARTS
             wrapped = NormalizedObservationWrapper(CityLearnEnv(benchmark_schema(district, bench, (0, 23))))
             dims = wrapped.observation_space.shape[0], wrapped.action_space.shape[0]
-            limit = updates * sac_update_flops(*dims) / peak
+            limit = updates * sac_update_flops(*dims) / statistics.median(probes.rates)
             print(f"| {backend} | {r['precision']} | {r['sac_threads']} | {seed} | {episodes} | {r['cost']:.3f} | "
                   f"{r['train_seconds']:.0f} | {r['train_cpu_seconds']:.0f} | {total:.0f} | {limit:.0f} | "
                   f"{r['train_seconds'] / limit:.2f} |", flush=True)
