@@ -3,7 +3,7 @@ simulated over a full year on a weather of (or nearest to) its own climate, trai
 judged on fresh EnergyPlus runs.
 
     .venv/bin/python benchmarks/surrogate_climates.py [raw/district.toml] [--per-climate 1] [--bldg-ids 73 68]
-        [--data /tmp/districtgen_judge] [--set start=random ...] [--weather-table]
+        [--data /tmp/districtgen_judge] [--set start=random ...] [--wind-input [SHIFT_HOURS]] [--weather-table]
 
 The configuration gives the stock (``inputs.characteristics``: raw/'s 100 ResStock dwellings), the
 ``[simulation]`` settings and the ``[surrogate]`` training settings; its period becomes the whole year of its
@@ -30,7 +30,9 @@ carry the years of their source months, but the house model's ``RunPeriod`` name
 as actual" at No, so EnergyPlus takes the rows by month and day and the weekdays from 2018 (Monday 1 January;
 neither calendar has a 29 February), and the ILV tables read month, day and hour from its output on 2018
 (:func:`surrogates.energyplus.sqlite.read_report_variables`); no part of the runs reads the EPW's year.
-One JSON line per house, then a markdown table for benchmarks/README.md and the CPU and load.
+``--wind-input [SHIFT_HOURS]`` is a trial, not the recipe (:func:`wind_input`): the weather file's wind speed
+as one more input, to measure what the houses' closed-loop error owes to a driver no CityLearn observation
+carries. One JSON line per house, then a markdown table for benchmarks/README.md and the CPU and load.
 """
 
 from __future__ import annotations
@@ -195,6 +197,35 @@ def shifted_ground(line: str, shift: float) -> str:
     return ",".join(fields)
 
 
+def hourly_wind(epw: Path) -> np.ndarray:
+    """The EPW's wind speed [m/s] per hour of the year (index 0: 00:00-01:00 of 1 January): the mean of the
+    hour's hour-ending row and the row before it, the alignment the tables' outdoor temperature has with the
+    EPW (EnergyPlus interpolates between the rows)."""
+    rows = [line.split(",") for line in epw.read_text().splitlines()[EPW_HEADER_LINES:] if line.strip()]
+    ending = np.array([float(row[WIND_SPEED]) for row in rows])
+    return (ending + np.concatenate([ending[:1], ending[:-1]])) / 2.0
+
+
+def wind_input(recipe, epw: Path, shift_hours: int = 0):
+    """A trial (``--wind-input``): the recipe with the weather file's wind speed as one more input (before the
+    indoor temperature), and the table transform adding that column ``wind_speed`` [m/s] by the tables' hour
+    of year; ``shift_hours`` rolls the series (a placebo: the same values at the wrong hours). Registers the
+    column with :mod:`surrogates.ilv` for this process: CityLearn's weather has no wind, so no schema input
+    carries it, and the trial is not a recipe."""
+    import surrogates.ilv as ilv
+
+    if "wind_speed" not in ilv.OPTIONAL_COLUMNS:
+        ilv.OPTIONAL_COLUMNS = (*ilv.OPTIONAL_COLUMNS, "wind_speed")
+        ilv.FLOAT_RANGES["wind_speed"] = (0.0, 60.0)
+    wind = np.roll(hourly_wind(epw), shift_hours)
+
+    def prepare(table: pd.DataFrame) -> pd.DataFrame:
+        stamps = pd.to_datetime(table["timestamp"])
+        return table.assign(wind_speed=wind[((stamps.dt.dayofyear - 1) * 24 + stamps.dt.hour).to_numpy()])
+
+    return replace(recipe, inputs=(*recipe.inputs[:-1], "wind_speed", recipe.inputs[-1])), prepare
+
+
 def chosen(per_climate: int, bldg_ids: list[int] | None) -> list[tuple[int, str, str]]:
     """The houses to judge: ``bldg_ids`` of :data:`HOUSES` in that order, else the first ``per_climate`` of each
     climate, climate by climate."""
@@ -214,6 +245,8 @@ def main() -> None:
     parser.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE",
                         help="TrainConfig settings over the build's recipe (a trial; the table is the recipe's)")
     parser.add_argument("--data", type=Path, default=Path(os.environ.get("TMPDIR", "/tmp")) / "districtgen_judge")
+    parser.add_argument("--wind-input", type=int, nargs="?", const=0, metavar="SHIFT_HOURS",
+                        help="a trial: the EPW's wind speed as one more input (rolled by SHIFT_HOURS: a placebo)")
     parser.add_argument("--weather-table", action="store_true",
                         help="print the degree days of the EPWs EnergyPlus ships and of WEATHERS, and stop")
     args = parser.parse_args()
@@ -235,8 +268,11 @@ def main() -> None:
         row = read_characteristics_row(config.inputs.characteristics, bldg_id)
         if row.get("in.building_america_climate_zone") != climate:
             raise ValueError(f"row {bldg_id} is {row.get('in.building_america_climate_zone')!r}, not {climate!r}")
-        result = judge_house(row, weathers[weather], training_ilv, judge_ilv, recipe, args.data, set(range(1, 13)))
-        line = {"house": bldg_id, "set": args.set, "climate": climate, "state": row.get("in.state"), "weather": weather,
+        trial, prepare = (recipe, None) if args.wind_input is None else wind_input(recipe, weathers[weather],
+                                                                                   args.wind_input)
+        result = judge_house(row, weathers[weather], training_ilv, judge_ilv, trial, args.data, set(range(1, 13)),
+                             prepare)
+        line = {"house": bldg_id, "set": args.set, "wind_input": args.wind_input, "climate": climate, "state": row.get("in.state"), "weather": weather,
                 "own_climate": weather in OWN_WEATHER.get(climate, ()),
                 "met": result["median_c"] <= MEDIAN_BOUND_C and result["worst_c"] <= WORST_BOUND_C, **result}
         rows.append(line)

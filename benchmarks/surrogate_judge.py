@@ -24,6 +24,7 @@ import json
 import os
 import platform
 import sys
+from collections.abc import Callable
 from dataclasses import asdict, replace
 from pathlib import Path
 
@@ -104,15 +105,17 @@ def main() -> None:
 
 
 def judge_house(row: dict, epw: Path, training_ilv: ILVConfig, judge_ilv: ILVConfig, recipe: TrainConfig,
-                data: Path, served: set[int]) -> dict:
+                data: Path, served: set[int], prepare: Callable[[pd.DataFrame], pd.DataFrame] | None = None) -> dict:
     """One house: its training and judge tables (simulated once, :func:`cached_table`), the recipe trained on the
     first and scored closed loop on the second (:func:`surrogates.judge.score_judge_table`). Returns the monthly
     closed-loop RMSE median and worst month, the mean absolute errors of the partial-load runs and of the ideal
     replay, the calendar-month medians and the median over the ``served`` months [degC]; the training's CPU
     seconds (its thread's own), the precision it ran in, its best epoch and that epoch's closed-loop validation
-    RMSE [degC]."""
+    RMSE [degC]. ``prepare``: a trial's change to both tables after they are read (e.g. a column added)."""
     table = cached_table(row, epw, training_ilv, data)
     fresh = cached_table(row, epw, judge_ilv, data)
+    if prepare is not None:
+        table, fresh = prepare(table), prepare(fresh)
     trained = train_surrogate(table, recipe)
     s = score_judge_table(trained.model, trained.normalization, trained.inputs, trained.config.lookback, fresh)
     return {"median_c": s["median_c"], "worst_c": s["worst_c"], "mean_abs_c": s["mean_abs_c"],
