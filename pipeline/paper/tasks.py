@@ -34,7 +34,7 @@ from pipeline.paper.benchmarks import (
 )
 from pipeline.paper.figures import FIGURES
 from pipeline.paper.reference import CONTROLLERS, REFERENCES, configurations, run_reference
-from pipeline.paper.results import write_results
+from pipeline.paper.results import provenance, write_results
 from pipeline.runners import DaskRunner, InProcessRunner, ProcessRunner
 
 
@@ -123,6 +123,7 @@ def run_task(schema_path: str, task: Task, options: RunOptions, out_file: str,
                                options=options)
     else:
         result = run_benchmark(district, bench, seed=task.seed, multiplier=task.multiplier, options=options)
+    result = {**result, **provenance()}
     target = Path(out_file)
     write_output(target.parent, target.name, json.dumps({"fingerprint": dict(expected), "result": result}),
                  column="--output")

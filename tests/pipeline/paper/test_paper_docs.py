@@ -76,11 +76,19 @@ def test_page_holds_the_runners_numbers(paper_run):
 
 
 def test_page_names_the_command_date_and_cpu(paper_run):
+    import pandas as pd
+
     out, page, _ = paper_run
     text = page.read_text()
     assert text.startswith("# The paper's benchmarks")
     assert "--sac-episodes 1" in text and "--controllers rbc sac oracle" in text and f"--docs {page}" in text
-    assert re.search(r"finished \d{4}-\d\d-\d\d \d\d:\d\d UTC on .+load average \d", text)
+    assert re.search(r"page written \d{4}-\d\d-\d\d \d\d:\d\d UTC on .+load average \d", text)
+    # where the runs themselves finished: every run of this folder, on this machine's CPU
+    from surrogates.precision import capability
+
+    runs = len(pd.read_csv(out / "runs.csv"))
+    assert f"{runs} on {capability().describe()} (load average " in text
+    assert re.search(r"The runs finished \d{4}-\d\d-\d\d \d\d:\d\d to \d{4}-\d\d-\d\d \d\d:\d\d UTC", text)
     assert "SAC training: " in text
     # the page is the run folder's tables, never retyped: regenerating from the folder gives the same tables
     again = docs_page(out, command="c", machine="m", finished="f")
@@ -98,3 +106,26 @@ def test_rerun_on_a_finished_folder_rewrites_the_page_without_running(paper_run,
     assert status == 0 and page.is_file()
     assert "0 to run" in capsys.readouterr().out
     assert {p.name: p.stat().st_mtime_ns for p in (out / "tasks").iterdir()} == before
+
+
+def test_rewritten_page_names_the_runs_machines_not_only_its_own(paper_run, tmp_path):
+    """A folder whose task files came from elsewhere (another CPU, or before the record was kept): the page says
+    so from the runs' own records, whatever machine rewrites it."""
+    import shutil
+
+    import pandas as pd
+
+    from pipeline.paper.results import write_docs_page
+
+    out, _, _ = paper_run
+    copy = tmp_path / "out"
+    shutil.copytree(out, copy)
+    runs = pd.read_csv(copy / "runs.csv")
+    runs.loc[0, "machine"] = "Some Other CPU (avx2)"
+    runs.loc[0, "load_average"] = 3.25
+    runs.loc[1, ["machine", "load_average", "finished_utc"]] = None
+    runs.to_csv(copy / "runs.csv", index=False)
+    text = write_docs_page(copy, tmp_path / "page.md", command="c").read_text()
+    assert "1 on Some Other CPU (avx2) (load average 3.2-3.2)" in text
+    assert f"{len(runs) - 2} on " in text
+    assert "1 earlier run's task file does not record its machine." in text
