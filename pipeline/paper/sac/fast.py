@@ -178,14 +178,18 @@ class FastSAC(LeanSAC):
                               self.g1pi, self.g2pi, self.qpi_t, self.dg1, self.dg2, self.dh1, self.dh2, self.da_t,
                               *self.rows.values(), self.dq, self.dq_pi, self.dout, *self.critic_grads,
                               *self.actor_grads, self.col_scratch, self.g1c, self.g2c, self.h1s, self.h2s,
-                              self.dq_lp, self.dq_pi_lp, self.dout_lp)
+                              self.dq_lp, self.dq_pi_lp, self.dout_lp,
+                              *(() if self.actor_w3_t is None else (self.actor_w3_t,)))
 
     def _views(self) -> None:
         """The views one update takes (of parameters, which Adam updates in place, and of buffers), taken once:
         a view costs microseconds of dispatch, and an update takes dozens."""
         b = self.batch
         first, w2, b2, w3, b3 = self.actor_lp
-        self.actor_ops = (first, w2, b2, w3.t(), b3.t(), w2.t())
+        # float32: the actor's output weight as a contiguous (2A, H) copy, refreshed at each update's start; the
+        # BLAS runs the product with the strided view w3^T 6x slower (101 against 16 us on AVX-512)
+        self.actor_w3_t = w3.t().contiguous() if self.dtype == self.torch.float32 else None
+        self.actor_ops = (first, w2, b2, w3.t() if self.actor_w3_t is None else self.actor_w3_t, b3.t(), w2.t())
         self.stack_ops = _network_views(self.stack_lp)
         self.critic_ops = _network_views(self.critic_lp)
         self.action_rows = self.critic_lp[0][:, self.obs_dim:self.obs_dim + self.act_dim]  # (2, A, H)
@@ -194,6 +198,12 @@ class FastSAC(LeanSAC):
         self.xs, self.h1s, self.h2s = self.x[:b], self.h1[:b], self.h2[:b]  # actor rows on s
         self.t = {name: getattr(self, name).transpose(-2, -1) for name in (
             "h2", "g2", "g2pi", "zc", "g1c", "dq_lp", "dg1", "xs", "h1s", "dout_lp")}
+        # float32: each member's output product on its own (K addmm are 2.5-4x faster than one baddbmm of
+        # (1, H) x (H, B) members; bfloat16 the other way round), views taken once
+        self.stack_q, self.critic_q = (None if self.dtype != self.torch.float32 else tuple(
+            (ops[4][k], ops[3][k], g2_t[k], q_t[k]) for k in range(q_t.shape[0]))
+            for ops, g2_t, q_t in ((self.stack_ops, self.t["g2"], self.q_t),
+                                   (self.critic_ops, self.t["g2pi"], self.qpi_t)))
         cg, ag = self.critic_grads, self.actor_grads
         self.critic_step = [*cg[:3], cg[3].transpose(1, 2), cg[4]]
         self.actor_step = [*ag[:3], ag[3].t(), ag[4]]
@@ -219,17 +229,22 @@ class FastSAC(LeanSAC):
         noise = self.torch.randn((1, self.act_dim), generator=self.generator).numpy()[0]
         return np.tanh(out[:self.act_dim] + np.exp(log_std) * noise)
 
-    def _critics_forward(self, ops: tuple, z, g1, g2, g2_t, q_t) -> None:
+    def _critics_forward(self, ops: tuple, z, g1, g2, g2_t, q_t, members: tuple | None) -> None:
         """Stacked critics (``ops`` of :func:`_network_views`) on inputs z (K, B, Z): hidden activations into
         g1, g2 (K, B, H) (g2_t: g2's transposed view), Q transposed into q_t (K, 1, B): a product with a
         thin right operand (1 or 2A columns: the output layers, their weight gradients, the gradient by the
         action) runs several times slower in the BLAS than its transpose, so those run transposed
-        ((A B)^T = B^T A^T; measured on (256, 256) x (256, 1): 4-10x faster; benchmarks/README.md)."""
+        ((A B)^T = B^T A^T; measured on (256, 256) x (256, 1): 4-10x faster; benchmarks/README.md). ``members``:
+        the output product's per-member views (float32), else one batched product."""
         first, w2, b2, w3_t, b3, _ = ops
         self.torch.bmm(z, first, out=g1)
         relu_(g1)
         self.kernels.linear_relu(g1, w2, b2, g2)
-        self.torch.baddbmm(b3, w3_t, g2_t, out=q_t)
+        if members is None:
+            self.torch.baddbmm(b3, w3_t, g2_t, out=q_t)
+        else:
+            for bias, weight, activation, q in members:
+                self.torch.addmm(bias, weight, activation, out=q)
 
     def _critics_backward(self, dq, g1, g2, col_sum) -> None:
         """From dL/dQ (K, B, 1) in the products' dtype back through the critics to their first hidden layer:
@@ -246,6 +261,8 @@ class FastSAC(LeanSAC):
         batch = obs.shape[0]
         if batch != self.batch:
             self._buffers(self.obs_dim, self.act_dim, batch)
+        if self.actor_w3_t is not None:
+            self.actor_w3_t.copy_(self.actor_lp[3].t())
         # actor on s and s' in one pass (2B rows); outputs transposed (2A, 2B)
         k.fill_inputs(obs, action, next_obs, self.x, self.z, self.zpi)
         first, w2, b2, w3_t, b3_t, w2_t = self.actor_ops
@@ -260,7 +277,7 @@ class FastSAC(LeanSAC):
         ent_coef = math.exp(self.ent_adam.value)
         self.log_ent_coef.fill_(self.ent_adam.step(-mean_log_prob))
         # target critics on (s', a') and critics on (s, a): one pass over the four stacked members
-        self._critics_forward(self.stack_ops, self.z, self.g1, self.g2, t["g2"], self.q_t)
+        self._critics_forward(self.stack_ops, self.z, self.g1, self.g2, t["g2"], self.q_t, self.stack_q)
         grads = self.critic_grads
         k.critic_dq(self.q_t, reward, done, self.rows["next_logp"], ent_coef, self.dq, grads[4])
         _copy(self.dq, self.dq_lp)
@@ -271,7 +288,8 @@ class FastSAC(LeanSAC):
         self.critic_adam.step(self.critic_step)
         self._refresh(self.critic_lp, self.critic_params)
         # actor update against the updated critics: dQ/da of the minimum member, back through both critics
-        self._critics_forward(self.critic_ops, self.zpi2, self.g1pi, self.g2pi, t["g2pi"], self.qpi_t)
+        self._critics_forward(self.critic_ops, self.zpi2, self.g1pi, self.g2pi, t["g2pi"], self.qpi_t,
+                              self.critic_q)
         k.lowest(self.qpi_t, self.dq_pi)
         _copy(self.dq_pi, self.dq_pi_lp)
         self._critics_backward(self.dq_pi_lp, self.g1pi, self.g2pi, self.col_scratch)
