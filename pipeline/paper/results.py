@@ -272,7 +272,7 @@ def _percent(value: float, base: float) -> str:
     return f"{100.0 * (value - base) / base:+.1f} %" if base else "-"
 
 
-def provenance() -> dict[str, str]:
+def provenance() -> dict[str, Any]:
     """Where and when a task finished, for its result: this machine's CPU (:func:`surrogates.precision.capability`),
     its one-minute load average and the UTC time."""
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
