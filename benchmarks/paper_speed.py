@@ -18,6 +18,7 @@ Prints markdown rows and the ``uptime`` load average (for benchmarks/README.md).
 from __future__ import annotations
 
 import argparse
+import functools
 import statistics
 import subprocess
 import time
@@ -127,28 +128,33 @@ PROBE_EVERY = 250
 
 
 class LimitProbes:
-    """The float32 rate of the limit's (256 x 256) x (256 x 256) product, sampled through a training run: every
-    :data:`PROBE_EVERY` environment steps of a wrapped training env, 4 products are timed; the probes' own
-    seconds are kept apart so they can be taken off the training time."""
+    """The float32 rate of the limit's (256 x 256) x (256 x 256) product (:func:`surrogates.precision.matmul_probe`,
+    as ``precision_limits.py sac`` times it), sampled through a training run: every :data:`PROBE_EVERY`
+    environment steps of a wrapped training env, 4 products are timed; the probes' own seconds are kept apart
+    so they can be taken off the training time."""
 
     def __init__(self) -> None:
         import torch
         from precision_limits import BATCH, HIDDEN
 
-        g = torch.Generator().manual_seed(0)
-        self.a, self.b = torch.randn(BATCH, HIDDEN, generator=g), torch.randn(HIDDEN, HIDDEN, generator=g)
+        from surrogates.precision import matmul_probe
+
+        self.product = functools.partial(matmul_probe("limit", ((1, BATCH, HIDDEN, HIDDEN),)).run, torch.float32)
         self.flops = 2.0 * BATCH * HIDDEN * HIDDEN
         self.rates: list[float] = []
         self.seconds = 0.0
+        self.steps = 0
 
-    def sample(self) -> None:
-        import torch
-
+    def step(self) -> None:
+        """One environment step: every :data:`PROBE_EVERY`-th samples the rate."""
+        self.steps += 1
+        if self.steps % PROBE_EVERY:
+            return
         started = time.perf_counter()
-        torch.mm(self.a, self.b)  # operands back into cache
+        self.product()  # operands back into cache
         timed = time.perf_counter()
         for _ in range(4):
-            torch.mm(self.a, self.b)
+            self.product()
         ended = time.perf_counter()
         self.rates.append(4 * self.flops / (ended - timed))
         self.seconds += ended - started
@@ -162,19 +168,15 @@ class LimitProbes:
         probes = self
 
         class Probed(gymnasium.Wrapper):
-            steps = 0
-
             def step(self, action):
-                Probed.steps += 1
-                if Probed.steps % PROBE_EVERY == 0:
-                    probes.sample()
+                probes.step()
                 return self.env.step(action)
 
         def probed(env, *args, **kwargs):
             before = probes.seconds
             trained = train_sac(Probed(env), *args, **kwargs)
-            return dataclasses.replace(trained, seconds=trained.seconds - (probes.seconds - before),
-                                       cpu_seconds=trained.cpu_seconds - (probes.seconds - before))
+            spent = probes.seconds - before
+            return dataclasses.replace(trained, seconds=trained.seconds - spent, cpu_seconds=trained.cpu_seconds - spent)
         return probed
 
 

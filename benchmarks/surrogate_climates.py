@@ -114,13 +114,17 @@ DRY_BULB, DEW_POINT, HUMIDITY, INFRARED, GHI, DNI, DHI, WIND_DIR, WIND_SPEED, SK
     6, 7, 8, 12, 13, 14, 15, 20, 21, 22, 23, 30, 31)
 
 
+def epw_column(lines: list[str], field: int) -> np.ndarray:
+    """One field (0-based, e.g. :data:`DRY_BULB`) of an EPW's data rows (its text ``lines``), as floats."""
+    return np.array([float(line.split(",")[field]) for line in lines[EPW_HEADER_LINES:] if line.strip()])
+
+
 def degree_days(lines: list[str]) -> dict[str, float]:
     """An EPW's (its text ``lines``) heating and cooling degree days [F day] from its daily mean dry bulb,
     HDD65, CDD50 and CDD65, and its coldest month's mean dry bulb [F]: the temperature tests of the Building
     America climate definitions."""
-    rows = [line.split(",") for line in lines[EPW_HEADER_LINES:] if line.strip()]
-    fahrenheit = np.array([float(row[DRY_BULB]) for row in rows]) * 1.8 + 32.0
-    months = np.array([int(row[1]) for row in rows])
+    fahrenheit = epw_column(lines, DRY_BULB) * 1.8 + 32.0
+    months = epw_column(lines, 1).astype(int)
     daily = fahrenheit.reshape(-1, 24).mean(axis=1)
     return {"hdd65": round(float(np.clip(65.0 - daily, 0, None).sum())),
             "cdd50": round(float(np.clip(daily - 50.0, 0, None).sum())),
@@ -201,8 +205,7 @@ def hourly_wind(epw: Path) -> np.ndarray:
     """The EPW's wind speed [m/s] per hour of the year (index 0: 00:00-01:00 of 1 January): the mean of the
     hour's hour-ending row and the row before it, the alignment the tables' outdoor temperature has with the
     EPW (EnergyPlus interpolates between the rows)."""
-    rows = [line.split(",") for line in epw.read_text().splitlines()[EPW_HEADER_LINES:] if line.strip()]
-    ending = np.array([float(row[WIND_SPEED]) for row in rows])
+    ending = epw_column(epw.read_text().splitlines(), WIND_SPEED)
     return (ending + np.concatenate([ending[:1], ending[:-1]])) / 2.0
 
 

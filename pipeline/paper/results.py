@@ -276,7 +276,7 @@ def provenance() -> dict[str, Any]:
     """Where and when a task finished, for its result: this machine's CPU (:func:`surrogates.precision.capability`),
     its one-minute load average and the UTC time."""
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
-    return {"machine": capability().describe(), "load_average": round(load, 2),
+    return {"machine": capability().describe(), "load_average": load,
             "finished_utc": dt.datetime.now(dt.UTC).strftime("%Y-%m-%d %H:%M")}
 
 
@@ -329,9 +329,9 @@ def docs_page(out: Path, *, command: str, machine: str, finished: str) -> str:
 def write_docs_page(out: str | Path, page: str | Path, *, command: str) -> Path:
     """Write :func:`docs_page` of the run folder ``out`` to ``page`` (:func:`citylearn_env.outputs.write_output`:
     a new sibling renamed into place, never through a link, never into a built district), naming this machine's CPU and load average; returns the page's path."""
-    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
-    machine = f"{capability().describe()}, load average {load:.1f} (a machine possibly shared)"
-    finished = dt.datetime.now(dt.UTC).strftime("%Y-%m-%d %H:%M UTC")
+    here = provenance()
+    machine = f"{here['machine']}, load average {here['load_average']:.1f} (a machine possibly shared)"
+    finished = f"{here['finished_utc']} UTC"
     folder, name = output_file(page, column="--docs")
     return write_output(folder, name, docs_page(Path(out), command=command, machine=machine, finished=finished),
                         column="--docs")
