@@ -2,6 +2,7 @@
 
     .venv/bin/python benchmarks/precision_limits.py sac [--obs 10 --act 1 --repeats 7 --threads 1 2 --bf16 --clock cpu]
     .venv/bin/python benchmarks/precision_limits.py surrogate [--repeats 3 --table ILV.parquet]
+    .venv/bin/python benchmarks/precision_limits.py cache [--repeats 40]
 
 ``sac``: one SAC update (SB3 defaults, batch 256, [256, 256] networks) of the ``fast`` and ``torch`` back ends
 in float32 (and bfloat16), at each thread count; the update's floating-point work counted from its matrix
@@ -13,6 +14,9 @@ timing the limit's product, the products alone and every variant back to back; m
 ``surrogate``: the default trainer (``TrainConfig()``) on an ILV table (default: the test fixture's full-year
 house): CPU seconds per phase, the LSTM's floating-point work (:func:`lstm_training_flops`) and the same ratio
 against the float32 rate of the LSTM's time-batched gate product.
+``cache``: the limit's own product, float32, with its operands hot (the same three matrices every call, as
+the limit is timed) against cold (a ring of operand sets of :data:`COLD_RING_BYTES`, larger than any core's
+L2, as the update meets its weights and activations), alternating, the ratio per round.
 Prints markdown rows, the CPU (:func:`surrogates.precision.capability`) and the ``uptime`` load average.
 """
 
@@ -37,6 +41,8 @@ CLOCKS: dict[str, Callable[[], float]] = {"wall": time.perf_counter, "cpu": time
 BATCH, HIDDEN = 256, 256
 #: seconds of products run before any is timed
 WARM_UP_S = 1.0
+#: ``cache``: bytes of the ring of operand sets the cold product cycles through (the Xeon's L2 is 2 MiB per core)
+COLD_RING_BYTES = 32 * 2**20
 
 
 def warm_up(units: list[Callable[[], object]]) -> None:
@@ -211,13 +217,51 @@ def surrogate(repeats: int, table_path: Path) -> None:
               f"{flops / cpu / 1e9:.1f} | {flops / rate:.1f} | {100 * flops / rate / cpu:.0f} % |")
 
 
+def cache(repeats: int, calls: int = 20) -> None:
+    """The limit's (256 x 256) x (256 x 256) float32 product with hot and with cold operands (module docstring)."""
+    torch.set_num_threads(1)
+    g = torch.Generator().manual_seed(0)
+
+    def operands() -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+        return torch.randn(BATCH, HIDDEN, generator=g), torch.randn(HIDDEN, HIDDEN, generator=g), \
+            torch.empty(BATCH, HIDDEN)
+
+    hot = operands()
+    ring = [operands() for _ in range(COLD_RING_BYTES // (4 * (2 * BATCH * HIDDEN + HIDDEN * HIDDEN)))]
+    position = iter(range(1 << 62))
+
+    def run_hot() -> None:
+        torch.mm(hot[0], hot[1], out=hot[2])
+
+    def run_cold() -> None:
+        a, b, out = ring[next(position) % len(ring)]
+        torch.mm(a, b, out=out)
+
+    units = {"hot": run_hot, "cold": run_cold}
+    warm_up(list(units.values()))
+    times: dict[str, list[float]] = {key: [] for key in units}
+    for _ in range(repeats):
+        for key, unit in units.items():
+            begun = time.perf_counter()
+            for _ in range(calls):
+                unit()
+            times[key].append((time.perf_counter() - begun) / calls)
+    flops = 2 * BATCH * HIDDEN * HIDDEN
+    print(f"CPU: {capability().describe()}; {uptime()}; {len(ring)} cold operand sets ({COLD_RING_BYTES >> 20} MiB)")
+    print("| operands | us per product (median) | GFLOP/s | cold / hot (median of rounds) |\n|---|---|---|---|")
+    for key, values in times.items():
+        ratio = statistics.median(c / h for c, h in zip(values, times["hot"], strict=True))
+        t = statistics.median(values)
+        print(f"| {key} | {t * 1e6:.1f} | {flops / t / 1e9:.1f} | {ratio:.3f} |")
+
+
 def uptime() -> str:
     return subprocess.run(["uptime"], capture_output=True, text=True).stdout.strip()
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("workload", choices=("sac", "surrogate"))
+    parser.add_argument("workload", choices=("sac", "surrogate", "cache"))
     parser.add_argument("--obs", type=int, default=10)
     parser.add_argument("--act", type=int, default=1)
     parser.add_argument("--repeats", type=int, default=7)
@@ -232,6 +276,8 @@ def main() -> None:
     args = parser.parse_args()
     if args.workload == "sac":
         sac(args.obs, args.act, args.repeats, args.updates, args.threads, args.bf16, args.clock)
+    elif args.workload == "cache":
+        cache(args.repeats)
     else:
         surrogate(args.repeats, args.table)
 
