@@ -81,6 +81,22 @@ def sac_update_flops(obs: int, act: int) -> float:
     return float(sum(2 * b * m * k * n for b, m, k, n in sac_products(obs, act)))
 
 
+def alternate(units: dict, counts: dict, repeats: int,
+              clock: Callable[[], float] = time.perf_counter) -> dict[object, list[float]]:
+    """Seconds per call of each of ``units`` in each of ``repeats`` rounds, every round running each unit
+    ``counts[key]`` times back to back after a :func:`warm_up`: this machine's speed drifts by up to 1.5x
+    between minutes (a VM's host), so ratios are taken per round."""
+    warm_up(list(units.values()))
+    times: dict[object, list[float]] = {key: [] for key in units}
+    for _ in range(repeats):
+        for key, unit in units.items():
+            begun = clock()
+            for _ in range(counts[key]):
+                unit()
+            times[key].append((clock() - begun) / counts[key])
+    return times
+
+
 def time_products(products, dtype: torch.dtype, repeats: int, rounds: int = 20,
                   clock: Callable[[], float] = time.perf_counter) -> float:
     """Median seconds of one pass over ``products`` ((batch, m, k, n) each; operands made once): the probe
@@ -115,8 +131,7 @@ def sac(obs: int, act: int, repeats: int, updates: int, threads: list[int], bf16
         for n in threads:
             torch.set_num_threads(n)
             agents = {(name, bf16): cls(obs, act, seed=0, bf16=bf16, threads=n) for name, cls, bf16 in variants}
-            # every round times the limit's product, the products alone and each variant back to back: this
-            # machine's speed drifts by up to 1.5x between minutes (a VM's host), so a ratio is taken per round
+            # every round times the limit's product, the products alone and each variant back to back
             square = matmul_probe("limit", ((1, BATCH, HIDDEN, HIDDEN),))
             products = matmul_probe("products", tuple(sac_products(obs, act)))
             units: dict[object, Callable[[], object]] = {
@@ -125,14 +140,7 @@ def sac(obs: int, act: int, repeats: int, updates: int, threads: list[int], bf16
             units.update({key: functools.partial(agent.train_step, *batch) for key, agent in agents.items()})
             counts = {"limit": 200, "alone": updates}
             counts.update({key: updates if capability().native_bf16 or not key[1] else 1 for key in agents})
-            warm_up(list(units.values()))
-            times: dict[object, list[float]] = {key: [] for key in units}
-            for _ in range(repeats):
-                for key, unit in units.items():
-                    begun = now()
-                    for _ in range(counts[key]):
-                        unit()
-                    times[key].append((now() - begun) / counts[key])
+            times = alternate(units, counts, repeats, now)
             # the limit: the update's FLOPs at the square product's rate, per round; ratios per round
             limits = [t * flops / (2 * BATCH * HIDDEN * HIDDEN) for t in times.pop("limit")]
             limit = statistics.median(limits)
@@ -237,15 +245,7 @@ def cache(repeats: int, calls: int = 20) -> None:
         a, b, out = ring[next(position) % len(ring)]
         torch.mm(a, b, out=out)
 
-    units = {"hot": run_hot, "cold": run_cold}
-    warm_up(list(units.values()))
-    times: dict[str, list[float]] = {key: [] for key in units}
-    for _ in range(repeats):
-        for key, unit in units.items():
-            begun = time.perf_counter()
-            for _ in range(calls):
-                unit()
-            times[key].append((time.perf_counter() - begun) / calls)
+    times = alternate({"hot": run_hot, "cold": run_cold}, {"hot": calls, "cold": calls}, repeats)
     flops = 2 * BATCH * HIDDEN * HIDDEN
     print(f"CPU: {capability().describe()}; {uptime()}; {len(ring)} cold operand sets ({COLD_RING_BYTES >> 20} MiB)")
     print("| operands | us per product (median) | GFLOP/s | cold / hot (median of rounds) |\n|---|---|---|---|")
