@@ -46,9 +46,10 @@ def compare(a: pd.DataFrame, b: pd.DataFrame) -> list[str]:
             diff = mean_a - mean_b
             se = math.sqrt(sd_a ** 2 / len(side_a) + sd_b ** 2 / len(side_b))
             t = f"{diff / se:+.2f}" if se > 0 else "-"
+            share = f" ({100 * diff / mean_b:+.2f} %)" if mean_b else ""
             rows.append(f"| {bench.id} | {column} | {'/'.join(sorted(set(side_a['precision'])))} | {len(side_a)} | "
                         f"{mean_a:.3f} ± {sd_a:.3f} | {'/'.join(sorted(set(side_b['precision'])))} | {len(side_b)} | "
-                        f"{mean_b:.3f} ± {sd_b:.3f} | {diff:+.3f} ({100 * diff / mean_b:+.2f} %) | {t} |")
+                        f"{mean_b:.3f} ± {sd_b:.3f} | {diff:+.3f}{share} | {t} |")
     return rows
 
 
