@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import argparse
 import functools
+import itertools
 import statistics
 import subprocess
 import time
@@ -236,13 +237,13 @@ def cache(repeats: int, calls: int = 20) -> None:
 
     hot = operands()
     ring = [operands() for _ in range(COLD_RING_BYTES // (4 * (2 * BATCH * HIDDEN + HIDDEN * HIDDEN)))]
-    position = iter(range(1 << 62))
+    cold_sets = itertools.cycle(ring)
 
     def run_hot() -> None:
         torch.mm(hot[0], hot[1], out=hot[2])
 
     def run_cold() -> None:
-        a, b, out = ring[next(position) % len(ring)]
+        a, b, out = next(cold_sets)
         torch.mm(a, b, out=out)
 
     times = alternate({"hot": run_hot, "cold": run_cold}, {"hot": calls, "cold": calls}, repeats)
