@@ -104,14 +104,8 @@ def time_products(products, dtype: torch.dtype, repeats: int, rounds: int = 20,
     of :mod:`surrogates.precision`, :func:`warm_up`, then ``repeats`` timings of ``rounds`` passes on
     ``clock``."""
     probe = matmul_probe("products", tuple(products))
-    warm_up([functools.partial(probe.run, dtype)])
-    times = []
-    for _ in range(repeats):
-        started = clock()
-        for _ in range(rounds):
-            probe.run(dtype)
-        times.append((clock() - started) / rounds)
-    return statistics.median(times)
+    return statistics.median(alternate({"products": functools.partial(probe.run, dtype)}, {"products": rounds},
+                                       repeats, clock)["products"])
 
 
 def sac(obs: int, act: int, repeats: int, updates: int, threads: list[int], bf16: bool, clock: str = "wall") -> None:

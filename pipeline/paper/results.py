@@ -39,13 +39,9 @@ def sweep_table(rows: Sequence[Mapping[str, Any]]) -> str:
     for r in rows:
         lines.append(f"| {r['multiplier']:g} | {_pm(r, 'discomfort', 1)} | {r['overcooling_mean']:.2f} +- "
                      f"{r['overcooling_std']:.2f} | {r['undercooling_mean']:.2f} +- {r['undercooling_std']:.2f} | "
-                     f"{_pm(r, 'consumption', 2)} | {_change(r['discomfort'], base['discomfort'])} | "
-                     f"{_change(r['consumption'], base['consumption'])} |")
+                     f"{_pm(r, 'consumption', 2)} | {_percent(r['discomfort'], base['discomfort'])} | "
+                     f"{_percent(r['consumption'], base['consumption'])} |")
     return "\n".join(lines) + "\n"
-
-
-def _change(value: float, base: float) -> str:
-    return f"{100.0 * (value - base) / base:+.1f} %" if base else "-"
 
 
 #: where and when a run ran (:func:`provenance`): in runs.csv and on the docs page, not in the summarised rows
@@ -229,17 +225,17 @@ def _regret_line(config: str, controllers: Mapping[str, Mapping[str, Any]]) -> s
         elif "value" not in r:
             cells.append(f"n/a ({r['note']})")
         else:
-            sd = f" ± {r['value_sd']:.{digits}f}" if r.get("seeds", 1) > 1 else ""
             share = "" if c == "oracle" or not np.isfinite(r["captured"]) else f" ({100 * r['captured']:.1f} %)"
-            cells.append(f"{r['value']:.{digits}f}{sd}{share}")
+            cells.append(f"{_pm(r, 'value', digits)}{share}")
     base = first["no_control"]
     base_cell = f"{base:.{digits}f}" if np.isfinite(base) else "-"
     return f"| {config} | {first['objective']} {first['unit']} | {base_cell} | {' | '.join(cells)} |"
 
 
 def _pm(row: Mapping[str, Any], name: str, digits: int) -> str:
+    """``row[name]``, with `` ± <name>_sd`` where the row has more than one seed."""
     value = f"{row[name]:.{digits}f}"
-    return value + (f" ± {row[name + '_sd']:.{digits}f}" if row["seeds"] > 1 else "")
+    return value + (f" ± {row[name + '_sd']:.{digits}f}" if row.get("seeds", 1) > 1 else "")
 
 
 def results_table(results: Sequence[Mapping[str, Any]], options: RunOptions, seeds: int) -> str:
