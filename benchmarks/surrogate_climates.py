@@ -3,7 +3,8 @@ simulated over a full year on a weather of (or nearest to) its own climate, trai
 judged on fresh EnergyPlus runs.
 
     .venv/bin/python benchmarks/surrogate_climates.py [raw/district.toml] [--per-climate 1] [--bldg-ids 73 68]
-        [--data /tmp/districtgen_judge] [--set start=random ...] [--wind-input [SHIFT_HOURS]] [--weather-table]
+        [--data /tmp/districtgen_judge] [--set start=random ...] [--wind-input [SHIFT_HOURS]] [--weather NAME]
+        [--weather-table]
 
 The configuration gives the stock (``inputs.characteristics``: raw/'s 100 ResStock dwellings), the
 ``[simulation]`` settings and the ``[surrogate]`` training settings; its period becomes the whole year of its
@@ -17,15 +18,18 @@ none of them a default-district house nor a row the generic start was trained on
 
 Weathers (:data:`WEATHERS`): Austin TX AMY2018 (raw/, the default district's), Burlington VT AMY2018 (upstream
 CityLearn's Vermont county neighbourhood), Albany NY 2012 (ResStock's county CSV G3600010, turned into an EPW on
-the 2018 calendar by :func:`albany_epw`) and the TMY3 EPWs EnergyPlus ships (:func:`reference_houses.package_data_dir`): each
+the 2018 calendar by :func:`albany_epw`), Sand Point AK (pvlib's copy of NREL's TMY3 703165, an EPW on the 2018
+calendar by :func:`tmy3_epw`) and the TMY3 EPWs EnergyPlus ships (:func:`reference_houses.package_data_dir`): each
 house gets a weather of its own Building America climate, the nearest station (:data:`HOUSES`), except
-Mixed-Dry and Very Cold, which have none here (:data:`OWN_WEATHER`). Mixed-Dry (39, Prescott AZ 4B) gets
+Mixed-Dry, which has none here (:data:`OWN_WEATHER`). Mixed-Dry (39, Prescott AZ 4B) gets
 Oklahoma City: of the available weathers the only one meeting every temperature test of the Mixed-Dry definition
 (HDD65 <= 5,400, CDD50 >= 4,500, a month's mean below 45 F; ``--weather-table`` computes them,
 :func:`degree_days`); the definition's other test, under 20 in. of rain a year, no file can show (the TMY3
 precipitation fields are mostly missing) and Oklahoma City fails it (a humid 3A station), while the dry ones
 fail the winter test (Las Vegas, Fresno: no month below 45 F) or the heating one (Colorado: HDD65 over 6,000).
-Very Cold (79, Fargo ND) stays on Vermont, the coldest available. The TMY3 files are used as they are: their rows
+Very Cold (79, Fargo ND, continental) gets Sand Point, a maritime station of the same class (IECC 7 by its
+borough; HDD65 9,141 within Very Cold's 9,000-12,600; ``--weather vermont`` judges it on Cold Vermont instead).
+The TMY3 files are used as they are: their rows
 carry the years of their source months, but the house model's ``RunPeriod`` names 2018 and leaves "treat weather
 as actual" at No, so EnergyPlus takes the rows by month and day and the weekdays from 2018 (Monday 1 January;
 neither calendar has a 29 February), and the ILV tables read month, day and hour from its output on 2018
@@ -51,6 +55,7 @@ sys.path.insert(0, str(ROOT / "benchmarks"))
 
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
+import pvlib  # noqa: E402
 from reference_houses import package_data_dir  # noqa: E402
 from surrogate_judge import cpu_model, full_year, judge_house, parse_settings  # noqa: E402
 
@@ -78,7 +83,11 @@ WEATHERS = {
     "sterling": "Sterling VA Washington Dulles Intl Ap TMY3 (EnergyPlus's), IECC 4A",
     "san_francisco": "San Francisco CA Intl Ap TMY3 (EnergyPlus's), IECC 3C",
     "chicago": "Chicago IL O'Hare Intl Ap TMY3 (EnergyPlus's), IECC 5A",
+    "sand_point": "Sand Point AK TMY3 (pvlib's copy, 703165TY) as an EPW on the 2018 calendar, IECC 7",
 }
+#: pvlib's copy of NREL's TMY3 of Sand Point AK (Aleutians East Borough, IECC 7: Building America's Very Cold;
+#: HDD65 9,141), in the folder ``pvlib/data``
+SAND_POINT_TMY3 = "703165TY.csv"
 #: :data:`WEATHERS` among the EPWs EnergyPlus ships (pyenergyplus/data/weather), by file name
 TMY3 = {"las_vegas": "USA_NV_Las.Vegas-McCarran.Intl.AP.723860_TMY3.epw",
         "phoenix": "USA_AZ_Phoenix-Sky.Harbor.Intl.AP.722780_TMY3.epw",
@@ -88,17 +97,17 @@ TMY3 = {"las_vegas": "USA_NV_Las.Vegas-McCarran.Intl.AP.723860_TMY3.epw",
         "san_francisco": "USA_CA_San.Francisco.Intl.AP.724940_TMY3.epw",
         "chicago": "USA_IL_Chicago-OHare.Intl.AP.725300_TMY3.epw"}
 #: the Building America climate zone of each weather's site (its IECC zone as the stock maps it): a house's
-#: weather is its own climate's where it is listed under the house's zone; none for Mixed-Dry and Very Cold
+#: weather is its own climate's where it is listed under the house's zone; none for Mixed-Dry
 OWN_WEATHER = {"Hot-Humid": ("austin",), "Hot-Dry": ("las_vegas", "phoenix"),
                "Mixed-Humid": ("newark", "sterling", "oklahoma_city"), "Marine": ("san_francisco",),
-               "Cold": ("vermont", "albany", "chicago")}
+               "Cold": ("vermont", "albany", "chicago"), "Very Cold": ("sand_point",)}
 #: (bldg_id, climate zone, weather) by climate, the first of each climate first: occupied single-family
 #: detached rows, none of the default district's (8, 21, 43, 47, 61, 69) nor the generic start's
 #: (surrogates/data/generic_lstm.json); each on its own climate's nearest station (32 Las Vegas, 57 Phoenix,
 #: 84 Yuma -> Phoenix, 94 Islip -> Newark, 63 Lexington and 28 Manassas -> Sterling, 89 Bellingham, 96 San
 #: Jose and 82 Santa Rosa -> San Francisco, 68 Albany, 64 Lawrence -> Vermont, 81 Milwaukee -> Chicago; the
-#: Hot-Humid rows on Austin), 39 (Prescott, Mixed-Dry) on Oklahoma City and 79 (Fargo, Very Cold) on Vermont,
-#: neither their own (module docstring)
+#: Hot-Humid rows on Austin; 79 Fargo -> Sand Point), and 39 (Prescott, Mixed-Dry) on Oklahoma City, not its own
+#: (module docstring)
 HOUSES: tuple[tuple[int, str, str], ...] = (
     (73, "Hot-Humid", "austin"), (90, "Hot-Humid", "austin"), (25, "Hot-Humid", "austin"),
     (32, "Hot-Dry", "las_vegas"), (57, "Hot-Dry", "phoenix"), (84, "Hot-Dry", "phoenix"),
@@ -106,12 +115,13 @@ HOUSES: tuple[tuple[int, str, str], ...] = (
     (94, "Mixed-Humid", "newark"), (63, "Mixed-Humid", "sterling"), (28, "Mixed-Humid", "sterling"),
     (89, "Marine", "san_francisco"), (96, "Marine", "san_francisco"), (82, "Marine", "san_francisco"),
     (68, "Cold", "albany"), (64, "Cold", "vermont"), (81, "Cold", "chicago"),
-    (79, "Very Cold", "vermont"),
+    (79, "Very Cold", "sand_point"),
 )
 
-#: EPW data-row fields (0-based) :func:`albany_epw` writes
-DRY_BULB, DEW_POINT, HUMIDITY, INFRARED, GHI, DNI, DHI, WIND_DIR, WIND_SPEED, SKY, OPAQUE_SKY, SNOW, SNOW_DAYS = (
-    6, 7, 8, 12, 13, 14, 15, 20, 21, 22, 23, 30, 31)
+#: EPW data-row fields (0-based) :func:`albany_epw` and :func:`tmy3_epw` write
+(DRY_BULB, DEW_POINT, HUMIDITY, PRESSURE, EXTRA_HORIZONTAL, EXTRA_NORMAL, INFRARED, GHI, DNI, DHI, GH_ILLUM,
+ DN_ILLUM, DH_ILLUM, ZENITH_LUM, WIND_DIR, WIND_SPEED, SKY, OPAQUE_SKY, VISIBILITY, CEILING, PRESENT_FLAG,
+ PRESENT_CODES, PRECIPITABLE_WATER, AOD, SNOW, SNOW_DAYS, ALBEDO, RAIN, RAIN_HOURS) = range(6, 35)
 
 
 def epw_column(lines: list[str], field: int) -> np.ndarray:
@@ -161,34 +171,107 @@ def albany_epw(csv: Path, template: Path, folder: Path) -> Path:
     frame = frame[~((frame.index.month == 2) & (frame.index.day == 29))]
     direction = pd.read_csv(csv, usecols=["date_time", "Wind Direction [Deg]"])
     direction = direction[~direction["date_time"].str.startswith("2012-02-29 ")]["Wind Direction [Deg]"]
-    lines = template.read_text().splitlines()
-    header, rows = lines[:EPW_HEADER_LINES], [line.split(",") for line in lines[EPW_HEADER_LINES:]]
-    if len(rows) != len(frame) or len(direction) != len(frame):
-        raise ValueError(f"{csv}: {len(frame)} hours without 29 February, the template {len(rows)}")
-    template_mean = np.mean([float(row[DRY_BULB]) for row in rows])
-    columns = {DRY_BULB: frame["outdoor_dry_bulb_temperature_c"].to_numpy(),
-               DEW_POINT: dew_point_c(frame["outdoor_dry_bulb_temperature_c"].to_numpy(),
-                                      frame["outdoor_relative_humidity_pct"].to_numpy()),
+    if len(direction) != len(frame):
+        raise ValueError(f"{csv}: {len(frame)} hours without 29 February, {len(direction)} wind directions")
+    dry_bulb = frame["outdoor_dry_bulb_temperature_c"].to_numpy()
+    cover = sky_cover_tenths(frame)
+    columns = {DRY_BULB: dry_bulb, DEW_POINT: dew_point_c(dry_bulb, frame["outdoor_relative_humidity_pct"].to_numpy()),
                HUMIDITY: frame["outdoor_relative_humidity_pct"].to_numpy(), GHI: frame["ghi_w_m2"].to_numpy(),
                DNI: frame["dni_w_m2"].to_numpy(), DHI: frame["dhi_w_m2"].to_numpy(),
-               WIND_DIR: direction.to_numpy(), WIND_SPEED: frame["wind_speed_m_s"].to_numpy()}
-    cover = sky_cover_tenths(frame)
+               WIND_DIR: direction.to_numpy(), WIND_SPEED: frame["wind_speed_m_s"].to_numpy(), SKY: cover,
+               OPAQUE_SKY: cover}
+    template_mean = float(epw_column(template.read_text().splitlines(), DRY_BULB).mean())
+    return epw_on_template(
+        columns, template, folder, "albany_G3600010_2012_on_2018",
+        "LOCATION,Albany County Ap,NY,USA,ResStock G3600010 2012 on 2018,725180,42.75,-73.80,-5.0,89.0",
+        "ResStock county weather G3600010 (2012)",
+        lambda line: shifted_ground(line, float(dry_bulb.mean()) - template_mean))
+
+
+def tmy3_epw(csv: Path, template: Path, folder: Path) -> Path:
+    """A TMY3 CSV (``csv``: pvlib's copy of NREL's Sand Point AK file, 703165TY) as an EPW on ``template``'s
+    2018 calendar: its 8,760 hour-ending local-standard-time rows in order onto the template's (both start at
+    1 January 01:00); dry bulb, dew point, humidity, pressure, extraterrestrial, global, direct normal and
+    diffuse irradiance, illuminances, wind, total and opaque sky cover, visibility, ceiling height,
+    precipitable water, aerosol optical depth and albedo from the TMY3 (a missing visibility as 9999); the horizontal infrared left missing
+    (EnergyPlus computes it from the sky cover), no present-weather codes, no snow; the header's LOCATION the
+    station's and its ground temperatures from its own monthly air temperatures (:func:`ground_temperatures`).
+    Written once under ``folder``, named by its content's hash."""
+    data, meta = pvlib.iotools.read_tmy3(csv, map_variables=True)
+    if len(data) != 8760 or data[["temp_air", "temp_dew", "relative_humidity", "pressure"]].isna().any().any():
+        raise ValueError(f"{csv}: {len(data)} rows or missing air fields; a TMY3 year has 8,760 complete rows")
+    columns = {DRY_BULB: data["temp_air"], DEW_POINT: data["temp_dew"], HUMIDITY: data["relative_humidity"],
+               PRESSURE: data["pressure"] * 100.0, EXTRA_HORIZONTAL: data["ghi_extra"],
+               EXTRA_NORMAL: data["dni_extra"], GHI: data["ghi"], DNI: data["dni"], DHI: data["dhi"],
+               GH_ILLUM: data["GH illum (lx)"], DN_ILLUM: data["DN illum (lx)"], DH_ILLUM: data["DH illum (lx)"],
+               ZENITH_LUM: data["Zenith lum (cd/m^2)"], WIND_DIR: data["wind_direction"],
+               WIND_SPEED: data["wind_speed"], SKY: data["TotCld (tenths)"], OPAQUE_SKY: data["OpqCld (tenths)"],
+               VISIBILITY: (data["Hvis (m)"] / 1000.0).where(data["Hvis (m)"] >= 0, 9999.0), CEILING: data["CeilHgt (m)"],
+               PRECIPITABLE_WATER: data["precipitable_water"] * 10.0, AOD: data["AOD (unitless)"],
+               ALBEDO: data["albedo"]}
+    monthly = data["temp_air"].groupby(data.index.month).mean().to_numpy()
+    name = meta["Name"].strip('"').title()
+    return epw_on_template(
+        {field: np.asarray(values, dtype=float) for field, values in columns.items()}, template, folder,
+        f"tmy3_{meta['USAF']}",
+        f"LOCATION,{name},{meta['State']},USA,TMY3 on 2018,{meta['USAF']},{meta['latitude']:.3f},"
+        f"{meta['longitude']:.3f},{meta['TZ']:.1f},{meta['altitude']:.1f}",
+        f"NREL TMY3 {meta['USAF']} {name} {meta['State']} (pvlib's copy)",
+        lambda line: ground_temperatures(monthly),
+        {1: "DESIGN CONDITIONS,0", 2: "TYPICAL/EXTREME PERIODS,0",
+         6: f"COMMENTS 2,ground temperatures: Kusuda and Achenbach, soil diffusivity {SOIL_DIFFUSIVITY_M2_DAY} m2/day"})
+
+
+def epw_on_template(columns: dict[int, np.ndarray], template: Path, folder: Path, stem: str, location: str,
+                    source: str, ground, header_lines: dict[int, str] | None = None) -> Path:
+    """``template``'s EPW (its calendar and flags) with the data-row ``columns`` (0-based field -> one value
+    per row) written in, the horizontal infrared missing (9999) and no snow; the header's LOCATION line
+    ``location``, COMMENTS 1 naming ``source``, its GROUND TEMPERATURES line ``ground(line)`` and any other
+    ``header_lines`` (0-based line -> text). Written once under ``folder`` as ``<stem>_<hash>.epw`` (the ILV
+    cache keys name the file)."""
+    lines = template.read_text().splitlines()
+    header, rows = lines[:EPW_HEADER_LINES], [line.split(",") for line in lines[EPW_HEADER_LINES:] if line.strip()]
+    for field, values in columns.items():
+        if len(values) != len(rows):
+            raise ValueError(f"{source}: {len(values)} hours for EPW field {field}, the template {len(rows)}")
     for i, row in enumerate(rows):
         for field, values in columns.items():
-            row[field] = f"{values[i]:.2f}"
-        row[SKY] = row[OPAQUE_SKY] = str(cover[i])
+            row[field] = f"{values[i]:.2f}" if field not in (SKY, OPAQUE_SKY) else str(int(round(values[i])))
         row[INFRARED], row[SNOW], row[SNOW_DAYS] = "9999", "0", "88"
-    shift = float(frame["outdoor_dry_bulb_temperature_c"].mean()) - template_mean
-    header = [shifted_ground(line, shift) if line.upper().startswith("GROUND TEMPERATURES") else line
-              for line in header]
-    header[0] = "LOCATION,Albany County Ap,NY,USA,ResStock G3600010 2012 on 2018,725180,42.75,-73.80,-5.0,89.0"
-    header[5] = "COMMENTS 1,districtgen benchmarks/surrogate_climates.py: ResStock county weather G3600010 (2012)"
+        if PRESSURE in columns:  # a full record: no present-weather codes or rain of the template's site
+            row[PRESENT_FLAG], row[PRESENT_CODES], row[RAIN], row[RAIN_HOURS] = "9", "999999999", "0", "0"
+    header = [ground(line) if line.upper().startswith("GROUND TEMPERATURES") else line for line in header]
+    header[0] = location
+    header[5] = f"COMMENTS 1,districtgen benchmarks/surrogate_climates.py: {source}"
+    for index, line in (header_lines or {}).items():
+        header[index] = line
     text = "\n".join([*header, *(",".join(row) for row in rows)]) + "\n"
-    path = folder / f"albany_G3600010_2012_on_2018_{hashlib.sha256(text.encode()).hexdigest()[:12]}.epw"
+    path = folder / f"{stem}_{hashlib.sha256(text.encode()).hexdigest()[:12]}.epw"
     if not path.exists():
         folder.mkdir(parents=True, exist_ok=True)
         path.write_text(text)
     return path
+
+
+#: soil thermal diffusivity [m2/day]: 0.025 ft2/h, Kusuda's typical soil (the EPW files' header comments give
+#: the same number, 2.322576e-3, in m2 per hour but label it per day)
+SOIL_DIFFUSIVITY_M2_DAY = 2.322576e-3 * 24.0
+
+
+def ground_temperatures(monthly_air_c: np.ndarray, depths_m: tuple[float, ...] = (0.5, 2.0, 4.0)) -> str:
+    """An EPW ``GROUND TEMPERATURES`` line from 12 monthly mean air temperatures [degC] (Kusuda and Achenbach):
+    at depth z and day t, ``mean - A exp(-z r) cos(2 pi (t - t0) / 365 - z r)`` with ``r = sqrt(pi / (365 a))``
+    [1/m], ``a`` :data:`SOIL_DIFFUSIVITY_M2_DAY`, ``A`` half the monthly means' range and ``t0`` the middle
+    of the coldest month, evaluated at the middle of each month."""
+    days = np.array([15, 46, 74, 105, 135, 166, 196, 227, 258, 288, 319, 349], dtype=float)
+    mean, amplitude = float(np.mean(monthly_air_c)), float(np.ptp(monthly_air_c)) / 2.0
+    coldest = days[int(np.argmin(monthly_air_c))]
+    r = np.sqrt(np.pi / (365.0 * SOIL_DIFFUSIVITY_M2_DAY))
+    fields = ["GROUND TEMPERATURES", str(len(depths_m))]
+    for z in depths_m:
+        t = mean - amplitude * np.exp(-z * r) * np.cos(2 * np.pi * (days - coldest) / 365.0 - z * r)
+        fields += [f"{z:g}", "", "", "", *(f"{v:.2f}" for v in t)]
+    return ",".join(fields)
 
 
 def shifted_ground(line: str, shift: float) -> str:
@@ -250,6 +333,8 @@ def main() -> None:
     parser.add_argument("--data", type=Path, default=Path(os.environ.get("TMPDIR", "/tmp")) / "districtgen_judge")
     parser.add_argument("--wind-input", type=int, nargs="?", const=0, metavar="SHIFT_HOURS",
                         help="a trial: the EPW's wind speed as one more input (rolled by SHIFT_HOURS: a placebo)")
+    parser.add_argument("--weather", choices=list(WEATHERS),
+                        help="judge the chosen houses on this weather instead of their own (a comparison)")
     parser.add_argument("--weather-table", action="store_true",
                         help="print the degree days of the EPWs EnergyPlus ships and of WEATHERS, and stop")
     args = parser.parse_args()
@@ -261,13 +346,15 @@ def main() -> None:
     judge_ilv = judge_ilv_config(training_ilv, JudgeConfig())
     weathers = {"austin": Path(config.inputs.weather), "vermont": VERMONT_EPW,
                 "albany": albany_epw(ALBANY_CSV, VERMONT_EPW, args.data),
+                "sand_point": tmy3_epw(Path(pvlib.__file__).parent / "data" / SAND_POINT_TMY3, VERMONT_EPW, args.data),
                 **{name: package_data_dir("weather") / file for name, file in TMY3.items()}}
     if args.weather_table:
-        for path in sorted(package_data_dir("weather").glob("*.epw")) + [weathers[n] for n in ("austin", "vermont", "albany")]:
+        for path in sorted(package_data_dir("weather").glob("*.epw")) + [weathers[n] for n in ("austin", "vermont", "albany", "sand_point")]:
             print(json.dumps({"epw": path.name, **degree_days(path.read_text().splitlines())}))
         return
     rows = []
     for bldg_id, climate, weather in chosen(args.per_climate, args.bldg_ids):
+        weather = args.weather or weather
         row = read_characteristics_row(config.inputs.characteristics, bldg_id)
         if row.get("in.building_america_climate_zone") != climate:
             raise ValueError(f"row {bldg_id} is {row.get('in.building_america_climate_zone')!r}, not {climate!r}")
