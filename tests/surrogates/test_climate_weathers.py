@@ -9,11 +9,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from benchmarks import surrogate_climates as sc
-from pipeline.ingest.weather import read_epw
-from surrogates.energyplus.epw import read_epw_ground_temperatures
-
 pvlib = pytest.importorskip("pvlib", reason="pvlib (the pipeline extra) holds the Sand Point TMY3")
+
+from benchmarks import surrogate_climates as sc  # noqa: E402 (needs pvlib)
+from pipeline.ingest.weather import read_epw  # noqa: E402
+from surrogates.energyplus.epw import read_epw_ground_temperatures  # noqa: E402
+
 SAND_POINT = Path(pvlib.__file__).parent / "data" / sc.SAND_POINT_TMY3
 TEMPLATE = Path(__file__).resolve().parents[1] / "fixtures" / "synthetic_district" / "weather" / \
     "USA_FL_Tampa.Intl.AP.722110_TMY3.epw"
