@@ -46,6 +46,7 @@ import hashlib
 import json
 import os
 import sys
+from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
 
@@ -122,6 +123,9 @@ HOUSES: tuple[tuple[int, str, str], ...] = (
 (DRY_BULB, DEW_POINT, HUMIDITY, PRESSURE, EXTRA_HORIZONTAL, EXTRA_NORMAL, INFRARED, GHI, DNI, DHI, GH_ILLUM,
  DN_ILLUM, DH_ILLUM, ZENITH_LUM, WIND_DIR, WIND_SPEED, SKY, OPAQUE_SKY, VISIBILITY, CEILING, PRESENT_FLAG,
  PRESENT_CODES, PRECIPITABLE_WATER, AOD, SNOW, SNOW_DAYS, ALBEDO, RAIN, RAIN_HOURS) = range(6, 35)
+#: EPW fields written the same in every row by :func:`albany_epw` and :func:`tmy3_epw`: the horizontal infrared missing (EnergyPlus
+#: computes it from the sky cover), no snow on the ground
+NO_INFRARED_NO_SNOW = {INFRARED: "9999", SNOW: "0", SNOW_DAYS: "88"}
 
 
 def epw_column(lines: list[str], field: int) -> np.ndarray:
@@ -182,7 +186,7 @@ def albany_epw(csv: Path, template: Path, folder: Path) -> Path:
                OPAQUE_SKY: cover}
     template_mean = float(epw_column(template.read_text().splitlines(), DRY_BULB).mean())
     return epw_on_template(
-        columns, template, folder, "albany_G3600010_2012_on_2018",
+        columns, NO_INFRARED_NO_SNOW, template, folder, "albany_G3600010_2012_on_2018",
         "LOCATION,Albany County Ap,NY,USA,ResStock G3600010 2012 on 2018,725180,42.75,-73.80,-5.0,89.0",
         "ResStock county weather G3600010 (2012)",
         lambda line: shifted_ground(line, float(dry_bulb.mean()) - template_mean))
@@ -193,10 +197,11 @@ def tmy3_epw(csv: Path, template: Path, folder: Path) -> Path:
     2018 calendar: its 8,760 hour-ending local-standard-time rows in order onto the template's (both start at
     1 January 01:00); dry bulb, dew point, humidity, pressure, extraterrestrial, global, direct normal and
     diffuse irradiance, illuminances, wind, total and opaque sky cover, visibility, ceiling height,
-    precipitable water, aerosol optical depth and albedo from the TMY3 (a missing visibility as 9999); the horizontal infrared left missing
-    (EnergyPlus computes it from the sky cover), no present-weather codes, no snow; the header's LOCATION the
-    station's and its ground temperatures from its own monthly air temperatures (:func:`ground_temperatures`).
-    Written once under ``folder``, named by its content's hash."""
+    precipitable water, aerosol optical depth and albedo from the TMY3 (a missing visibility as 9999); the
+    horizontal infrared left missing (EnergyPlus computes it from the sky cover), no present-weather codes, no
+    rain, no snow; the header's LOCATION the station's, its ground temperatures from its own monthly air
+    temperatures (:func:`ground_temperatures`), no design conditions or typical periods. Written once under
+    ``folder``, named by its content's hash."""
     data, meta = pvlib.iotools.read_tmy3(csv, map_variables=True)
     if len(data) != 8760 or data[["temp_air", "temp_dew", "relative_humidity", "pressure"]].isna().any().any():
         raise ValueError(f"{csv}: {len(data)} rows or missing air fields; a TMY3 year has 8,760 complete rows")
@@ -206,14 +211,16 @@ def tmy3_epw(csv: Path, template: Path, folder: Path) -> Path:
                GH_ILLUM: data["GH illum (lx)"], DN_ILLUM: data["DN illum (lx)"], DH_ILLUM: data["DH illum (lx)"],
                ZENITH_LUM: data["Zenith lum (cd/m^2)"], WIND_DIR: data["wind_direction"],
                WIND_SPEED: data["wind_speed"], SKY: data["TotCld (tenths)"], OPAQUE_SKY: data["OpqCld (tenths)"],
-               VISIBILITY: (data["Hvis (m)"] / 1000.0).where(data["Hvis (m)"] >= 0, 9999.0), CEILING: data["CeilHgt (m)"],
+               VISIBILITY: (data["Hvis (m)"] / 1000.0).where(data["Hvis (m)"] >= 0, 9999.0),
+               CEILING: data["CeilHgt (m)"],
                PRECIPITABLE_WATER: data["precipitable_water"] * 10.0, AOD: data["AOD (unitless)"],
                ALBEDO: data["albedo"]}
     monthly = data["temp_air"].groupby(data.index.month).mean().to_numpy()
     name = meta["Name"].strip('"').title()
     return epw_on_template(
-        {field: np.asarray(values, dtype=float) for field, values in columns.items()}, template, folder,
-        f"tmy3_{meta['USAF']}",
+        {field: np.asarray(values, dtype=float) for field, values in columns.items()},
+        {**NO_INFRARED_NO_SNOW, PRESENT_FLAG: "9", PRESENT_CODES: "999999999", RAIN: "0", RAIN_HOURS: "0"},
+        template, folder, f"tmy3_{meta['USAF']}",
         f"LOCATION,{name},{meta['State']},USA,TMY3 on 2018,{meta['USAF']},{meta['latitude']:.3f},"
         f"{meta['longitude']:.3f},{meta['TZ']:.1f},{meta['altitude']:.1f}",
         f"NREL TMY3 {meta['USAF']} {name} {meta['State']} (pvlib's copy)",
@@ -222,13 +229,14 @@ def tmy3_epw(csv: Path, template: Path, folder: Path) -> Path:
          6: f"COMMENTS 2,ground temperatures: Kusuda and Achenbach, soil diffusivity {SOIL_DIFFUSIVITY_M2_DAY} m2/day"})
 
 
-def epw_on_template(columns: dict[int, np.ndarray], template: Path, folder: Path, stem: str, location: str,
-                    source: str, ground, header_lines: dict[int, str] | None = None) -> Path:
+def epw_on_template(columns: dict[int, np.ndarray], fixed: dict[int, str], template: Path, folder: Path, stem: str,
+                    location: str, source: str, ground: Callable[[str], str],
+                    header_lines: dict[int, str] | None = None) -> Path:
     """``template``'s EPW (its calendar and flags) with the data-row ``columns`` (0-based field -> one value
-    per row) written in, the horizontal infrared missing (9999) and no snow; the header's LOCATION line
-    ``location``, COMMENTS 1 naming ``source``, its GROUND TEMPERATURES line ``ground(line)`` and any other
-    ``header_lines`` (0-based line -> text). Written once under ``folder`` as ``<stem>_<hash>.epw`` (the ILV
-    cache keys name the file)."""
+    per row; sky covers as whole tenths, the others to 2 decimals) and the ``fixed`` fields (field -> the text
+    of every row) written in; the header's LOCATION line ``location``, COMMENTS 1 naming ``source``, its GROUND
+    TEMPERATURES line ``ground(line)`` and any other ``header_lines`` (0-based line -> text). Written once under
+    ``folder`` as ``<stem>_<hash>.epw`` (the ILV cache keys name the file)."""
     lines = template.read_text().splitlines()
     header, rows = lines[:EPW_HEADER_LINES], [line.split(",") for line in lines[EPW_HEADER_LINES:] if line.strip()]
     for field, values in columns.items():
@@ -237,9 +245,8 @@ def epw_on_template(columns: dict[int, np.ndarray], template: Path, folder: Path
     for i, row in enumerate(rows):
         for field, values in columns.items():
             row[field] = f"{values[i]:.2f}" if field not in (SKY, OPAQUE_SKY) else str(int(round(values[i])))
-        row[INFRARED], row[SNOW], row[SNOW_DAYS] = "9999", "0", "88"
-        if PRESSURE in columns:  # a full record: no present-weather codes or rain of the template's site
-            row[PRESENT_FLAG], row[PRESENT_CODES], row[RAIN], row[RAIN_HOURS] = "9", "999999999", "0", "0"
+        for field, text in fixed.items():
+            row[field] = text
     header = [ground(line) if line.upper().startswith("GROUND TEMPERATURES") else line for line in header]
     header[0] = location
     header[5] = f"COMMENTS 1,districtgen benchmarks/surrogate_climates.py: {source}"
