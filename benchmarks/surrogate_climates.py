@@ -123,8 +123,8 @@ HOUSES: tuple[tuple[int, str, str], ...] = (
 (DRY_BULB, DEW_POINT, HUMIDITY, PRESSURE, EXTRA_HORIZONTAL, EXTRA_NORMAL, INFRARED, GHI, DNI, DHI, GH_ILLUM,
  DN_ILLUM, DH_ILLUM, ZENITH_LUM, WIND_DIR, WIND_SPEED, SKY, OPAQUE_SKY, VISIBILITY, CEILING, PRESENT_FLAG,
  PRESENT_CODES, PRECIPITABLE_WATER, AOD, SNOW, SNOW_DAYS, ALBEDO, RAIN, RAIN_HOURS) = range(6, 35)
-#: EPW fields written the same in every row by :func:`albany_epw` and :func:`tmy3_epw`: the horizontal infrared missing (EnergyPlus
-#: computes it from the sky cover), no snow on the ground
+#: EPW fields written the same in every row by :func:`albany_epw` and :func:`tmy3_epw`: the horizontal
+#: infrared missing (EnergyPlus computes it from the sky cover), no snow on the ground
 NO_INFRARED_NO_SNOW = {INFRARED: "9999", SNOW: "0", SNOW_DAYS: "88"}
 
 
