@@ -179,9 +179,9 @@ def albany_epw(csv: Path, template: Path, folder: Path) -> Path:
         raise ValueError(f"{csv}: {len(frame)} hours without 29 February, {len(direction)} wind directions")
     dry_bulb = frame["outdoor_dry_bulb_temperature_c"].to_numpy()
     cover = sky_cover_tenths(frame)
-    columns = {DRY_BULB: dry_bulb, DEW_POINT: dew_point_c(dry_bulb, frame["outdoor_relative_humidity_pct"].to_numpy()),
-               HUMIDITY: frame["outdoor_relative_humidity_pct"].to_numpy(), GHI: frame["ghi_w_m2"].to_numpy(),
-               DNI: frame["dni_w_m2"].to_numpy(), DHI: frame["dhi_w_m2"].to_numpy(),
+    humidity = frame["outdoor_relative_humidity_pct"].to_numpy()
+    columns = {DRY_BULB: dry_bulb, DEW_POINT: dew_point_c(dry_bulb, humidity), HUMIDITY: humidity,
+               GHI: frame["ghi_w_m2"].to_numpy(), DNI: frame["dni_w_m2"].to_numpy(), DHI: frame["dhi_w_m2"].to_numpy(),
                WIND_DIR: direction.to_numpy(), WIND_SPEED: frame["wind_speed_m_s"].to_numpy(), SKY: cover,
                OPAQUE_SKY: cover}
     template_mean = float(epw_column(template.read_text().splitlines(), DRY_BULB).mean())
@@ -226,7 +226,8 @@ def tmy3_epw(csv: Path, template: Path, folder: Path) -> Path:
         f"NREL TMY3 {meta['USAF']} {name} {meta['State']} (pvlib's copy)",
         lambda line: ground_temperatures(monthly),
         {1: "DESIGN CONDITIONS,0", 2: "TYPICAL/EXTREME PERIODS,0",
-         6: f"COMMENTS 2,ground temperatures: Kusuda and Achenbach, soil diffusivity {SOIL_DIFFUSIVITY_M2_DAY} m2/day"})
+         6: "COMMENTS 2,ground temperatures: Kusuda and Achenbach, soil diffusivity "
+            f"{SOIL_DIFFUSIVITY_M2_DAY} m2/day"})
 
 
 def epw_on_template(columns: dict[int, np.ndarray], fixed: dict[int, str], template: Path, folder: Path, stem: str,
@@ -353,10 +354,12 @@ def main() -> None:
     judge_ilv = judge_ilv_config(training_ilv, JudgeConfig())
     weathers = {"austin": Path(config.inputs.weather), "vermont": VERMONT_EPW,
                 "albany": albany_epw(ALBANY_CSV, VERMONT_EPW, args.data),
-                "sand_point": tmy3_epw(Path(pvlib.__file__).parent / "data" / SAND_POINT_TMY3, VERMONT_EPW, args.data),
+                "sand_point": tmy3_epw(Path(pvlib.__file__).parent / "data" / SAND_POINT_TMY3, VERMONT_EPW,
+                                       args.data),
                 **{name: package_data_dir("weather") / file for name, file in TMY3.items()}}
     if args.weather_table:
-        for path in sorted(package_data_dir("weather").glob("*.epw")) + [weathers[n] for n in ("austin", "vermont", "albany", "sand_point")]:
+        own = [weathers[name] for name in ("austin", "vermont", "albany", "sand_point")]
+        for path in sorted(package_data_dir("weather").glob("*.epw")) + own:
             print(json.dumps({"epw": path.name, **degree_days(path.read_text().splitlines())}))
         return
     rows = []
@@ -369,7 +372,8 @@ def main() -> None:
                                                                                    args.wind_input)
         result = judge_house(row, weathers[weather], training_ilv, judge_ilv, trial, args.data, set(range(1, 13)),
                              prepare)
-        line = {"house": bldg_id, "set": args.set, "wind_input": args.wind_input, "climate": climate, "state": row.get("in.state"), "weather": weather,
+        line = {"house": bldg_id, "set": args.set, "wind_input": args.wind_input, "climate": climate,
+                "state": row.get("in.state"), "weather": weather,
                 "own_climate": weather in OWN_WEATHER.get(climate, ()),
                 "met": result["median_c"] <= MEDIAN_BOUND_C and result["worst_c"] <= WORST_BOUND_C, **result}
         rows.append(line)
