@@ -26,7 +26,8 @@ Oklahoma City: of the available weathers the only one meeting every temperature 
 (HDD65 <= 5,400, CDD50 >= 4,500, a month's mean below 45 F; ``--weather-table`` computes them,
 :func:`degree_days`); the definition's other test, under 20 in. of rain a year, no file can show (the TMY3
 precipitation fields are mostly missing) and Oklahoma City fails it (a humid 3A station), while the dry ones
-fail the winter test (Las Vegas, Fresno: no month below 45 F) or the heating one (Colorado: HDD65 over 6,000).
+fail the winter test (Las Vegas, Fresno: no month below 45 F) or the heating one (Colorado: HDD65 over 5,900);
+``--weather boulder`` and ``--weather fresno`` judge 39 on the dry stations either side of its climate.
 Very Cold (79, Fargo ND, continental) gets Sand Point, a maritime station of the same class (IECC 7 by its
 borough; HDD65 9,141 within Very Cold's 9,000-12,600; ``--weather vermont`` judges it on Cold Vermont instead).
 The TMY3 files are used as they are: their rows
@@ -85,6 +86,8 @@ WEATHERS = {
     "san_francisco": "San Francisco CA Intl Ap TMY3 (EnergyPlus's), IECC 3C",
     "chicago": "Chicago IL O'Hare Intl Ap TMY3 (EnergyPlus's), IECC 5A",
     "sand_point": "Sand Point AK TMY3 (pvlib's copy, 703165TY) as an EPW on the 2018 calendar, IECC 7",
+    "boulder": "Boulder CO Broomfield-Jefferson County Ap TMY3 (EnergyPlus's), IECC 5B",
+    "fresno": "Fresno CA Air Terminal TMY3 (EnergyPlus's), IECC 3B",
 }
 #: pvlib's copy of NREL's TMY3 of Sand Point AK (Aleutians East Borough, IECC 7: Building America's Very Cold;
 #: HDD65 9,141), in the folder ``pvlib/data``
@@ -96,7 +99,9 @@ TMY3 = {"las_vegas": "USA_NV_Las.Vegas-McCarran.Intl.AP.723860_TMY3.epw",
         "newark": "USA_NJ_Newark.Intl.AP.725020_TMY3.epw",
         "sterling": "USA_VA_Sterling-Washington.Dulles.Intl.AP.724030_TMY3.epw",
         "san_francisco": "USA_CA_San.Francisco.Intl.AP.724940_TMY3.epw",
-        "chicago": "USA_IL_Chicago-OHare.Intl.AP.725300_TMY3.epw"}
+        "chicago": "USA_IL_Chicago-OHare.Intl.AP.725300_TMY3.epw",
+        "boulder": "USA_CO_Boulder-Broomfield-Jefferson.County.AP.724699_TMY3.epw",
+        "fresno": "USA_CA_Fresno.Air.Terminal.723890_TMY3.epw"}
 #: the Building America climate zone of each weather's site (its IECC zone as the stock maps it): a house's
 #: weather is its own climate's where it is listed under the house's zone; none for Mixed-Dry
 OWN_WEATHER = {"Hot-Humid": ("austin",), "Hot-Dry": ("las_vegas", "phoenix"),
