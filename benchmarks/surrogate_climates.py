@@ -269,6 +269,8 @@ def epw_on_template(columns: dict[int, np.ndarray], fixed: dict[int, str], templ
 #: soil thermal diffusivity [m2/day]: 0.025 ft2/h, Kusuda's typical soil (the EPW files' header comments give
 #: the same number, 2.322576e-3, in m2 per hour but label it per day)
 SOIL_DIFFUSIVITY_M2_DAY = 2.322576e-3 * 24.0
+#: the day of the year (1 January = 0) in the middle of each month, where the monthly ground temperatures are taken
+MID_MONTH_DAYS = np.array([15, 46, 74, 105, 135, 166, 196, 227, 258, 288, 319, 349], dtype=float)
 
 
 def ground_temperatures(monthly_air_c: np.ndarray, depths_m: tuple[float, ...] = (0.5, 2.0, 4.0)) -> str:
@@ -276,7 +278,7 @@ def ground_temperatures(monthly_air_c: np.ndarray, depths_m: tuple[float, ...] =
     at depth z and day t, ``mean - A exp(-z r) cos(2 pi (t - t0) / 365 - z r)`` with ``r = sqrt(pi / (365 a))``
     [1/m], ``a`` :data:`SOIL_DIFFUSIVITY_M2_DAY`, ``A`` half the monthly means' range and ``t0`` the middle
     of the coldest month, evaluated at the middle of each month."""
-    days = np.array([15, 46, 74, 105, 135, 166, 196, 227, 258, 288, 319, 349], dtype=float)
+    days = MID_MONTH_DAYS
     mean, amplitude = float(np.mean(monthly_air_c)), float(np.ptp(monthly_air_c)) / 2.0
     coldest = days[int(np.argmin(monthly_air_c))]
     r = np.sqrt(np.pi / (365.0 * SOIL_DIFFUSIVITY_M2_DAY))

@@ -18,7 +18,6 @@ from surrogates.energyplus.epw import read_epw_ground_temperatures  # noqa: E402
 SAND_POINT = Path(pvlib.__file__).parent / "data" / sc.SAND_POINT_TMY3
 TEMPLATE = Path(__file__).resolve().parents[1] / "fixtures" / "synthetic_district" / "weather" / \
     "USA_FL_Tampa.Intl.AP.722110_TMY3.epw"
-MID_MONTH = np.array([15, 46, 74, 105, 135, 166, 196, 227, 258, 288, 319, 349], dtype=float)
 
 
 def ground_values(line: str) -> dict[float, np.ndarray]:
@@ -28,7 +27,7 @@ def ground_values(line: str) -> dict[float, np.ndarray]:
 
 
 def test_ground_at_the_surface_follows_the_air_and_deeper_is_damped_and_late():
-    air = 5.0 - 10.0 * np.cos(2 * np.pi * (MID_MONTH - MID_MONTH[0]) / 365.0)  # coldest in January, -5..15 C
+    air = 5.0 - 10.0 * np.cos(2 * np.pi * (sc.MID_MONTH_DAYS - sc.MID_MONTH_DAYS[0]) / 365.0)  # coldest in January, -5..15 C
     ground = ground_values(sc.ground_temperatures(air, depths_m=(0.0, 1.0, 3.0)))
     # no depth: the air's own wave (to 0.05 C: the months' unequal lengths move the 12 samples' mean off 5 C)
     np.testing.assert_allclose(ground[0.0], air, atol=0.05)
